@@ -1,0 +1,32 @@
+# Setup and entry points. Both targets create .venv when missing.
+PY      ?= python3
+VENV    := .venv
+VPY     := $(VENV)/bin/python
+STAMP   := $(VENV)/.installed
+SHARED  ?= ../shared/data/problems
+PYTEST_ARGS ?= -n 2
+
+.PHONY: demo test bench validate clean
+
+$(VPY):
+	$(PY) -m venv $(VENV)
+	$(VPY) -m pip install --quiet --upgrade pip
+
+$(STAMP): $(VPY) pyproject.toml
+	$(VPY) -m pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/socp-cd demo --data $(SHARED)
+
+test: $(STAMP)
+	$(VPY) -m pytest $(PYTEST_ARGS) tests
+
+bench: $(STAMP)
+	$(VENV)/bin/socp-cd bench --preset all --data $(SHARED)
+
+validate: $(STAMP)
+	$(VENV)/bin/socp-cd validate
+
+clean:
+	rm -rf $(VENV) build *.egg-info .pytest_cache

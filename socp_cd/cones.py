@@ -1,0 +1,214 @@
+"""Coulomb cones, their duals, projections and the convex-analysis certificates.
+
+All functions act on *stacked* contact vectors (length ``dim * n_contacts``,
+normal first) or on ``(n_contacts, dim)`` arrays, and are vectorized over
+contacts.
+
+Definitions
+-----------
+Coulomb cone          ``K_mu  = {(x_N, x_T) : ||x_T|| <= mu x_N}``
+Dual cone             ``K*_mu = {(y_N, y_T) : mu ||y_T|| <= y_N} = K_{1/mu}``
+                      (``mu = 0``: ``K_0`` is the half-line ``x_T = 0, x_N >= 0``
+                      and ``K*_0`` the half-space ``y_N >= 0``).
+Polar cone            ``K°_mu = -K*_mu``.
+De Saxcé velocity     ``û = u + mu ||u_T|| e_N``.
+Coulomb law           ``K*_mu ∋ û ⊥ r ∈ K_mu``  (Signorini + Coulomb, velocity level)
+Natural map           ``F(r) = r - P_K(r - rho û)``; zero iff the law holds.
+Bipotential           ``b(-u, r) = I_{u_N >= 0}(u) + I_{K_mu}(r) + mu r_N ||u_T||``
+                      (De Saxcé).  ``b(-u, r) >= -u·r`` for all pairs, with
+                      equality exactly at the law, so the Fenchel–Young gap
+                      ``b(-u, r) + u·r = r·û`` (on feasible pairs) certifies a
+                      solution contact by contact.
+"""
+from __future__ import annotations
+
+from enum import IntEnum
+
+import numpy as np
+
+
+def _blocks(x, dim: int) -> np.ndarray:
+    """Reshape a stacked vector (or pass an array) to ``(n_contacts, dim)``."""
+    a = np.asarray(x, dtype=np.float64)
+    if a.ndim == 1:
+        return a.reshape(-1, dim)
+    return a
+
+
+def _restore(out: np.ndarray, like) -> np.ndarray:
+    return out.reshape(-1) if np.ndim(like) == 1 else out
+
+
+def project_cone(x, mu, dim: int = 3) -> np.ndarray:
+    """Euclidean projection onto the Coulomb cone ``K_mu`` (closed form).
+
+    Parameters
+    ----------
+    x : array_like
+        Stacked vector (length ``dim * nc``) or ``(nc, dim)`` array.
+    mu : float or array_like, shape (nc,)
+        Friction coefficients, ``>= 0``.
+    dim : {2, 3}
+
+    Returns
+    -------
+    ndarray
+        ``P_K(x)`` with the layout of ``x``.
+
+    Notes
+    -----
+    With ``t = ||x_T||``: if ``t <= mu x_N`` then ``x`` is in the cone; if
+    ``mu t <= -x_N`` it is in the polar cone and projects to 0; otherwise it
+    projects onto the boundary ray through ``x_T``:
+    ``p_N = (x_N + mu t) / (1 + mu^2)``, ``p_T = mu p_N x_T / t``.
+    In 2D ``K_mu`` is the wedge ``|x_T| <= mu x_N`` and the formulas coincide.
+    """
+    X = _blocks(x, dim)
+    mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), (X.shape[0],))
+    xn = X[:, 0]
+    xt = X[:, 1:]
+    t = np.sqrt(np.einsum("ij,ij->i", xt, xt)) if dim == 3 else np.abs(xt[:, 0])
+    out = X.copy()
+    polar = mu * t <= -xn
+    inside = (t <= mu * xn) & ~polar
+    side = ~(polar | inside)
+    out[polar] = 0.0
+    pn = (xn[side] + mu[side] * t[side]) / (1.0 + mu[side] ** 2)
+    out[side, 0] = pn
+    # side implies t > 0 (t = 0 with x_N >= 0 is inside, with x_N < 0 polar)
+    out[side, 1:] = (mu[side] * pn / t[side])[:, None] * xt[side]
+    return _restore(out, x)
+
+
+def project_dual_cone(y, mu, dim: int = 3) -> np.ndarray:
+    """Projection onto the dual cone ``K*_mu = K_{1/mu}``.
+
+    ``mu = 0`` gives the half-space ``y_N >= 0`` (projection clips ``y_N``).
+    """
+    Y = _blocks(y, dim)
+    mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), (Y.shape[0],))
+    zero = mu == 0.0
+    out = np.empty_like(Y)
+    if np.any(~zero):
+        out[~zero] = project_cone(Y[~zero], 1.0 / mu[~zero], dim)
+    if np.any(zero):
+        out[zero] = Y[zero]
+        out[zero, 0] = np.maximum(Y[zero, 0], 0.0)
+    return _restore(out, y)
+
+
+def tangential_norm(x, dim: int = 3) -> np.ndarray:
+    """``||x_T||`` per contact."""
+    X = _blocks(x, dim)
+    return np.sqrt(np.einsum("ij,ij->i", X[:, 1:], X[:, 1:]))
+
+
+def desaxce_velocity(u, mu, dim: int = 3) -> np.ndarray:
+    """De Saxcé modified velocity ``û = u + mu ||u_T|| e_N``."""
+    U = _blocks(u, dim)
+    out = U.copy()
+    out[:, 0] += np.asarray(mu, dtype=np.float64) * tangential_norm(U, dim)
+    return _restore(out, u)
+
+
+def natural_map(r, u, mu, dim: int = 3, rho: float = 1.0) -> np.ndarray:
+    """Natural map ``F(r) = r - P_K(r - rho û)`` (zero iff the Coulomb law holds)."""
+    R = _blocks(r, dim)
+    x = R - rho * desaxce_velocity(_blocks(u, dim), mu, dim)
+    return _restore(R - project_cone(x, mu, dim), r)
+
+
+def in_cone_violation(r, mu, dim: int = 3) -> np.ndarray:
+    """Distance from ``r`` to ``K_mu`` per contact (0 when feasible)."""
+    R = _blocks(r, dim)
+    D = R - project_cone(R, mu, dim)
+    return np.sqrt(np.einsum("ij,ij->i", D, D))
+
+
+def fenchel_young_gap(r, u, mu, dim: int = 3) -> np.ndarray:
+    """Fenchel–Young (bipotential) gap per contact, ``r·û = u·r + mu r_N ||u_T||``.
+
+    For a feasible pair (``r ∈ K_mu`` and ``u_N >= 0``, i.e. ``û ∈ K*_mu``) it is
+    ``b(-u, r) + u·r >= 0`` and vanishes exactly when the pair obeys the
+    Coulomb–Signorini law; check feasibility separately with
+    :func:`in_cone_violation` and :func:`normal_velocity_violation`.
+    """
+    R = _blocks(r, dim)
+    Uh = desaxce_velocity(_blocks(u, dim), mu, dim)
+    return np.einsum("ij,ij->i", R, Uh)
+
+
+def bipotential(u, r, mu, dim: int = 3, feas_tol: float = 0.0) -> np.ndarray:
+    """De Saxcé's bipotential ``b(-u, r)`` per contact (``+inf`` off its domain).
+
+    Domain: ``r ∈ K_mu`` and ``u_N >= 0`` (up to ``feas_tol``).
+    """
+    R = _blocks(r, dim)
+    U = _blocks(u, dim)
+    mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), (R.shape[0],))
+    val = mu * R[:, 0] * tangential_norm(U, dim)
+    bad = (in_cone_violation(R, mu, dim) > feas_tol) | (U[:, 0] < -feas_tol)
+    return np.where(bad, np.inf, val)
+
+
+def normal_velocity_violation(u, dim: int = 3) -> np.ndarray:
+    """``max(0, -u_N)`` per contact: violation of ``û ∈ K*_mu`` (⇔ ``u_N >= 0``)."""
+    U = _blocks(u, dim)
+    return np.maximum(-U[:, 0], 0.0)
+
+
+class ContactStatus(IntEnum):
+    """Classification of a contact at a (near-)solution."""
+
+    SEPARATED = 0  #: r = 0, û ≠ 0 (taking off, open gap velocity)
+    STICKING = 1   #: r_N > 0, u = 0 (r anywhere in K_mu)
+    SLIDING = 2    #: r on the boundary of K_mu, u_T ≠ 0 opposite r_T
+    GRAZING = 3    #: r = 0 and û = 0 at once (degenerate complementarity)
+
+
+def classify_contacts(r, u, mu, dim: int = 3, tol: float = 1e-8) -> np.ndarray:
+    """Classify every contact as separated, sticking, sliding or grazing.
+
+    Parameters
+    ----------
+    r, u : array_like
+        Impulses and velocities (stacked or ``(nc, dim)``).
+    mu : float or array_like
+    dim : {2, 3}
+    tol : float
+        Relative threshold: an impulse counts as zero below
+        ``tol * max(1, max|r|)`` and a velocity below ``tol * max(1, max|u|)``.
+
+    Returns
+    -------
+    ndarray of ContactStatus values, shape (nc,)
+    """
+    R = _blocks(r, dim)
+    U = _blocks(u, dim)
+    mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), (R.shape[0],))
+    tr = tol * max(1.0, float(np.max(np.abs(R))) if R.size else 1.0)
+    tu = tol * max(1.0, float(np.max(np.abs(U))) if U.size else 1.0)
+    Uh = desaxce_velocity(U, mu, dim)
+    r_zero = np.sqrt(np.einsum("ij,ij->i", R, R)) <= tr
+    uh_zero = np.sqrt(np.einsum("ij,ij->i", Uh, Uh)) <= tu
+    ut_zero = tangential_norm(U, dim) <= tu
+    out = np.full(R.shape[0], ContactStatus.SLIDING, dtype=np.int8)
+    out[~r_zero & ut_zero] = ContactStatus.STICKING
+    out[r_zero] = ContactStatus.SEPARATED
+    out[r_zero & uh_zero] = ContactStatus.GRAZING
+    return out
+
+
+__all__ = [
+    "project_cone",
+    "project_dual_cone",
+    "tangential_norm",
+    "desaxce_velocity",
+    "natural_map",
+    "in_cone_violation",
+    "fenchel_young_gap",
+    "bipotential",
+    "normal_velocity_violation",
+    "ContactStatus",
+    "classify_contacts",
+]

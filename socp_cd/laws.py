@@ -1,0 +1,85 @@
+"""Residuals of the contact laws other than exact Coulomb.
+
+Each function returns a relative residual normalized like Siconos' error
+(``max(||q||, ||r||, ||u||)``) so all laws are judged on one scale.
+
+* ``coulomb``      — :func:`socp_cd.error` (natural map with û).
+* ``associated``   — ``K* ∋ u ⊥ r ∈ K``: natural map with ``u`` instead of ``û``
+  (the optimality system of ``min ½ rᵀWr + qᵀr, r ∈ K`` for symmetric W).
+* ``frictionless`` — Signorini only: ``0 <= u_N ⊥ r_N >= 0`` and ``r_T = 0``
+  (the Coulomb residual with ``mu = 0``).
+* ``tresca``       — Signorini in the normal direction and, tangentially,
+  ``r_T = P_{B(0, g)}(r_T - u_T)`` with a given threshold ``g`` per contact.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .cones import project_cone
+from .errors import InvalidProblemError
+from .residuals import _pair, error, error_normalization
+
+
+def _relative(problem, r, u, F) -> float:
+    return float(np.linalg.norm(F)) / error_normalization(problem, r, u)
+
+
+def associated_error(problem, r, u=None) -> float:
+    """Relative residual of the associated law ``K* ∋ u ⊥ r ∈ K``."""
+    r, u = _pair(problem, r, u)
+    F = r - project_cone(r - u, problem.mu, problem.dim)
+    return _relative(problem, r, u, F)
+
+
+def frictionless_error(problem, r, u=None) -> float:
+    """Relative residual of Signorini's law with ``r_T = 0``."""
+    r, u = _pair(problem, r, u)
+    F = r - project_cone(r - u, np.zeros(problem.n_contacts), problem.dim)
+    return _relative(problem, r, u, F)
+
+
+def check_threshold(problem, threshold) -> np.ndarray:
+    """Validate a Tresca threshold: finite, ``>= 0``, one per contact (scalar broadcast)."""
+    g = np.asarray(threshold, dtype=np.float64).reshape(-1)
+    if g.size == 1:
+        g = np.full(problem.n_contacts, float(g[0]))
+    if g.size != problem.n_contacts:
+        raise InvalidProblemError("threshold", f"has {g.size} entries, expected {problem.n_contacts}",
+                                  problem.source)
+    if not np.all(np.isfinite(g)) or np.any(g < 0):
+        raise InvalidProblemError("threshold", "must be finite and >= 0", problem.source)
+    return g
+
+
+def project_ball(x, radius) -> np.ndarray:
+    """Project rows of ``x`` (shape ``(nc, k)``) onto balls of the given radii."""
+    nrm = np.sqrt(np.einsum("ij,ij->i", x, x))
+    scale = np.where(nrm > radius, radius / np.where(nrm > 0, nrm, 1.0), 1.0)
+    return x * scale[:, None]
+
+
+def tresca_error(problem, r, u=None, threshold=None) -> float:
+    """Relative residual of Tresca's law with threshold ``g`` (per contact)."""
+    if threshold is None:
+        raise InvalidProblemError("threshold", "the Tresca law needs a friction threshold per contact",
+                                  problem.source)
+    g = check_threshold(problem, threshold)
+    r, u = _pair(problem, r, u)
+    R = r.reshape(-1, problem.dim)
+    U = u.reshape(-1, problem.dim)
+    F = np.empty_like(R)
+    F[:, 0] = R[:, 0] - np.maximum(R[:, 0] - U[:, 0], 0.0)
+    F[:, 1:] = R[:, 1:] - project_ball(R[:, 1:] - U[:, 1:], g)
+    return _relative(problem, r, u, F.reshape(-1))
+
+
+#: formulation name -> residual function ``f(problem, r, u=None, **params)``
+LAW_RESIDUALS = {
+    "coulomb": error,
+    "associated": associated_error,
+    "frictionless": frictionless_error,
+    "tresca": tresca_error,
+}
+
+__all__ = ["associated_error", "frictionless_error", "tresca_error", "check_threshold",
+           "project_ball", "LAW_RESIDUALS"]

@@ -1,0 +1,83 @@
+"""The result object shared by every solver."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Optional
+
+import numpy as np
+
+#: Honest outcomes of a solve. ``converged`` is set only by :func:`socp_cd.solve`
+#: after recomputing the residual independently of the backend.
+STATUSES = ("converged", "max_iter", "stalled", "numerical_error", "time_limit")
+
+
+@dataclass
+class SolverResult:
+    """Outcome of :func:`socp_cd.solve`.
+
+    Attributes
+    ----------
+    r, u : ndarray
+        Contact impulses and local velocities (``u`` recomputed from ``r``).
+    v : ndarray or None
+        Global velocities, for global problems.
+    converged : bool
+        True only when the independently recomputed residual ``error`` of the
+        law solved is ``<= tol``.
+    status : str
+        One of :data:`STATUSES`.
+    error : float
+        Residual of the law solved (for ``formulation="coulomb"`` this is
+        Siconos' relative error, :func:`socp_cd.error`).
+    coulomb_error : float
+        Siconos' relative error of ``r`` for the Coulomb law, whatever the
+        formulation (so relaxations can be judged against the exact law).
+    iterations : int
+        Backend iterations (sweeps for NSGS, outer iterations for fixed points).
+    time : float
+        Wall-clock seconds spent in the backend (model building included).
+    solver, formulation : str
+    tol : float
+    history : list of float or None
+        Error per iteration when requested with ``history=True``.
+    info : dict
+        Backend-specific statistics (inner iterations, backend status string,
+        cross-check discrepancy, ...).
+    message : str
+        Human-readable explanation of the status.
+    """
+
+    r: np.ndarray
+    u: Optional[np.ndarray] = None
+    v: Optional[np.ndarray] = None
+    converged: bool = False
+    status: str = "max_iter"
+    error: float = float("inf")
+    coulomb_error: float = float("inf")
+    iterations: int = 0
+    time: float = 0.0
+    solver: str = ""
+    formulation: str = ""
+    tol: float = 0.0
+    history: Optional[list] = None
+    info: dict = field(default_factory=dict)
+    message: str = ""
+
+    def __repr__(self) -> str:
+        return (f"SolverResult(solver={self.solver!r}, formulation={self.formulation!r}, "
+                f"status={self.status!r}, error={self.error:.3e}, iterations={self.iterations}, "
+                f"time={self.time:.4g}s)")
+
+    def summary(self) -> dict[str, Any]:
+        """Flat record of the scalar fields (for tables)."""
+        return {
+            "solver": self.solver,
+            "formulation": self.formulation,
+            "status": self.status,
+            "converged": self.converged,
+            "error": self.error,
+            "coulomb_error": self.coulomb_error,
+            "iterations": self.iterations,
+            "time": self.time,
+            "tol": self.tol,
+        }
