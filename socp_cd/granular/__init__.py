@@ -1,0 +1,23 @@
+"""Granular mechanics on contact-dynamics snapshots (J.J. Moreau).
+
+Moreau's average stress from the internal moment and its decomposition into
+an external-action term plus the Love–Weber tensor (:mod:`.stress`), tractions
+across cuts compared with the continuum ``σ n`` (:mod:`.cuts`), contact
+statistics (:mod:`.stats`), all on a plain :class:`GranularState`
+(:mod:`.state`) that adapters build from simulator frames.
+"""
+from .cuts import CutSweep, cauchy_deviation, continuum_traction, cut_sweep, cut_traction
+from .state import GranularState, from_frame, from_hdf5, from_simulation, from_trajectory
+from .stats import (ForceDistribution, contact_counts, coordination_number, fabric_tensor,
+                    force_distribution, rattlers)
+from .stress import (StressReport, asymmetry, external_stress, internal_moment, moreau_stress,
+                     principal, relative_difference, sample_mask, stress_report, weber_stress)
+
+__all__ = [
+    "GranularState", "from_frame", "from_hdf5", "from_simulation", "from_trajectory",
+    "internal_moment", "moreau_stress", "weber_stress", "external_stress", "stress_report",
+    "StressReport", "principal", "asymmetry", "relative_difference", "sample_mask",
+    "cut_traction", "cut_sweep", "CutSweep", "continuum_traction", "cauchy_deviation",
+    "contact_counts", "rattlers", "coordination_number", "force_distribution",
+    "ForceDistribution", "fabric_tensor",
+]

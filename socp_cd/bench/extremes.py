@@ -1,0 +1,168 @@
+"""Stability at the extremes: generated problems at the edges of the data range.
+
+Every case is a manufactured problem (exact solution known, see
+:mod:`socp_cd.bench.generators`) pushed to one extreme: friction
+coefficients ``0``, ``1e-8``, ``10``, ``1e3``; body mass ratios ``1e6``;
+many redundant contacts (rank-deficient ``W``); badly scaled data (entries of
+``W`` spanning ``1e-6 .. 1e6``, ``q`` scaled by ``1e4``); grazing contacts
+(``r = 0`` and ``û = 0`` at once); zero contacts (must be rejected at
+construction with :class:`~socp_cd.InvalidProblemError`); and a large
+problem (``10^4`` contacts).  For every solver the suite records an honest
+status, the achieved error, and whether anything non-finite came out.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..problem import FrictionContactProblem
+from .campaign import ProblemRef, default_solvers, run_campaign
+from .generators import manufactured
+
+#: name -> (description, keyword arguments of :func:`manufactured`).
+CASES = {
+    "mu=0": ("frictionless (mu = 0)", dict(mu=0.0)),
+    "mu=1e-8": ("almost frictionless (mu = 1e-8)", dict(mu=1e-8)),
+    "mu=10": ("high friction (mu = 10)", dict(mu=10.0)),
+    "mu=1e3": ("extreme friction (mu = 1e3)", dict(mu=1e3)),
+    "mass_ratio=1e6": ("body masses spanning 1 .. 1e6", dict(mass_ratio=1e6)),
+    "redundant": ("4 contacts per body: rank-deficient W",
+                  dict(structure="redundant", bodies_per_contact=0.25)),
+    "badly_scaled": ("W entries spanning 1e-6 .. 1e6, q scaled by 1e4",
+                     dict(contact_scale=1e6, q_scale=1e4)),
+    "grazing": ("70% grazing contacts (r = 0 and u = 0)", dict(mix=(0.1, 0.1, 0.1, 0.7))),
+    "all_grazing": ("every contact grazing: q = 0, solution r = 0", dict(mix=(0, 0, 0, 1))),
+    "zero_contacts": ("no contact at all (must be rejected)", None),
+    "large": ("10^4 contacts", dict()),
+}
+
+
+def build(case: str, n_contacts: int = 50, dim: int = 3, seed: int = 0) -> FrictionContactProblem:
+    """Build the problem of an extreme case (see :data:`CASES`).
+
+    Raises
+    ------
+    InvalidProblemError
+        For ``"zero_contacts"``, from the problem constructor itself.
+    """
+    if case not in CASES:
+        raise ValueError(f"unknown extreme case {case!r}; known: {sorted(CASES)}")
+    kw = CASES[case][1]
+    if kw is None:
+        return FrictionContactProblem(np.zeros((0, 0)), np.zeros(0), np.zeros(0), dim,
+                                      name="zero_contacts")
+    kw = dict(kw)
+    mu = kw.pop("mu", 0.3)
+    return manufactured(n_contacts, dim, mu, seed=seed, name=f"extreme[{case}]-{dim}d-{n_contacts}", **kw)
+
+
+def extreme_problems(size: int = 50, large: int = 10_000, dims=(3,), cases=None, seed: int = 0):
+    """Problem refs of the suite (``large`` sets the size of the ``"large"`` case; 0 drops it)."""
+    out = []
+    for case in (cases or CASES):
+        if case == "large" and not large:
+            continue
+        for dim in dims:
+            n = large if case == "large" else size
+            kw = dict(_builder="extremes", case=case, n_contacts=int(n), dim=int(dim), seed=seed)
+            out.append(ProblemRef(f"{case} ({dim}d, {n})", "extremes", generator=json.dumps(kw, sort_keys=True)))
+    return out
+
+
+def run_extremes(solvers=None, tol: float = 1e-6, time_limit: float = 20.0, *, size: int = 50,
+                 large: int = 10_000, large_time_limit: float = 60.0, dims=(3,), cases=None,
+                 csv_path=None, md_path=None, dask=None, verbose=False) -> list[dict]:
+    """Run the extremes suite for every solver and optionally write the tables.
+
+    Parameters
+    ----------
+    solvers : list, optional
+        Solver specs (default: every registered Coulomb solver and the Siconos peers).
+    tol : float
+        Requested tolerance.
+    time_limit, large_time_limit : float
+        Seconds per run (the ``"large"`` case gets ``large_time_limit``).
+    size, large : int
+        Contacts of the ordinary cases and of the ``"large"`` case (0: skip it).
+    dims : tuple
+    cases : list of str, optional
+        Subset of :data:`CASES`.
+    csv_path, md_path : path, optional
+        Where to write the records and the Markdown table.
+    dask : optional
+        As in :func:`~socp_cd.bench.campaign.run_campaign`.
+
+    Returns
+    -------
+    list of dict
+        One record per (case, solver).
+    """
+    solvers = solvers or default_solvers()
+    probs = extreme_problems(size, large, dims, cases)
+    small = [p for p in probs if not p.name.startswith("large")]
+    big = [p for p in probs if p.name.startswith("large")]
+    common = dict(solvers=solvers, tolerances=[tol], suite="extremes", csv_path=csv_path, dask=dask,
+                  verbose=verbose)
+    recs = run_campaign(small, time_limit=time_limit, **common) if small else []
+    if big:
+        recs += run_campaign(big, time_limit=large_time_limit, **common)
+    if md_path is not None:
+        Path(md_path).parent.mkdir(parents=True, exist_ok=True)
+        Path(md_path).write_text(extremes_markdown(recs) + "\n")
+    return recs
+
+
+def honest(rec: dict) -> bool:
+    """A run's status is honest when it claims convergence exactly when ``error <= tol``.
+
+    Non-solver outcomes (``rejected``, ``unsupported``, ``time_limit``,
+    ``crashed``) claim nothing and are honest by definition.
+    """
+    if rec["status"] in ("rejected", "unsupported", "time_limit", "crashed"):
+        return True
+    return (rec["status"] == "converged") == bool(rec["success"])
+
+
+def _cell(rec: dict) -> str:
+    st = rec["status"]
+    if st in ("rejected", "unsupported"):
+        return st
+    err = rec["error"]
+    e = f"{err:.1e}" if math.isfinite(err) else ("NaN" if rec["nan"] else "—")
+    mark = "ok" if rec["success"] else st
+    flags = ("" if honest(rec) else " DISHONEST") + (" NaN!" if rec["nan"] else "")
+    return f"{mark} {e}{flags}"
+
+
+def extremes_markdown(records) -> str:
+    """Markdown: case × solver matrix of outcome and achieved error, then the details."""
+    cases = list(dict.fromkeys(r["problem"] for r in records))
+    solvers = sorted({r["solver"] for r in records})
+    cell = {(r["problem"], r["solver"]): r for r in records}
+    tol = records[0]["tol"] if records else math.nan
+    n_bad = sum(bool(r["nan"]) for r in records)
+    n_crash = sum(r["status"] == "crashed" for r in records)
+    n_dis = sum(not honest(r) for r in records)
+    lines = ["# Extremes suite", "",
+             f"Requested tolerance {tol:.0e}; each cell: `ok` (Siconos error recomputed from r <= tol) "
+             f"or the solver's status, then the achieved error. Runs: {len(records)}; crashed: {n_crash}; "
+             f"runs with NaN/Inf: {n_bad}; dishonest statuses (converged claimed with error > tol or "
+             f"vice versa): {n_dis}.", "",
+             "| case | " + " | ".join(solvers) + " |", "|---|" + "---|" * len(solvers)]
+    for c in cases:
+        lines.append(f"| {c} | " + " | ".join(_cell(cell[(c, s)]) if (c, s) in cell else "" for s in solvers) + " |")
+    lines += ["", "## Cases", ""]
+    for name, (desc, _) in CASES.items():
+        lines.append(f"- **{name}**: {desc}")
+    lines += ["", "## Details", "", "| case | solver | status | error | time [s] | iterations | u error vs exact | message |",
+              "|---|---|---|---:|---:|---:|---:|---|"]
+    for r in records:
+        lines.append(f"| {r['problem']} | {r['solver']} | {r['status']} | {r['error']:.2e} | {r['time']:.3g} | "
+                     f"{r['iterations']} | {r['u_error']:.1e} | {r['message'][:90].replace('|', '/')} |")
+    return "\n".join(lines)
+
+
+__all__ = ["CASES", "build", "extreme_problems", "run_extremes", "extremes_markdown", "honest"]

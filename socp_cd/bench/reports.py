@@ -1,0 +1,313 @@
+"""Reports read back from campaign records: summaries, profiles, figures.
+
+* qpbenchmark-style summary per tolerance preset: success rate and shifted
+  geometric mean (SGM) of the solve time, failures charged the time limit;
+* Dolan–Moré performance profiles ``rho_s(tau)``: the fraction of problems on
+  which solver ``s`` is within a factor ``tau`` of the fastest solver
+  (a failure counts as an infinite time);
+* work–precision data and diagrams: achieved error against time, per solver
+  and problem family, from the tolerance sweep.
+"""
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from .campaign import PRESETS
+
+#: Shift of the shifted geometric mean, seconds (qpbenchmark uses 10 ms).
+SGM_SHIFT = 0.01
+#: Statuses that mean "this problem is not part of the comparison".
+EXCLUDED = ("rejected",)
+
+
+def shifted_geometric_mean(values, shift: float = SGM_SHIFT) -> float:
+    """``exp(mean(log(v + shift))) - shift``.
+
+    Parameters
+    ----------
+    values : array_like
+        Non-negative values (times); ``inf`` gives ``inf``.
+    shift : float
+        Shift ``sh > 0`` damping the weight of tiny values.
+    """
+    v = np.asarray(values, dtype=np.float64)
+    if v.size == 0:
+        return math.nan
+    return float(np.exp(np.mean(np.log(v + shift))) - shift)
+
+
+def charged_time(rec: dict) -> float:
+    """Time of a run for summaries: its time if successful, else its time limit."""
+    if rec["success"] and math.isfinite(rec["time"]):
+        return float(rec["time"])
+    return float(rec["time_limit"]) if math.isfinite(rec["time_limit"]) else math.inf
+
+
+def _by_tol(records, tol):
+    return [r for r in records if math.isclose(r["tol"], tol, rel_tol=1e-9)
+            and r["status"] not in EXCLUDED]
+
+
+def summary_table(records, presets=None) -> list[dict]:
+    """Success rate and SGM per (preset, solver).
+
+    Every problem present at a preset's tolerance counts for every solver
+    run at it: unsupported runs and failures are failures, charged the time
+    limit in the SGM.  ``relative_sgm`` divides by the best SGM of the preset.
+
+    Returns
+    -------
+    list of dict
+        Keys ``preset, tol, solver, problems, success, success_rate, sgm_time,
+        relative_sgm, unsupported, time_limit, nan``.
+    """
+    presets = PRESETS if presets is None else presets
+    rows = []
+    for preset, tol in presets.items():
+        recs = _by_tol(records, tol)
+        group = defaultdict(list)
+        for r in recs:
+            group[r["solver"]].append(r)
+        block = []
+        for solver, rs in sorted(group.items()):
+            ok = sum(bool(r["success"]) for r in rs)
+            block.append(dict(
+                preset=preset, tol=tol, solver=solver, problems=len(rs), success=ok,
+                success_rate=ok / len(rs), sgm_time=shifted_geometric_mean([charged_time(r) for r in rs]),
+                unsupported=sum(r["status"] == "unsupported" for r in rs),
+                time_limit=sum(r["status"] == "time_limit" for r in rs),
+                nan=sum(bool(r["nan"]) for r in rs)))
+        best = min((b["sgm_time"] for b in block), default=math.nan)
+        for b in block:
+            b["relative_sgm"] = b["sgm_time"] / best if best and math.isfinite(best) else math.nan
+        rows += block
+    return rows
+
+
+def time_table(records, tol: float) -> dict:
+    """``problem -> solver -> time`` at ``tol`` (``inf`` when the run did not succeed)."""
+    out: dict = defaultdict(dict)
+    for r in _by_tol(records, tol):
+        out[r["problem"]][r["solver"]] = float(r["time"]) if r["success"] else math.inf
+    return dict(out)
+
+
+def performance_ratios(table: dict, floor: float = 1e-6) -> dict:
+    """Dolan–Moré ratios ``t_ps / min_s t_ps`` per solver (list over problems).
+
+    Times are floored at ``floor`` seconds (a 0 s timer reading cannot make
+    every other ratio infinite); a problem no solver solves gives ``inf``
+    for all.  A solver absent from a problem's row counts as a failure.
+    """
+    solvers = sorted({s for row in table.values() for s in row})
+    ratios = {s: [] for s in solvers}
+    for row in table.values():
+        best = min((max(t, floor) for t in row.values()), default=math.inf)
+        for s in solvers:
+            t = row.get(s, math.inf)
+            ratios[s].append(max(t, floor) / best if math.isfinite(best) and math.isfinite(t)
+                             else math.inf)
+    return ratios
+
+
+def performance_profile(table: dict, taus=None) -> tuple[np.ndarray, dict]:
+    """Dolan–Moré performance profile.
+
+    Parameters
+    ----------
+    table : dict
+        ``problem -> solver -> time`` (``inf`` for a failure), e.g. from :func:`time_table`.
+    taus : array_like, optional
+        Evaluation points ``tau >= 1`` (default: every finite ratio and 1).
+
+    Returns
+    -------
+    taus : ndarray
+    rho : dict
+        ``solver -> rho_s(taus)`` with ``rho_s(tau) = |{p : r_ps <= tau}| / |P|``.
+    """
+    ratios = performance_ratios(table)
+    if taus is None:
+        finite = [x for v in ratios.values() for x in v if math.isfinite(x)]
+        taus = np.unique(np.concatenate([[1.0], finite])) if finite else np.array([1.0])
+    taus = np.asarray(taus, dtype=np.float64)
+    n = len(table)
+    rho = {s: np.array([np.sum(np.asarray(v) <= t) / n for t in taus]) for s, v in ratios.items()}
+    return taus, rho
+
+
+def work_precision_data(records, floor: float = 1e-17) -> dict:
+    """Work–precision points per family and solver from a tolerance sweep.
+
+    Returns
+    -------
+    dict
+        ``family -> solver -> list of dict(tol, time, error, solved, runs)``
+        sorted by decreasing ``tol``: ``time`` is the SGM of the charged times
+        (failures charged the time limit), ``error`` the geometric mean of the
+        achieved errors of the runs that returned impulses (floored at
+        ``floor``), ``solved`` the number of successful runs.  A point whose
+        runs all lack an error is left out.
+    """
+    groups = defaultdict(list)
+    for r in records:
+        if r["status"] in EXCLUDED or r["status"] == "unsupported":
+            continue
+        groups[(r["family"], r["solver"], float(r["tol"]))].append(r)
+    out: dict = defaultdict(lambda: defaultdict(list))
+    for (fam, solver, tol), rs in groups.items():
+        errs = [max(r["error"], floor) for r in rs if math.isfinite(r["error"])]
+        if not errs:
+            continue
+        out[fam][solver].append(dict(
+            tol=tol, time=shifted_geometric_mean([charged_time(r) for r in rs]),
+            error=float(np.exp(np.mean(np.log(errs)))), solved=sum(bool(r["success"]) for r in rs),
+            runs=len(rs)))
+    return {f: {s: sorted(v, key=lambda d: -d["tol"]) for s, v in d.items()} for f, d in out.items()}
+
+
+# ------------------------------------------------------------------ rendering
+def _style(solvers):
+    import matplotlib.pyplot as plt
+    cmap = plt.get_cmap("tab10")
+    marks = "osD^v<>ph*"
+    return {s: dict(color=cmap(i % 10), marker=marks[i % len(marks)]) for i, s in enumerate(solvers)}
+
+
+def plot_work_precision(records, path, title="Work–precision (tolerance sweep)") -> Path:
+    """Achieved error against time, one panel per family, one line per solver."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    data = work_precision_data(records)
+    fams = sorted(data)
+    solvers = sorted({s for d in data.values() for s in d})
+    style = _style(solvers)
+    ncol = min(3, max(1, len(fams)))
+    nrow = max(1, math.ceil(len(fams) / ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol, 4.0 * nrow), squeeze=False)
+    for ax, fam in zip(axes.flat, fams):
+        for s, pts in sorted(data[fam].items()):
+            t = [p["time"] for p in pts]
+            e = [p["error"] for p in pts]
+            ax.plot(t, e, "-", color=style[s]["color"], lw=1.2, alpha=0.8)
+            full = [p["solved"] == p["runs"] for p in pts]
+            ax.scatter([x for x, f in zip(t, full) if f], [y for y, f in zip(e, full) if f],
+                       color=style[s]["color"], marker=style[s]["marker"], s=28, label=s, zorder=3)
+            ax.scatter([x for x, f in zip(t, full) if not f], [y for y, f in zip(e, full) if not f],
+                       facecolors="none", edgecolors=style[s]["color"], marker=style[s]["marker"],
+                       s=28, zorder=3, label=None if any(full) else s)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(f"{fam} ({_n_problems(records, fam)} problems)", fontsize=10)
+        ax.set_xlabel("time, SGM over problems [s]")
+        ax.set_ylabel("achieved Siconos error (geo. mean)")
+        ax.grid(True, which="major", alpha=0.3)
+    for ax in list(axes.flat)[len(fams):]:
+        ax.axis("off")
+    handles, labels = [], []
+    for ax in axes.flat:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            if lab not in labels and not lab.startswith("_"):
+                handles.append(h)
+                labels.append(lab)
+    fig.legend(handles, labels, loc="lower center", ncol=min(6, max(1, len(labels))), fontsize=9,
+               frameon=False)
+    fig.suptitle(title + " — filled: all runs reached the tolerance, hollow: some failed "
+                 "(charged the time limit)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.06, 1, 0.96))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _n_problems(records, fam):
+    return len({r["problem"] for r in records if r["family"] == fam})
+
+
+def plot_performance_profiles(records, path, presets=None, title="Performance profiles (time)") -> Path:
+    """Dolan–Moré profiles, one panel per preset."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    presets = PRESETS if presets is None else presets
+    solvers = sorted({r["solver"] for r in records})
+    style = _style(solvers)
+    fig, axes = plt.subplots(1, len(presets), figsize=(5.2 * len(presets), 4.2), squeeze=False)
+    for ax, (preset, tol) in zip(axes.flat, presets.items()):
+        table = time_table(records, tol)
+        if not table:
+            ax.set_title(f"{preset} (tol {tol:.0e}): no runs")
+            continue
+        taus, rho = performance_profile(table)
+        tmax = max(2.0, float(taus[-1]) * 1.5)
+        for s, v in sorted(rho.items()):
+            x = np.concatenate([taus, [tmax]])
+            y = np.concatenate([v, [v[-1]]])
+            ax.step(x, y, where="post", color=style[s]["color"], label=s, lw=1.5)
+        ax.set_xscale("log", base=2)
+        ax.set_xlim(1.0, tmax)
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_xlabel(r"$\tau$ (time / best time)")
+        ax.set_ylabel(r"$\rho_s(\tau)$")
+        ax.set_title(f"{preset}: tol {tol:.0e}, {len(table)} problems", fontsize=10)
+        ax.grid(True, alpha=0.3)
+    axes.flat[0].legend(fontsize=8, loc="lower right")
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _g(x, fmt=".3g"):
+    return "—" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, fmt)
+
+
+def summary_markdown(records, presets=None, title="Solver comparison") -> str:
+    """Markdown summary: one table per preset (success rate, SGM, failures)."""
+    rows = summary_table(records, presets)
+    lines = [f"# {title}", "",
+             f"{len({r['problem'] for r in records})} problems, "
+             f"{len({r['solver'] for r in records})} solvers, {len(records)} runs. "
+             f"Success = Siconos relative error (recomputed by socp_cd.error from the returned r) "
+             f"<= tol. SGM = shifted geometric mean of the time (shift {SGM_SHIFT * 1e3:g} ms), "
+             f"failures charged the time limit; relative SGM divides by the best solver's.", ""]
+    for preset, tol in (PRESETS if presets is None else presets).items():
+        block = [r for r in rows if r["preset"] == preset]
+        if not block:
+            continue
+        lines += [f"## {preset} accuracy (tol = {tol:.0e})", "",
+                  "| solver | success rate | solved | SGM time [s] | relative SGM | time limit | unsupported | NaN |",
+                  "|---|---:|---:|---:|---:|---:|---:|---:|"]
+        for r in sorted(block, key=lambda r: (-r["success_rate"], r["sgm_time"])):
+            lines.append(f"| {r['solver']} | {100 * r['success_rate']:.1f}% | {r['success']}/{r['problems']} "
+                         f"| {_g(r['sgm_time'], '.4g')} | {_g(r['relative_sgm'], '.2f')} | {r['time_limit']} "
+                         f"| {r['unsupported']} | {r['nan']} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def write_report(records, outdir, title="Solver comparison", presets=None) -> dict:
+    """Write ``summary.md``, ``work_precision.png`` and ``performance_profile.png``."""
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    md = outdir / "summary.md"
+    md.write_text(summary_markdown(records, presets, title) + "\n")
+    return {"summary": md,
+            "work_precision": plot_work_precision(records, outdir / "work_precision.png"),
+            "performance_profile": plot_performance_profiles(records, outdir / "performance_profile.png",
+                                                             presets)}
+
+
+__all__ = ["SGM_SHIFT", "shifted_geometric_mean", "charged_time", "summary_table", "time_table",
+           "performance_ratios", "performance_profile", "work_precision_data",
+           "plot_work_precision", "plot_performance_profiles", "summary_markdown", "write_report"]

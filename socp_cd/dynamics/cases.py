@@ -1,0 +1,323 @@
+"""Validation cases with closed-form solutions.
+
+Each case function ``case_xxx(solver="nsgs", quick=False)`` builds a scene,
+integrates it with :class:`~socp_cd.dynamics.stepper.Simulation` and returns
+a list of :class:`Row` comparing computed quantities with their exact values.
+``quick=True`` shortens the run (used by the test-suite) without changing the
+stated tolerances' justification (the tolerances are recomputed from ``h``).
+
+Error measure: ``|computed - exact| / max(|exact|, scale)`` where ``scale``
+is the row's reference magnitude (used when the exact value is 0, e.g. the
+velocity of a sticking block, measured against the velocity it would reach
+in free sliding).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .bodies import Disk, Force, Line, Plane, Polygon, Sphere, Spring
+from .scene import Scene
+from .stepper import Simulation
+
+G = 9.81
+SOLVER_TOL = 1e-10
+
+
+@dataclass
+class Row:
+    """One line of the validation table."""
+
+    case: str
+    quantity: str
+    exact: float
+    computed: float
+    tol: float
+    solver: str
+    scale: float = 0.0
+    why: str = ""
+
+    @property
+    def error(self) -> float:
+        return abs(self.computed - self.exact) / max(abs(self.exact), self.scale, 1e-300)
+
+    @property
+    def passed(self) -> bool:
+        return bool(np.isfinite(self.computed) and self.error <= self.tol)
+
+
+def _sim(scene, h, solver, **kw) -> Simulation:
+    return Simulation(scene, h, solver=solver, tol=kw.pop("tol", SOLVER_TOL), **kw)
+
+
+def _solver_tol_rows_ok(sim) -> bool:
+    return all(s.converged for s in sim.stats)
+
+
+# ----------------------------------------------------------------------------- particle pushed
+def case_pushed_particle(solver="nsgs", quick=False):
+    """A non-rotating particle on a rough line pushed by a constant force F.
+
+    Exact: it sticks iff ``|F| <= mu m g``; otherwise ``a = (F - mu m g)/m``.
+    The θ-scheme integrates constant forces exactly, so both are met to the
+    solver tolerance (tol 1e-6).
+    """
+    mu, m, h = 0.4, 2.0, 1e-2
+    n = 20 if quick else 100
+    T = n * h
+    rows = []
+    for label, ratio in (("stick", 0.8), ("slip", 1.5)):
+        F = ratio * mu * m * G
+        sc = Scene([Disk(0.1, (0.0, 0.1), mass=m, fixed_rotation=True)], [Line()], mu=mu,
+                   forces=[Force(0, lambda t, F=F: (F, 0.0))])
+        sim = _sim(sc, h, solver)
+        sim.run(n, progress=False)
+        vx = sim.sys.vel[0, 0]
+        exact = 0.0 if ratio <= 1 else (F - mu * m * G) / m
+        rows.append(Row(f"pushed particle ({label}, F={ratio}·mu m g)", "acceleration v(T)/T",
+                        exact, vx / T, 1e-6, solver, scale=mu * G,
+                        why="constant force: θ-scheme exact, error = solver tolerance"))
+    return rows
+
+
+# ----------------------------------------------------------------------------- block on incline
+def _block_on_incline(alpha, mu, solver, n, h):
+    w, hb = 1.0, 0.5
+    line = Line.inclined(alpha)
+    t = np.array([np.cos(alpha), np.sin(alpha)])
+    c = 1.0 * t + 0.5 * hb * line.normal
+    box = Polygon.box(w, hb, c, angle=alpha)
+    sc = Scene([box], [line], mu=mu)
+    sim = _sim(sc, h, solver)
+    sim.run(n, progress=False)
+    return sim, t
+
+
+def case_block_incline(solver="nsgs", quick=False):
+    """A box (polygon, two vertex contacts) on an inclined rough line.
+
+    Exact: sticks iff ``tan(alpha) <= mu``; else ``a = g (sin alpha - mu cos alpha)``.
+    Constant forces → exact in the θ-scheme; tolerance 1e-6 (solver level).
+    """
+    mu, h = 0.5, 1e-2
+    n = 20 if quick else 100
+    T = n * h
+    rows = []
+    for alpha_deg in (20.0, 35.0):
+        a = np.radians(alpha_deg)
+        sim, t = _block_on_incline(a, mu, solver, n, h)
+        v = sim.sys.vel[0, :2] @ t
+        exact = max(0.0, G * (np.sin(a) - mu * np.cos(a)))
+        label = "stick" if np.tan(a) <= mu else "slip"
+        rows.append(Row(f"box on incline {alpha_deg:g}° mu={mu} ({label})", "acceleration along slope",
+                        exact, -v / T, 1e-6, solver, scale=G * np.sin(a),
+                        why="constant forces: exact in θ-scheme; solver tolerance"))
+    return rows
+
+
+# ----------------------------------------------------------------------------- spring-driven particle
+def case_sweeping(solver="nsgs", quick=False):
+    """A particle dragged through a spring whose end moves at speed V (sweeping process).
+
+    Quasi-static exact solution ``x = max(x0, u(t) - mu m g / k)``.  Inertia
+    makes the particle oscillate about it with amplitude at most ``V/omega``
+    (``omega = sqrt(k/m)``); the θ-scheme adds O(hV).  Tolerance on ``x(T) - x0``:
+    ``(V/omega + 2 h V) / (x_qs(T) - x0)``; on the onset time ``t_s = mu m g/(k V)``: ``2h / t_s``.
+    """
+    mu, m, k, V, h = 0.3, 1.0, 100.0, 0.01, 5e-3
+    T = 6.0 if quick else 10.0
+    n = int(round(T / h))
+    x0 = 0.0
+    drv = lambda t: (x0 + V * t, 0.1)  # noqa: E731
+    sc = Scene([Disk(0.1, (x0, 0.1), mass=m, fixed_rotation=True)], [Line()], mu=mu,
+               springs=[Spring(0, drv, k)])
+    sim = _sim(sc, h, solver)
+    xs, ts = [], []
+    sim.run(n, progress=False, callback=lambda s, st: (xs.append(s.sys.pos[0, 0]), ts.append(s.t)))
+    xs, ts = np.array(xs), np.array(ts)
+    delta = mu * m * G / k
+    x_qs = max(x0, x0 + V * T - delta)
+    omega = np.sqrt(k / m)
+    ts_exact = delta / V
+    moved = np.flatnonzero(xs - x0 > 1e-9)
+    ts_comp = ts[moved[0]] if moved.size else np.inf
+    return [
+        Row("spring-dragged particle (sweeping)", "x(T) - x0", x_qs - x0, xs[-1] - x0,
+            (V / omega + 2 * h * V) / (x_qs - x0), solver,
+            why="quasi-static limit: inertial deviation <= V/omega, + O(hV)"),
+        Row("spring-dragged particle (sweeping)", "slip onset time", ts_exact, ts_comp,
+            2 * h / ts_exact, solver, why="onset detected to within a step: O(h)"),
+    ]
+
+
+# ----------------------------------------------------------------------------- bouncing ball
+def case_bouncing_ball(solver="nsgs", quick=False):
+    """A ball dropped from height h0 on a floor with restitution e (frictionless).
+
+    Exact: apex heights ``e^{2n} h0``; time to rest ``sqrt(2 h0/g)(1+e)/(1-e)``.
+    Impacts are applied at the step where the predicted gap closes, i.e. up to
+    ``h V_n`` before contact: apex error <= ``2 h V_n`` (O(h)); the rest time
+    accumulates one-step errors over the ~log(hg/V0)/log(e) bounces:
+    tolerance ``20 h / T_rest``.
+    """
+    e, h0, R = 0.5, 1.0, 0.1
+    h = 1e-3 if quick else 5e-4
+    T_rest = np.sqrt(2 * h0 / G) * (1 + e) / (1 - e)
+    T = 1.2 * T_rest if not quick else 1.0
+    n = int(round(T / h))
+    sc = Scene([Disk(R, (0.0, R + h0))], [Line()], restitution=e)
+    sim = _sim(sc, h, solver)
+    ys, vs, ts = [], [], []
+    sim.run(n, progress=False, callback=lambda s, st: (ys.append(s.sys.pos[0, 1] - R),
+                                                        vs.append(s.sys.vel[0, 1]), ts.append(s.t)))
+    ys, vs, ts = np.array(ys), np.array(vs), np.array(ts)
+    # apexes: velocity changes sign from + to -
+    up = np.flatnonzero((vs[:-1] > 0) & (vs[1:] <= 0))
+    rows = []
+    V0 = np.sqrt(2 * G * h0)
+    for k in (1, 2):
+        exact = e ** (2 * k) * h0
+        comp = ys[up[k - 1]:up[k - 1] + 2].max() if len(up) >= k else np.nan
+        rows.append(Row(f"bouncing ball e={e}", f"apex height {k}", exact, comp,
+                        2 * h * V0 * e ** (k - 1) / exact, solver,
+                        why="impact applied up to one step early: O(h V)"))
+    if not quick:
+        moving = np.flatnonzero(np.abs(vs) > 2 * G * h)
+        t_rest = ts[moving[-1]] if moving.size else 0.0
+        rows.append(Row(f"bouncing ball e={e}", "time to rest", T_rest, t_rest, 20 * h / T_rest, solver,
+                        why="one-step impact timing error per bounce, ~10 bounces: O(h)"))
+    return rows
+
+
+# ----------------------------------------------------------------------------- sliding → rolling
+def case_sliding_disk(solver="nsgs", quick=False):
+    """A disk launched sliding (v0, omega=0) on a rough plane: friction spins it up.
+
+    Exact: rolling starts at ``t* = v0/(3 mu g)`` with speed ``2 v0 / 3``
+    (angular momentum about the contact point is conserved, so the final speed
+    is met to solver tolerance, 1e-6); t* is detected to within a step: tol ``2h/t*``.
+    """
+    mu, v0, R, h = 0.2, 2.0, 0.1, 1e-3
+    t_star = v0 / (3 * mu * G)
+    T = t_star * 1.5 if not quick else t_star * 1.2
+    n = int(round(T / h))
+    sc = Scene([Disk(R, (0.0, R), velocity=(v0, 0.0))], [Line()], mu=mu)
+    sim = _sim(sc, h, solver)
+    slips, ts = [], []
+    sim.run(n, progress=False, callback=lambda s, st: (slips.append(s.sys.vel[0, 0] + s.sys.vel[0, 2] * R),
+                                                        ts.append(s.t)))
+    slips = np.abs(np.array(slips))
+    rolled = np.flatnonzero(slips <= 1e-6 * v0)
+    t_comp = ts[rolled[0]] if rolled.size else np.inf
+    return [
+        Row(f"disk sliding→rolling mu={mu}", "rolling onset t*", t_star, t_comp, 2 * h / t_star, solver,
+            why="stick-slip transition inside a step: O(h)"),
+        Row(f"disk sliding→rolling mu={mu}", "final speed", 2 * v0 / 3, sim.sys.vel[0, 0], 1e-6, solver,
+            why="momentum about contact point conserved exactly; solver tolerance"),
+    ]
+
+
+def case_sliding_sphere(solver="nsgs", quick=False):
+    """3D: a sphere launched sliding: ``t* = 2 v0/(7 mu g)``, final speed ``5 v0/7``."""
+    mu, v0, R, h = 0.2, 2.0, 0.1, 1e-3
+    t_star = 2 * v0 / (7 * mu * G)
+    T = t_star * (1.2 if quick else 1.5)
+    n = int(round(T / h))
+    sc = Scene([Sphere(R, (0.0, 0.0, R), velocity=(v0, 0.0, 0.0))], [Plane()], mu=mu)
+    sim = _sim(sc, h, solver)
+    slips, ts = [], []
+    # contact point velocity x-component: v_x + (omega x (-R e_z))_x = v_x - omega_y R
+    sim.run(n, progress=False, callback=lambda s, st: (slips.append(s.sys.vel[0, 0] - s.sys.vel[0, 4] * R),
+                                                        ts.append(s.t)))
+    slips = np.abs(np.array(slips))
+    rolled = np.flatnonzero(slips <= 1e-6 * v0)
+    t_comp = ts[rolled[0]] if rolled.size else np.inf
+    return [
+        Row(f"sphere sliding→rolling mu={mu} (3D)", "rolling onset t*", t_star, t_comp, 2 * h / t_star, solver,
+            why="stick-slip transition inside a step: O(h)"),
+        Row(f"sphere sliding→rolling mu={mu} (3D)", "final speed", 5 * v0 / 7, sim.sys.vel[0, 0], 1e-6, solver,
+            why="momentum about contact point conserved exactly; solver tolerance"),
+    ]
+
+
+# ----------------------------------------------------------------------------- rolling down an incline
+def case_rolling_incline(solver="nsgs", quick=False):
+    """A disk released on an incline with ``mu >= tan(alpha)/3`` rolls without slipping.
+
+    Exact ``a = (2/3) g sin(alpha)``; constant forces → exact in the θ-scheme
+    (tol 1e-6, solver level).  Measured from the displacement ``2 s(T)/T²``.
+    """
+    alpha, mu, R, h = np.radians(30.0), 0.3, 0.1, 1e-2
+    n = 20 if quick else 100
+    T = n * h
+    line = Line.inclined(alpha)
+    t = np.array([np.cos(alpha), np.sin(alpha)])
+    c0 = 1.0 * t + R * line.normal
+    sc = Scene([Disk(R, c0)], [line], mu=mu)
+    sim = _sim(sc, h, solver)
+    sim.run(n, progress=False)
+    s = -(sim.sys.pos[0] - c0) @ t
+    return [Row(f"disk rolling down 30° incline mu={mu}", "acceleration 2s/T²", 2 / 3 * G * np.sin(alpha),
+                2 * s / T ** 2, 1e-6, solver, why="constant forces: exact in θ-scheme; solver tolerance")]
+
+
+# ----------------------------------------------------------------------------- stack of boxes
+def case_box_stack(solver="nsgs", quick=False):
+    """n boxes stacked at rest on the floor: interface k from the top carries ``k m g``.
+
+    Exact statics from the first step; redundant (two-point) interfaces make
+    individual impulses non-unique but their sums unique: tol 1e-6 (solver level).
+    """
+    nbox, w, hb, mu, h = 4, 1.0, 0.5, 0.5, 1e-3
+    bodies = [Polygon.box(w, hb, (0.0, hb / 2 + k * hb), density=2.0) for k in range(nbox)]
+    m = bodies[0].mass
+    sc = Scene(bodies, [Line()], mu=mu)
+    sim = _sim(sc, h, solver)
+    sim.run(3 if quick else 10, progress=False)
+    cf = sim.last_contacts
+    fn = cf.normal_force
+    rows = []
+    for k in range(1, nbox + 1):
+        lower = nbox - k - 1          # body index below interface k (-1: floor)
+        upper = nbox - k
+        sel = (cf.pairs[:, 0] == upper) & (cf.pairs[:, 1] == lower) | \
+              (cf.pairs[:, 0] == lower) & (cf.pairs[:, 1] == upper) if lower >= 0 else \
+              (cf.pairs[:, 0] == upper) & (cf.pairs[:, 1] == -1)
+        rows.append(Row(f"stack of {nbox} boxes", f"interface {k} load / (m g)", float(k),
+                        fn[sel].sum() / (m * G), 1e-6, solver, why="statics exact; solver tolerance"))
+    return rows
+
+
+# ----------------------------------------------------------------------------- Newton's cradle
+def case_newton_cradle(solver="nsgs", quick=False):
+    """Three equal balls, the first hitting the two others (touching) with speed v, e = 1.
+
+    Moreau's simultaneous impact law ``u_N⁺ + e u_N⁻ >= 0 ⊥ r_N >= 0`` on both
+    contacts gives velocities ``(-1/3, 2/3, 2/3) v`` (momentum and energy
+    conserved).  Single impact step, no discretization error: tol 1e-6.
+    """
+    R, v, h = 0.1, 1.0, 1e-3
+    gap = 0.5 * v * h
+    bodies = [Disk(R, (0.0, 0.0), velocity=(v, 0.0)), Disk(R, (2 * R + gap, 0.0)), Disk(R, (4 * R + gap, 0.0))]
+    sc = Scene(bodies, [], gravity=(0.0, 0.0), restitution=1.0)
+    sim = _sim(sc, h, solver)
+    sim.run(5, progress=False)
+    return [Row("Newton's cradle, 3 balls, e=1", f"v{k + 1}/v after impact", ex, sim.sys.vel[k, 0] / v, 1e-6,
+                solver, scale=1.0, why="one impact step, exact law; solver tolerance")
+            for k, ex in enumerate((-1 / 3, 2 / 3, 2 / 3))]
+
+
+CASES = {
+    "pushed_particle": case_pushed_particle,
+    "block_incline": case_block_incline,
+    "sweeping": case_sweeping,
+    "bouncing_ball": case_bouncing_ball,
+    "sliding_disk": case_sliding_disk,
+    "sliding_sphere": case_sliding_sphere,
+    "rolling_incline": case_rolling_incline,
+    "box_stack": case_box_stack,
+    "newton_cradle": case_newton_cradle,
+}
+
+__all__ = ["Row", "CASES"] + [f.__name__ for f in CASES.values()]

@@ -1,0 +1,145 @@
+"""Block-sparse row storage of the Delassus operator ``W`` for contact-wise sweeps.
+
+NSGS visits one contact ``i`` at a time and needs, for that contact, the
+``dim x dim`` diagonal block ``W_ii`` and the *local free velocity*
+``b_i = q_i + sum_{j != i} W_ij r_j`` (the velocity contact ``i`` would see if
+its own impulse were zero).  Both come from the block row ``i`` of ``W``; this
+module stores ``W`` as a CSR matrix of ``dim x dim`` blocks (BSR), built from
+the scipy CSR arrays by a compiled two-pass kernel (no Python loop over contacts).
+"""
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit
+
+
+@dataclass(frozen=True)
+class BlockCSR:
+    """``W`` as a CSR matrix of ``dim x dim`` blocks.
+
+    Attributes
+    ----------
+    dim : int
+        Block size (contact dimension, 2 or 3).
+    n_contacts : int
+        Number of block rows (= block columns).
+    indptr : ndarray of int64, shape (n_contacts + 1,)
+        Block row ``i`` holds the blocks ``indptr[i]:indptr[i+1]``.
+    indices : ndarray of int64, shape (n_blocks,)
+        Block column of each stored block.
+    blocks : ndarray of float64, shape (n_blocks, dim, dim)
+        The block values, C-contiguous.
+    diag_pos : ndarray of int64, shape (n_contacts,)
+        Position of ``W_ii`` in ``blocks``, ``-1`` when the diagonal block is
+        not stored (structurally zero).
+    diag : ndarray of float64, shape (n_contacts, dim, dim)
+        The diagonal blocks (zeros where not stored).
+    """
+
+    dim: int
+    n_contacts: int
+    indptr: np.ndarray
+    indices: np.ndarray
+    blocks: np.ndarray
+    diag_pos: np.ndarray
+    diag: np.ndarray
+
+    @property
+    def n_blocks(self) -> int:
+        """Number of stored blocks."""
+        return int(self.indices.shape[0])
+
+
+@njit(cache=True)
+def _csr_to_bsr(indptr, indices, data, dim, nc):
+    """Two passes over the CSR entries; a marker per block column, no sort."""
+    marker = np.full(nc, -1, dtype=np.int64)
+    bptr = np.zeros(nc + 1, dtype=np.int64)
+    for I in range(nc):                       # pass 1: count blocks per block row
+        cnt = 0
+        for a in range(dim):
+            row = I * dim + a
+            for p in range(indptr[row], indptr[row + 1]):
+                J = indices[p] // dim
+                if marker[J] != I:
+                    marker[J] = I
+                    cnt += 1
+        bptr[I + 1] = bptr[I] + cnt
+    nb = bptr[nc]
+    bcol = np.empty(nb, dtype=np.int64)
+    blocks = np.zeros((nb, dim, dim))
+    diag_pos = np.full(nc, -1, dtype=np.int64)
+    diag = np.zeros((nc, dim, dim))
+    pos = np.full(nc, -1, dtype=np.int64)
+    marker[:] = -1
+    for I in range(nc):                       # pass 2: fill
+        nxt = bptr[I]
+        for a in range(dim):
+            row = I * dim + a
+            for p in range(indptr[row], indptr[row + 1]):
+                col = indices[p]
+                J = col // dim
+                if marker[J] != I:
+                    marker[J] = I
+                    pos[J] = nxt
+                    bcol[nxt] = J
+                    if J == I:
+                        diag_pos[I] = nxt
+                    nxt += 1
+                blocks[pos[J], a, col - J * dim] += data[p]
+        if diag_pos[I] >= 0:
+            diag[I] = blocks[diag_pos[I]]
+    return bptr, bcol, blocks, diag_pos, diag
+
+
+def block_csr(W, dim: int) -> BlockCSR:
+    """Convert a square sparse (or dense) matrix into :class:`BlockCSR`.
+
+    Parameters
+    ----------
+    W : scipy.sparse matrix or array_like, shape (m, m)
+        Delassus operator, ``m = dim * n_contacts``.
+    dim : int
+        Block size.
+
+    Returns
+    -------
+    BlockCSR
+        Duplicate entries are summed; block columns keep their order of first
+        appearance in the CSR rows (unsorted, which the sweeps do not need).
+    """
+    Wc = W if sp.isspmatrix_csr(W) else sp.csr_matrix(W, dtype=np.float64)
+    nc = Wc.shape[0] // dim
+    out = _csr_to_bsr(Wc.indptr.astype(np.int64, copy=False), Wc.indices.astype(np.int64, copy=False),
+                      Wc.data.astype(np.float64, copy=False), dim, nc)
+    return BlockCSR(dim, nc, *out)
+
+
+_CACHE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def problem_blocks(problem) -> BlockCSR:
+    """:class:`BlockCSR` of ``problem.W``, cached per problem object.
+
+    The cache is keyed on the problem (weakly) and invalidated when its ``W``
+    attribute is replaced by another object.
+    """
+    try:
+        hit = _CACHE.get(problem)
+    except TypeError:           # not weak-referenceable
+        hit = None
+    if hit is not None and hit[0] is problem.W:
+        return hit[1]
+    storage = block_csr(problem.W, problem.dim)
+    try:
+        _CACHE[problem] = (problem.W, storage)
+    except TypeError:
+        pass
+    return storage
+
+
+__all__ = ["BlockCSR", "block_csr", "problem_blocks"]

@@ -1,0 +1,262 @@
+"""Clarabel backend: contact laws as second-order cone programs.
+
+Registered as solver ``"clarabel"`` with formulations
+
+* ``"coulomb"`` (default) — the exact law by the De Saxcé fixed point
+  (:mod:`socp_cd.solvers.desaxce`) over associated SOCPs solved by Clarabel;
+* ``"associated"`` — the convex relaxation ``min ½ rᵀW r + qᵀr, r ∈ K_mu``
+  (one SOCP when ``W`` is symmetric; with an asymmetric ``W`` the SOCP sees
+  ``W_s`` and the skew part is iterated by the same outer loop as ``coulomb``,
+  without the friction shift);
+* ``"tresca"`` — ``min ½ rᵀW_s r + qᵀr, r_N >= 0, ||r_T|| <= g`` (one SOCP,
+  thresholds ``options["threshold"]``);
+* ``"frictionless"`` — ``r_T = 0, r_N >= 0`` (a QP).
+
+Global problems are solved natively (for ``associated`` and ``coulomb``) in
+the velocities ``v``: ``min ½ vᵀMv − fᵀv s.t. Hᵀv + w + shift ∈ K*_mu``; the
+constraint multipliers are the impulses ``r`` and ``W`` is never formed.
+
+Options (all keyword arguments of :func:`socp_cd.solve`)
+---------------------------------------------------------
+settings : dict
+    Clarabel settings passed through (e.g. ``{"static_regularization_constant":
+    1e-7, "direct_solve_method": "qdldl"}``), applied after socp_cd's defaults.
+time_limit : float
+    Seconds (passed to Clarabel; for ``coulomb`` also bounds the outer loop).
+verbose : bool
+    Clarabel's printout.
+threshold : array_like
+    Tresca thresholds (required for ``tresca``).
+inner_tol : float
+    Clarabel tolerance for the single-SOCP formulations (default ``min(1e-10, tol/100)``).
+accel, memory, adaptive_tol, kappa, inner_tol_max, inner_tol_min, polish,
+polish_max_iter, patience
+    De Saxcé outer-loop options (see :func:`~socp_cd.solvers.desaxce.desaxce_fixed_point`).
+
+Statuses
+--------
+Clarabel's status string is kept in ``info["clarabel_status"]`` and mapped to a
+provisional status (``solve()`` then decides ``converged`` from the recomputed
+residual): ``Solved`` → converged; ``AlmostSolved`` and
+``InsufficientProgress`` → stalled; ``MaxIterations`` → max_iter; ``MaxTime``
+→ time_limit; ``NumericalError``, ``(Almost)PrimalInfeasible``,
+``(Almost)DualInfeasible`` (a contact problem always has a feasible point
+``r = 0``; dual infeasibility means an unbounded relaxation, e.g. ``W``
+singular along a cone direction with ``qᵀd < 0``), ``Unsolved`` and
+``CallbackTerminated`` → numerical_error.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+import clarabel
+
+from .conic_data import global_conic_data, local_conic_data
+from .desaxce import OUTER_DEFAULTS, desaxce_fixed_point, natural_map_newton
+from .registry import register
+from .result import SolverResult
+
+#: Clarabel status string -> provisional socp_cd status
+STATUS_MAP = {
+    "Solved": "converged",
+    "AlmostSolved": "stalled",
+    "InsufficientProgress": "stalled",
+    "MaxIterations": "max_iter",
+    "MaxTime": "time_limit",
+    "NumericalError": "numerical_error",
+    "PrimalInfeasible": "numerical_error",
+    "DualInfeasible": "numerical_error",
+    "AlmostPrimalInfeasible": "numerical_error",
+    "AlmostDualInfeasible": "numerical_error",
+    "Unsolved": "numerical_error",
+    "CallbackTerminated": "numerical_error",
+}
+
+#: statuses whose iterate is a usable (possibly inaccurate) solution
+USABLE = ("Solved", "AlmostSolved", "InsufficientProgress", "MaxIterations", "MaxTime")
+
+#: socp_cd's Clarabel defaults (tuned on the shared data, see formulations/associated.md)
+DEFAULT_SETTINGS = dict(
+    verbose=False,
+    max_iter=200,
+    presolve_enable=False,   # keeps the data layout fixed for solver.update(q=..., b=...)
+)
+
+
+def map_status(clarabel_status) -> str:
+    """Provisional socp_cd status of a Clarabel status (string or ``SolverStatus``)."""
+    return STATUS_MAP.get(str(clarabel_status), "numerical_error")
+
+
+def make_settings(tol: float | None = None, settings: dict | None = None, *,
+                  time_limit=None, verbose=False, max_iter=None):
+    """Clarabel settings: socp_cd defaults, ``tol`` on gap/feasibility, user overrides."""
+    s = clarabel.DefaultSettings()
+    vals = dict(DEFAULT_SETTINGS)
+    vals["verbose"] = bool(verbose)
+    if tol is not None:
+        vals.update(tol_gap_abs=tol, tol_gap_rel=tol, tol_feas=tol, tol_ktratio=min(1e-6, tol))
+    if time_limit is not None:
+        vals["time_limit"] = float(time_limit)
+    if max_iter is not None:
+        vals["max_iter"] = int(max_iter)
+    vals.update(settings or {})
+    for key, val in vals.items():
+        if not hasattr(s, key):
+            raise TypeError(f"unknown Clarabel setting {key!r}")
+        setattr(s, key, val)
+    return s
+
+
+class ClarabelInner:
+    """Associated SOCP solved repeatedly with a changing linear term.
+
+    Implements the ``inner`` protocol of
+    :func:`~socp_cd.solvers.desaxce.desaxce_fixed_point`: ``solve(q_shift, tol)
+    -> (r, info)``.  The Clarabel solver is built once; later calls update
+    ``q`` (local form) or ``b`` (global form) with ``solver.update`` and reuse
+    the KKT structure (Clarabel has no iterate warm start).
+    """
+
+    def __init__(self, problem, W_sym=None, *, settings=None, time_limit=None, verbose=False,
+                 clarabel_max_iter=None):
+        self.problem = problem
+        self.user_settings = dict(settings or {})
+        self.time_limit = time_limit
+        self.verbose = verbose
+        self.clarabel_max_iter = clarabel_max_iter
+        if problem.is_global:
+            self.data = global_conic_data(problem)
+        else:
+            self.data = local_conic_data(problem, "associated", W_sym=W_sym)
+        self.solver = None
+        self.tol = None
+        self.last_v = None
+        self.statuses = []
+
+    def _settings(self, tol):
+        return make_settings(tol, self.user_settings, time_limit=self.time_limit,
+                             verbose=self.verbose, max_iter=self.clarabel_max_iter)
+
+    def solve(self, q_shift, tol):
+        """Solve ``min ½ rᵀW_s r + q_shiftᵀ r, r ∈ K_mu``; returns ``(r, info)``."""
+        p, d = self.problem, self.data
+        q_shift = np.asarray(q_shift, dtype=np.float64)
+        if p.is_global:
+            c = q_shift - p.q_local
+            qv, b = d.q, d.cone_map.G @ (p.w + c) + d.cone_map.g
+        else:
+            qv, b = q_shift, d.b
+        if self.solver is None:
+            self.tol = tol
+            self.solver = clarabel.DefaultSolver(d.P, qv, d.A, b, d.cones, self._settings(tol))
+        else:
+            kw = {"q": qv} if not p.is_global else {"b": b}
+            if tol != self.tol:
+                kw["settings"] = self._settings(tol)
+                self.tol = tol
+            self.solver.update(**kw)
+        sol = self.solver.solve()
+        status = str(sol.status)
+        self.statuses.append(status)
+        if p.is_global:
+            self.last_v = np.asarray(sol.x, dtype=np.float64)
+            r = d.cone_map.multiplier(sol.z)
+        else:
+            r = np.asarray(sol.x, dtype=np.float64)
+        return r, {"iterations": int(sol.iterations), "status": status, "ok": status in USABLE[:2]}
+
+
+def _single_socp(problem, formulation, tol, options):
+    """One Clarabel solve of the associated / Tresca / frictionless program."""
+    itol = options.get("inner_tol", min(1e-10, tol * 1e-2))
+    s = make_settings(itol, options.get("settings"), time_limit=options.get("time_limit"),
+                      verbose=options.get("verbose", False),
+                      max_iter=options.get("clarabel_max_iter"))
+    if problem.is_global:
+        d = global_conic_data(problem)
+    else:
+        d = local_conic_data(problem, formulation, threshold=options.get("threshold"))
+    solver = clarabel.DefaultSolver(d.P, d.q, d.A, d.b, d.cones, s)
+    sol = solver.solve()
+    status = str(sol.status)
+    v = None
+    if problem.is_global:
+        v = np.asarray(sol.x, dtype=np.float64)
+        r = d.cone_map.multiplier(sol.z)
+    else:
+        r = np.asarray(sol.x, dtype=np.float64)
+    if status not in USABLE:
+        r = np.where(np.isfinite(r), r, 0.0)
+    info = {"clarabel_status": status, "clarabel_iterations": int(sol.iterations),
+            "solve_time": float(sol.solve_time), "inner_tol": itol, "polish_iterations": 0}
+    prov = map_status(status)
+    polish = options.get("polish", "newton")
+    if polish and formulation in ("associated", "frictionless") and status in USABLE:
+        # interior-point iterates sit ~sqrt(gap) inside degenerate contacts: polish
+        # with the semismooth Newton method on the law's natural map (W formed for
+        # global problems), keep the polished point only if its residual is lower
+        from ..laws import LAW_RESIDUALS
+        if polish != "newton":
+            raise TypeError(f"polish must be 'newton' or None for {formulation!r}")
+        law_err = LAW_RESIDUALS[formulation]
+        e0 = law_err(problem, r)
+        if e0 > tol:
+            target = problem if formulation == "associated" else problem.with_(mu=np.zeros(problem.n_contacts)) \
+                if not problem.is_global else None
+            if target is not None:
+                r_pol, its = natural_map_newton(target, r, tol=tol, max_iter=options.get("polish_max_iter", 15),
+                                                law="associated")
+                info["polish_iterations"] = its
+                if law_err(problem, r_pol) < e0:
+                    r = r_pol
+                    v = problem.global_velocity(r) if problem.is_global else None
+    return SolverResult(r=r, v=v, status=prov, iterations=int(sol.iterations),
+                        info=info, message=f"Clarabel: {status}")
+
+
+_OUTER_KEYS = tuple(OUTER_DEFAULTS)
+
+
+@register("clarabel", ("coulomb", "associated", "tresca", "frictionless"),
+          global_native=("associated", "coulomb"),
+          description="Clarabel interior point: SOCP relaxations; Coulomb by the De Saxcé fixed point")
+def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **options):
+    """Backend entry point (see the module docstring for options and statuses)."""
+    if problem.is_global and not problem.is_symmetric:
+        problem = problem.to_local()  # the SOCP needs a symmetric M; the local path handles skew W
+    skew_assoc = formulation == "associated" and not problem.is_global and not problem.is_symmetric
+    if formulation != "coulomb" and not skew_assoc:
+        known = {"settings", "time_limit", "verbose", "threshold", "inner_tol", "clarabel_max_iter",
+                 "polish", "polish_max_iter"}
+        extra = set(options) - known
+        if extra:
+            raise TypeError(f"unknown Clarabel options {sorted(extra)}")
+        if max_iter is not None:  # one SOCP: max_iter caps Clarabel's interior-point iterations
+            options.setdefault("clarabel_max_iter", max_iter)
+        return _single_socp(problem, formulation, tol, options)
+    outer = {k: options.pop(k) for k in list(options) if k in _OUTER_KEYS}
+    if skew_assoc:  # asymmetric W: the skew part goes to an outer fixed point, no friction shift
+        outer["law"] = "associated"
+        options.pop("inner_tol", None)
+    known = {"settings", "time_limit", "verbose", "clarabel_max_iter"}
+    extra = set(options) - known
+    if extra:
+        raise TypeError(f"unknown Clarabel options {sorted(extra)}")
+    if options.get("time_limit") is not None:
+        outer.setdefault("time_limit", options["time_limit"])
+
+    def factory(prob, W_sym):
+        return ClarabelInner(prob, W_sym, settings=options.get("settings"),
+                             time_limit=options.get("time_limit"),
+                             verbose=options.get("verbose", False),
+                             clarabel_max_iter=options.get("clarabel_max_iter"))
+
+    res = desaxce_fixed_point(problem, factory, tol=tol, max_iter=max_iter or 100, r0=r0,
+                              history=history, **outer)
+    res.info["clarabel_status"] = res.info.get("inner_status")
+    return res
+
+
+__all__ = ["clarabel_solve", "ClarabelInner", "STATUS_MAP", "map_status", "make_settings",
+           "DEFAULT_SETTINGS"]

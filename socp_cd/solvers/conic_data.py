@@ -1,0 +1,288 @@
+"""Cone constraints of the contact laws in Clarabel's standard form.
+
+Clarabel solves ``min ½ xᵀPx + qᵀx  s.t.  A x + s = b,  s ∈ C`` where ``C`` is a
+product of cones listed in row order.  Every contact law used by socp_cd asks a
+stacked contact vector ``y`` (impulses ``r`` or velocities ``u``, normal first)
+to lie in a per-contact convex set; this module writes that membership as a
+*cone map*::
+
+    s = G y + g,   s ∈ C,
+
+with ``G`` sparse (one block of rows per contact, rows regrouped by cone type)
+and ``g`` a constant offset (nonzero only for Tresca's ball).  A solver then
+uses ``A = -G`` (local unknowns ``r``) or ``A = -G Hᵀ`` (global unknowns ``v``)
+and ``b = g`` (+ ``G`` times any constant part of ``y``).  The multiplier
+attached to the constraint by Clarabel, ``z ∈ C*``, is mapped back to contact
+variables by ``Gᵀ z`` (e.g. the velocities ``u`` of a local problem, or the
+impulses ``r`` of a global one).
+
+Sets
+----
+* Coulomb cone ``K_mu = {||r_T|| <= mu r_N}``: ``G = diag(mu, 1, 1)`` per
+  contact and ``C`` = ``SecondOrderConeT(3)`` (3D); in 2D the wedge
+  ``|r_T| <= mu r_N`` is the two linear rows ``mu r_N ∓ r_T >= 0``;
+  ``mu = 0`` contacts give ``r_N >= 0`` (nonnegative row) and ``r_T = 0``
+  (zero-cone rows).
+* Dual cone ``K*_mu = K_{1/mu} = {mu ||u_T|| <= u_N}``: ``G = diag(1, mu, mu)``
+  (3D SOC), rows ``u_N ∓ mu u_T >= 0`` (2D); ``mu = 0`` gives the half-space
+  ``u_N >= 0`` (tangential rows are absent: they are free).
+* Tresca's set ``{r_N >= 0, ||r_T|| <= g}``: a nonnegative row and an SOC on
+  ``(g, r_T)`` (offset ``g``), or two linear rows ``g ∓ r_T >= 0`` in 2D.
+
+Rows are ordered zero cone, then nonnegative cone, then the second-order cones,
+so the cone list is at most ``2 + n_soc`` entries long.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+try:  # clarabel is a hard dependency of the package, but keep import errors clear
+    import clarabel
+except ModuleNotFoundError:  # pragma: no cover
+    clarabel = None
+
+
+@dataclass
+class ConeMap:
+    """``s = G y + g ∈ C`` for a stacked contact vector ``y``.
+
+    Attributes
+    ----------
+    G : scipy.sparse.csc_matrix, shape (k, m)
+    g : ndarray, shape (k,)
+    n_zero, n_nonneg, n_soc, soc_dim : int
+        Row counts of the zero cone, the nonnegative cone and the number and
+        size of the second-order cones (rows in that order).
+    """
+
+    G: sp.csc_matrix
+    g: np.ndarray
+    n_zero: int
+    n_nonneg: int
+    n_soc: int
+    soc_dim: int = 3
+
+    @property
+    def n_rows(self) -> int:
+        """Number of constraint rows ``k``."""
+        return self.G.shape[0]
+
+    def cones(self) -> list:
+        """Clarabel cone list matching the row order of ``G``."""
+        out = []
+        if self.n_zero:
+            out.append(clarabel.ZeroConeT(self.n_zero))
+        if self.n_nonneg:
+            out.append(clarabel.NonnegativeConeT(self.n_nonneg))
+        out.extend([clarabel.SecondOrderConeT(self.soc_dim)] * self.n_soc)
+        return out
+
+    def multiplier(self, z) -> np.ndarray:
+        """Map Clarabel's dual variable ``z`` back to contact variables, ``Gᵀ z``."""
+        return self.G.T @ np.asarray(z, dtype=np.float64)
+
+
+class _Rows:
+    """Collects (row-group, column, value) triplets, then orders row groups."""
+
+    def __init__(self, m: int):
+        self.m = m
+        self.parts = {"zero": [], "nonneg": [], "soc": []}
+
+    def add(self, kind: str, cols: np.ndarray, vals: np.ndarray, offs: np.ndarray):
+        """Add ``len(cols)`` rows (``cols``, ``vals``: (n_rows, width); offs: (n_rows,))."""
+        if len(offs):
+            self.parts[kind].append((np.atleast_2d(cols), np.atleast_2d(vals), offs))
+
+    def build(self, n_soc: int, soc_dim: int) -> ConeMap:
+        rows, cols, vals, offs = [], [], [], []
+        start = 0
+        counts = {}
+        for kind in ("zero", "nonneg", "soc"):
+            n = 0
+            for c, v, o in self.parts[kind]:
+                k = len(o)
+                rows.append(np.repeat(np.arange(start + n, start + n + k), c.shape[1]))
+                cols.append(c.reshape(-1))
+                vals.append(v.reshape(-1))
+                offs.append(o)
+                n += k
+            counts[kind] = n
+            start += n
+        if rows:
+            R, C, V = (np.concatenate(a) for a in (rows, cols, vals))
+            keep = V != 0.0
+            G = sp.csc_matrix((V[keep], (R[keep], C[keep])), shape=(start, self.m))
+            g = np.concatenate(offs).astype(np.float64)
+        else:
+            G, g = sp.csc_matrix((0, self.m)), np.zeros(0)
+        return ConeMap(G, g, counts["zero"], counts["nonneg"], n_soc, soc_dim)
+
+
+def _soc_rows(rows: _Rows, idx: np.ndarray, dim: int, scale_n, scale_t, off_n):
+    """3D SOC rows for contacts ``idx``: (scale_n y_N + off_n, scale_t y_T), interleaved per contact."""
+    base = dim * idx
+    n = len(idx)
+    cols = np.stack([base, base + 1, base + 2], axis=1).reshape(-1, 1)
+    vals = np.stack([scale_n, scale_t, scale_t], axis=1).reshape(-1, 1)
+    offs = np.stack([off_n, np.zeros(n), np.zeros(n)], axis=1).reshape(-1)
+    rows.add("soc", cols, vals, offs)
+
+
+def coulomb_cone_map(mu, dim: int) -> ConeMap:
+    """Cone map of ``r ∈ K_mu`` (primal Coulomb cone), see the module docstring."""
+    mu = np.asarray(mu, dtype=np.float64).reshape(-1)
+    nc = mu.shape[0]
+    rows = _Rows(dim * nc)
+    zero = np.flatnonzero(mu == 0.0)
+    fric = np.flatnonzero(mu > 0.0)
+    # mu = 0: r_N >= 0, r_T = 0
+    rows.add("nonneg", (dim * zero)[:, None], np.ones((len(zero), 1)), np.zeros(len(zero)))
+    tcols = (dim * zero[:, None] + np.arange(1, dim)[None, :]).reshape(-1, 1)
+    rows.add("zero", tcols, np.ones_like(tcols, dtype=float), np.zeros(len(tcols)))
+    if dim == 3:
+        _soc_rows(rows, fric, 3, mu[fric], np.ones(len(fric)), np.zeros(len(fric)))
+        return rows.build(len(fric), 3)
+    # 2D wedge: mu r_N - r_T >= 0, mu r_N + r_T >= 0
+    b = 2 * fric
+    cols = np.concatenate([np.stack([b, b + 1], 1), np.stack([b, b + 1], 1)])
+    vals = np.concatenate([np.stack([mu[fric], -np.ones(len(fric))], 1),
+                           np.stack([mu[fric], np.ones(len(fric))], 1)])
+    rows.add("nonneg", cols, vals, np.zeros(2 * len(fric)))
+    return rows.build(0, 3)
+
+
+def dual_cone_map(mu, dim: int) -> ConeMap:
+    """Cone map of ``u ∈ K*_mu = {mu ||u_T|| <= u_N}`` (``mu = 0``: ``u_N >= 0``)."""
+    mu = np.asarray(mu, dtype=np.float64).reshape(-1)
+    nc = mu.shape[0]
+    rows = _Rows(dim * nc)
+    zero = np.flatnonzero(mu == 0.0)
+    fric = np.flatnonzero(mu > 0.0)
+    rows.add("nonneg", (dim * zero)[:, None], np.ones((len(zero), 1)), np.zeros(len(zero)))
+    if dim == 3:
+        _soc_rows(rows, fric, 3, np.ones(len(fric)), mu[fric], np.zeros(len(fric)))
+        return rows.build(len(fric), 3)
+    b = 2 * fric
+    cols = np.concatenate([np.stack([b, b + 1], 1), np.stack([b, b + 1], 1)])
+    vals = np.concatenate([np.stack([np.ones(len(fric)), -mu[fric]], 1),
+                           np.stack([np.ones(len(fric)), mu[fric]], 1)])
+    rows.add("nonneg", cols, vals, np.zeros(2 * len(fric)))
+    return rows.build(0, 3)
+
+
+def frictionless_map(n_contacts: int, dim: int) -> ConeMap:
+    """Cone map of ``r_N >= 0, r_T = 0`` (Coulomb cone with ``mu = 0``)."""
+    return coulomb_cone_map(np.zeros(n_contacts), dim)
+
+
+def tresca_map(threshold, dim: int) -> ConeMap:
+    """Cone map of Tresca's set ``{r_N >= 0, ||r_T|| <= g}`` (``g`` per contact)."""
+    g = np.asarray(threshold, dtype=np.float64).reshape(-1)
+    nc = g.shape[0]
+    rows = _Rows(dim * nc)
+    idx = np.arange(nc)
+    rows.add("nonneg", (dim * idx)[:, None], np.ones((nc, 1)), np.zeros(nc))
+    if dim == 3:
+        # SOC on (g, r_T1, r_T2): the first row has no column, only the offset g
+        base = 3 * idx
+        cols = np.stack([base + 1, base + 1, base + 2], axis=1).reshape(-1, 1)
+        vals = np.stack([np.zeros(nc), np.ones(nc), np.ones(nc)], axis=1).reshape(-1, 1)
+        offs = np.stack([g, np.zeros(nc), np.zeros(nc)], axis=1).reshape(-1)
+        rows.add("soc", cols, vals, offs)
+        return rows.build(nc, 3)
+    cols = np.concatenate([(2 * idx + 1)[:, None], (2 * idx + 1)[:, None]])
+    vals = np.concatenate([-np.ones((nc, 1)), np.ones((nc, 1))])
+    rows.add("nonneg", cols, vals, np.concatenate([g, g]))
+    return rows.build(0, 3)
+
+
+def law_cone_map(problem, formulation: str, threshold=None) -> ConeMap:
+    """Cone map of the feasible set of ``r`` for a law (coulomb/associated, tresca, frictionless)."""
+    if formulation in ("coulomb", "associated"):
+        return coulomb_cone_map(problem.mu, problem.dim)
+    if formulation == "frictionless":
+        return frictionless_map(problem.n_contacts, problem.dim)
+    if formulation == "tresca":
+        return tresca_map(threshold, problem.dim)
+    raise ValueError(f"no cone map for formulation {formulation!r}")
+
+
+@dataclass
+class ConicData:
+    """Clarabel standard-form data ``(P, q, A, b, cones)`` plus the cone map used."""
+
+    P: sp.csc_matrix
+    q: np.ndarray
+    A: sp.csc_matrix
+    b: np.ndarray
+    cone_map: ConeMap
+
+    @property
+    def cones(self) -> list:
+        return self.cone_map.cones()
+
+
+def upper_csc(S) -> sp.csc_matrix:
+    """Upper triangle of a (symmetric) sparse matrix in CSC, as Clarabel wants ``P``."""
+    U = sp.triu(sp.csc_matrix(S), format="csc")
+    U.eliminate_zeros()
+    U.sort_indices()
+    return U
+
+
+def local_conic_data(problem, formulation: str = "associated", *, threshold=None,
+                     W_sym=None, q_shift=None) -> ConicData:
+    """Local problem as a cone program in ``r``.
+
+    ``min ½ rᵀ W_s r + q_shiftᵀ r  s.t.  -G r + s = g,  s ∈ C`` with ``W_s`` the
+    symmetric part of ``W`` (or ``W_sym``) and ``q_shift = q`` by default.
+
+    Parameters
+    ----------
+    problem : FrictionContactProblem
+    formulation : {"associated", "coulomb", "tresca", "frictionless"}
+        Selects the feasible set (``coulomb`` uses ``K_mu``, like associated).
+    threshold : array_like, optional
+        Tresca thresholds ``g`` (one per contact).
+    W_sym : sparse matrix, optional
+        Symmetric matrix to use for ``P`` (default ``problem.symmetric_part()``).
+    q_shift : array_like, optional
+        Linear term (default ``problem.q``).
+    """
+    cm = law_cone_map(problem, formulation, threshold)
+    Ws = problem.symmetric_part() if W_sym is None else W_sym
+    q = problem.q if q_shift is None else np.asarray(q_shift, dtype=np.float64)
+    A = (-cm.G).tocsc()
+    return ConicData(upper_csc(Ws), np.array(q, dtype=np.float64), A, cm.g.copy(), cm)
+
+
+def global_conic_data(problem, *, w_shift=None) -> ConicData:
+    """Global problem as a cone program in the velocities ``v``.
+
+    ``min ½ vᵀ M_s v − fᵀ v  s.t.  Hᵀ v + w + w_shift ∈ K*_mu``, written as
+    ``A = -G Hᵀ``, ``b = G (w + w_shift)``, ``G`` the dual-cone map.  The
+    constraint multipliers are the impulses, ``r = Gᵀ z``; ``W = Hᵀ M⁻¹ H`` is
+    never formed.
+
+    Parameters
+    ----------
+    problem : GlobalFrictionContactProblem
+    w_shift : array_like, optional
+        Constant added to ``w`` (the De Saxcé shift ``mu ||u_T|| e_N``).
+    """
+    cm = dual_cone_map(problem.mu, problem.dim)
+    M = problem.M
+    Ms = (M + M.T) * 0.5
+    w = problem.w if w_shift is None else problem.w + np.asarray(w_shift, dtype=np.float64)
+    A = (-(cm.G @ problem.H.T.tocsc())).tocsc()
+    A.sort_indices()
+    b = cm.G @ w + cm.g
+    return ConicData(upper_csc(Ms), -np.array(problem.f, dtype=np.float64), A, b, cm)
+
+
+__all__ = ["ConeMap", "ConicData", "coulomb_cone_map", "dual_cone_map", "frictionless_map",
+           "tresca_map", "law_cone_map", "local_conic_data", "global_conic_data", "upper_csc"]

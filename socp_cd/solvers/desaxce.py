@@ -1,0 +1,444 @@
+"""De Saxcé / Acary–Cadoux–Lemaréchal–Malick fixed point for the exact Coulomb law.
+
+With ``s = mu ||u_T||`` frozen, the Coulomb–Signorini law ``K* ∋ û ⊥ r ∈ K``,
+``û = u + s e_N``, is the optimality system of the *associated* SOCP::
+
+    min_r  ½ rᵀ W r + (q + s e_N)ᵀ r   s.t.  r ∈ K_mu          (W symmetric)
+
+The fixed point iterates ``s_{k+1} = mu ||u_T(r_{k+1})||`` where ``r_{k+1}``
+solves the SOCP with ``s_k``.  An "inner" conic solver (Clarabel, CVXPY, ...)
+is plugged in through ``inner_factory``.
+
+Asymmetric ``W``
+----------------
+The SOCP only sees the symmetric part ``W_s = (W + Wᵀ)/2``; the skew part
+``W_a = (W - Wᵀ)/2`` is moved to the outer loop together with ``s``::
+
+    q_shift(r_k) = q + W_a r_k + mu ||u_T(r_k)|| e_N,     u = W r + q,
+
+so a fixed point ``r = r_k`` satisfies ``W_s r + q_shift = û`` exactly.  The
+map ``r_k -> r_{k+1}`` is a contraction only when ``W_a`` is small compared
+with the smallest curvature of ``W_s`` on the active set; otherwise the
+iteration oscillates or stalls (reported as ``stalled`` / ``max_iter``).  The
+real data (Capsules: ``max|W_a| ≈ 6e-3`` against ``max|W| ≈ 7.3``) is well
+inside the convergent regime.
+
+Accelerations (each optional, measured by ``validation/desaxce_ablation.py``)
+-----------------------------------------------------------------------------
+* ``adaptive_tol``: the inner tolerance follows the outer error
+  (``inner_tol_k = clip(kappa * err_{k-1}, inner_tol_min, inner_tol_max)``),
+  so early SOCPs are solved loosely.
+* ``accel="anderson"``: type-II Anderson acceleration (memory ``memory``) on
+  the shift vector ``c = q_shift - q`` with a safeguard: the accelerated point
+  is kept only while the fixed-point residual ``||T(c) - c||`` decreases,
+  otherwise the memory is cleared and a plain step taken.
+* ``polish``: when the outer loop stops above ``tol``, a few warm-started
+  sweeps of the projected-Gauss–Seidel solver ``nsgs`` (socp_cd's NSGS
+  backend, if installed) are run from the best iterate; their sweeps are
+  counted in ``info["polish_iterations"]`` and the polished point is kept only
+  if its error is lower.
+"""
+from __future__ import annotations
+
+import time as _time
+import warnings
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..cones import tangential_norm
+from ..residuals import error as coulomb_error
+from .result import SolverResult
+
+#: Default outer options (see :func:`desaxce_fixed_point`).
+OUTER_DEFAULTS = dict(
+    accel="anderson",
+    memory=5,
+    adaptive_tol=True,
+    kappa=1e-2,
+    inner_tol_max=1e-4,
+    inner_tol_min=None,
+    polish="newton",
+    polish_max_iter=15,
+    polish_switch=1e-5,
+    law="coulomb",
+    patience=8,
+    time_limit=None,
+)
+
+
+def _associated_error(problem, r, u=None):
+    from ..laws import associated_error
+    return associated_error(problem, r, u)
+
+
+def desaxce_shift(problem, r, u, W_a=None, friction=True) -> np.ndarray:
+    """Outer-loop shift ``c(r) = W_a r + mu ||u_T|| e_N`` (stacked, length ``m``).
+
+    Parameters
+    ----------
+    problem : FrictionContactProblem or GlobalFrictionContactProblem
+    r, u : ndarray
+        Current impulses and velocities ``u = W r + q``.
+    W_a : sparse matrix, optional
+        Skew part of ``W`` (None when ``W`` is symmetric or the problem global).
+    """
+    c = np.zeros(problem.m)
+    if friction:
+        c[::problem.dim] = problem.mu * tangential_norm(u, problem.dim)
+    if W_a is not None:
+        c += W_a @ r
+    return c
+
+
+class _Anderson:
+    """Type-II Anderson acceleration of ``c -> T(c)`` with restart safeguard."""
+
+    def __init__(self, memory: int, reg: float = 1e-12):
+        self.memory = memory
+        self.reg = reg
+        self.X, self.G = [], []
+        self.last_res = np.inf
+        self.restarts = 0
+
+    def step(self, c: np.ndarray, Tc: np.ndarray) -> np.ndarray:
+        g = Tc - c
+        res = float(np.linalg.norm(g))
+        if res > self.last_res and self.X:  # safeguard: the extrapolation did not help
+            self.X, self.G = [], []
+            self.restarts += 1
+        self.last_res = res
+        self.X.append(c.copy())
+        self.G.append(g.copy())
+        if len(self.X) > self.memory + 1:
+            self.X.pop(0)
+            self.G.pop(0)
+        if len(self.X) < 2:
+            return Tc
+        dX = np.diff(np.array(self.X), axis=0).T
+        dG = np.diff(np.array(self.G), axis=0).T
+        A = dG.T @ dG
+        A += self.reg * max(np.trace(A), 1e-300) * np.eye(A.shape[0])
+        try:
+            gamma = np.linalg.solve(A, dG.T @ g)
+        except np.linalg.LinAlgError:
+            self.X, self.G = [self.X[-1]], [self.G[-1]]
+            return Tc
+        return c + g - (dX + dG) @ gamma
+
+
+def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, history=False,
+                        **outer_options) -> SolverResult:
+    """Solve the Coulomb law by the De Saxcé fixed point over associated SOCPs.
+
+    Parameters
+    ----------
+    problem : FrictionContactProblem or GlobalFrictionContactProblem
+    inner_factory : callable
+        ``inner_factory(problem, W_sym)`` returns an object with
+        ``inner.solve(q_shift, tol) -> (r, info)`` solving
+        ``min ½ rᵀ W_sym r + q_shiftᵀ r, r ∈ K_mu`` (``info`` keys:
+        ``iterations`` int, ``status`` str, ``ok`` bool).  ``W_sym`` is the
+        symmetric part of ``W`` for local problems and None for global ones
+        (the inner object then works on ``M, H`` itself; ``q_shift`` still is
+        the *local* linear term ``q_local + c``).
+    tol : float
+        Target on Siconos' relative error (recomputed every outer iteration).
+    max_iter : int
+        Maximum number of outer iterations (SOCP solves).
+    r0 : ndarray, optional
+        Warm start: the first shift is computed from ``r0``.
+    history : bool
+        Record the Coulomb error of every outer iterate.
+    **outer_options
+        ``accel`` ("anderson" or None), ``memory`` (int), ``adaptive_tol``
+        (bool), ``kappa``, ``inner_tol_max``, ``inner_tol_min`` (default
+        ``min(1e-10, tol/100)``), ``polish`` ("nsgs" or None),
+        ``polish_max_iter``, ``patience`` (outer iterations without a 10 %
+        improvement before declaring a stall), ``time_limit`` (seconds).
+
+    Returns
+    -------
+    SolverResult
+        Provisional status (``converged`` / ``max_iter`` / ``stalled`` /
+        ``numerical_error`` / ``time_limit``); ``iterations`` counts outer
+        iterations, ``info`` holds ``inner_iterations`` (total), ``inner_status``
+        (last backend string), ``outer_error``, ``polish_iterations``,
+        ``anderson_restarts``.
+    """
+    opts = dict(OUTER_DEFAULTS)
+    unknown = set(outer_options) - set(opts)
+    if unknown:
+        raise TypeError(f"unknown De Saxcé options {sorted(unknown)}")
+    opts.update(outer_options)
+    if opts["law"] not in ("coulomb", "associated"):
+        raise ValueError(f"law must be 'coulomb' or 'associated', got {opts['law']!r}")
+    tmin = opts["inner_tol_min"] if opts["inner_tol_min"] is not None else min(1e-10, tol * 1e-2)
+    t_start = _time.perf_counter()
+    friction = opts["law"] == "coulomb"
+    err_fn = coulomb_error if friction else _associated_error
+
+    W_sym = W_a = None
+    if not problem.is_global:
+        W_sym = problem.symmetric_part()
+        if not problem.is_symmetric:
+            W_a = problem.skew_part()
+    inner = inner_factory(problem, W_sym)
+    q = np.asarray(problem.q_local, dtype=np.float64)
+
+    def shift(r, u):
+        return desaxce_shift(problem, r, u, W_a, friction=friction)
+
+    if r0 is not None:
+        r0 = np.asarray(r0, dtype=np.float64)
+        c = shift(r0, problem.velocity(r0))
+    else:
+        c = np.zeros(problem.m)
+    aa = _Anderson(opts["memory"]) if opts["accel"] == "anderson" else None
+
+    hist = [] if history else None
+    best_r, best_err = (r0.copy(), err_fn(problem, r0)) if r0 is not None else (None, np.inf)
+    inner_its, status, message = 0, "max_iter", ""
+    last_inner = {}
+    info = {"polish_iterations": 0, "polish_calls": 0}
+    polish_at = np.inf
+    cache = {}
+    err_prev = best_err if np.isfinite(best_err) else 1.0
+    err_prev2 = np.inf
+    itol = opts["inner_tol_max"] if opts["adaptive_tol"] else tmin
+    since_improve, ref_err = 0, np.inf
+
+    def try_polish(r_start, budget):
+        """Polish from ``r_start``; returns (r, err) of the polished point or None."""
+        if problem.is_global and "local" not in cache:
+            cache["local"] = problem.to_local()   # the polish works on W (formed once)
+        r_pol, its, _ = _polish(cache.get("local", problem), r_start, tol, opts["polish"], budget,
+                                opts["law"])
+        info["polish_iterations"] += its
+        info["polish_calls"] += 1
+        if r_pol is None:
+            return None
+        return r_pol, err_fn(problem, r_pol)
+
+    k = 0
+    for k in range(1, max_iter + 1):
+        if opts["adaptive_tol"]:
+            # loose early, tight late; monotone, and tightened x100 when the error
+            # stops halving (the inner accuracy is then what limits the outer error)
+            target = float(np.clip(opts["kappa"] * err_prev, tmin, opts["inner_tol_max"]))
+            if k > 2 and err_prev > 0.5 * err_prev2:
+                target = min(target, itol * 1e-2)
+            itol = max(tmin, min(itol, target))
+        else:
+            itol = tmin
+        r, last_inner = inner.solve(q + c, itol)
+        inner_its += int(last_inner.get("iterations", 0))
+        r = np.asarray(r, dtype=np.float64)
+        if not np.all(np.isfinite(r)):
+            status, message = "numerical_error", f"inner solver returned non-finite r ({last_inner.get('status')})"
+            break
+        u = problem.velocity(r)
+        err = err_fn(problem, r, u)
+        if hist is not None:
+            hist.append(err)
+        if err < best_err:
+            best_r, best_err = r, err
+        if err <= tol:
+            status = "converged"
+            break
+        if opts["polish"] and err <= min(opts["polish_switch"], 0.1 * polish_at):
+            polish_at = err  # retry only after the outer loop gained a factor 10
+            out = try_polish(r, opts["polish_max_iter"])
+            if out is not None and out[1] < best_err:
+                best_r, best_err = out
+                if hist is not None:
+                    hist.append(best_err)
+                if best_err <= tol:
+                    status, message = "converged", "converged after polish"
+                    break
+        if not last_inner.get("ok", True) and itol <= tmin and err >= err_prev:
+            status = "numerical_error"
+            message = f"inner solver failed ({last_inner.get('status')}) and the error stopped decreasing"
+            break
+        # stall detection: no 10 % improvement of the best error for `patience` iterations
+        if best_err < 0.9 * ref_err:
+            ref_err, since_improve = best_err, 0
+        else:
+            since_improve += 1
+            if since_improve >= opts["patience"]:
+                status, message = "stalled", f"no progress for {opts['patience']} outer iterations"
+                break
+        if opts["time_limit"] is not None and _time.perf_counter() - t_start > opts["time_limit"]:
+            status, message = "time_limit", "outer loop exceeded time_limit"
+            break
+        Tc = shift(r, u)
+        c = aa.step(c, Tc) if aa is not None else Tc
+        err_prev2, err_prev = err_prev, err
+    if status == "max_iter":
+        message = f"{max_iter} outer iterations reached"
+
+    if status != "converged" and opts["polish"] and best_r is not None and status != "time_limit":
+        out = try_polish(best_r, 3 * opts["polish_max_iter"])
+        if out is not None and out[1] < best_err:
+            best_r, best_err = out
+            if hist is not None:
+                hist.append(best_err)
+            if best_err <= tol:
+                status, message = "converged", "converged after polish"
+    info.update({"inner_iterations": inner_its, "inner_status": last_inner.get("status"),
+                 "outer_error": best_err,
+                 "anderson_restarts": aa.restarts if aa is not None else 0})
+    r_out = best_r if best_r is not None else np.zeros(problem.m)
+    v = getattr(inner, "last_v", None) if problem.is_global else None
+    return SolverResult(r=r_out, v=v, status=status, iterations=k, history=hist, info=info,
+                        message=message, error=best_err)
+
+
+def _projection_jacobian(x, mu, dim):
+    """Blocks ``dP_K/dx`` (an element of the generalized Jacobian), shape ``(nc, dim, dim)``."""
+    X = x.reshape(-1, dim)
+    nc = X.shape[0]
+    xn, xt = X[:, 0], X[:, 1:]
+    t = np.sqrt(np.einsum("ij,ij->i", xt, xt))
+    J = np.zeros((nc, dim, dim))
+    polar = mu * t <= -xn
+    inside = (t <= mu * xn) & ~polar
+    side = ~(polar | inside)
+    J[inside] = np.eye(dim)
+    if np.any(side):
+        m_, ts = mu[side], t[side]
+        w = xt[side] / ts[:, None]
+        a = 1.0 / (1.0 + m_ ** 2)
+        pn = (xn[side] + m_ * ts) * a
+        Js = np.zeros((len(ts), dim, dim))
+        Js[:, 0, 0] = a
+        Js[:, 0, 1:] = (m_ * a)[:, None] * w
+        Js[:, 1:, 0] = (m_ * a)[:, None] * w
+        ww = np.einsum("ki,kj->kij", w, w)
+        eye = np.eye(dim - 1)[None]
+        Js[:, 1:, 1:] = (m_ ** 2 * a)[:, None, None] * ww + (m_ * pn / ts)[:, None, None] * (eye - ww)
+        J[side] = Js
+    return J
+
+
+def _block_diag(B):
+    """Block-diagonal CSR matrix from blocks ``(nc, d, d)``."""
+    nc, d, _ = B.shape
+    return sp.bsr_matrix((B, np.arange(nc), np.arange(nc + 1)), shape=(nc * d, nc * d)).tocsr()
+
+
+def _newton_directions(J, F, eye):
+    """Candidate steps: the Newton step, then Levenberg–Marquardt steps of growing damping."""
+    nF = float(np.linalg.norm(F))
+    try:
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            d = spla.spsolve(J, -F)
+        if np.all(np.isfinite(d)) and np.linalg.norm(J @ d + F) <= 1e-6 * nF:
+            yield d
+    except Exception:  # singular factorization
+        pass
+    JtJ = (J.T @ J).tocsc()
+    g = -(J.T @ F)
+    scale = max(float(abs(JtJ).max()), 1e-300)
+    for lam in (1e-12, 1e-9, 1e-6, 1e-3):
+        try:
+            d = spla.spsolve(JtJ + (lam * scale) * eye, g)
+        except Exception:
+            continue
+        if np.all(np.isfinite(d)):
+            yield d
+
+
+def natural_map_newton(problem, r, *, tol, max_iter=20, law="coulomb"):
+    """Semismooth Newton on the natural map, started from ``r`` (a polish).
+
+    Solves ``F(r) = r - P_K(r - û(r)) = 0`` (``law="associated"``: ``u`` instead
+    of ``û``) with the generalized Jacobian
+    ``J = I - J_P (I - D_S W)``, ``J_P`` the block-diagonal derivative of the
+    cone projection and ``D_S = I + e_N (mu u_Tᵀ/||u_T||)`` that of the De Saxcé
+    map.  Each step is a sparse LU solve (a Levenberg–Marquardt step
+    ``(JᵀJ + λI) d = -JᵀF`` when ``J`` is singular, e.g. rank-deficient ``W``),
+    followed by a backtracking line search on Siconos' error.  Global problems
+    are condensed (``W`` formed) for the polish.
+
+    Returns
+    -------
+    r : ndarray
+        Best iterate found (never worse than the input).
+    iterations : int
+        Newton steps taken (each one sparse factorization).
+    """
+    from ..laws import associated_error
+    from ..cones import desaxce_velocity, project_cone
+    prob = problem.to_local() if problem.is_global else problem
+    err_fn = coulomb_error if law == "coulomb" else associated_error
+    W = prob.W.tocsr()
+    dim, mu = prob.dim, prob.mu
+    m = prob.m
+    eye = sp.identity(m, format="csr")
+    r = np.asarray(r, dtype=np.float64).copy()
+    err = err_fn(prob, r)
+    its = 0
+    for its in range(1, max_iter + 1):
+        if err <= tol:
+            its -= 1
+            break
+        u = prob.velocity(r)
+        uh = desaxce_velocity(u, mu, dim) if law == "coulomb" else u
+        x = r - uh
+        F = r - project_cone(x, mu, dim)
+        JP = _block_diag(_projection_jacobian(x, mu, dim))
+        if law == "coulomb":
+            U = u.reshape(-1, dim)
+            tn = tangential_norm(U, dim)
+            DS = np.zeros((prob.n_contacts, dim, dim))
+            DS[:] = np.eye(dim)
+            ok = tn > 0
+            DS[ok, 0, 1:] = (mu[ok] / tn[ok])[:, None] * U[ok, 1:]
+            dU = _block_diag(DS) @ W
+        else:
+            dU = W
+        J = (eye - JP @ (eye - dU)).tocsc()
+        improved = False
+        for d in _newton_directions(J, F, eye):
+            step = 1.0
+            for _ in range(10):
+                r_try = r + step * d
+                e_try = err_fn(prob, r_try)
+                if e_try < err:
+                    r, err, improved = r_try, e_try, True
+                    break
+                step *= 0.5
+            if improved:
+                break
+        if not improved:
+            break
+    return r, its
+
+
+def _polish(problem, r, tol, method, max_iter, law="coulomb"):
+    """Warm-started polish of ``r``; returns ``(r_polished or None, work, available)``."""
+    if method == "newton":
+        r_new, its = natural_map_newton(problem, r, tol=tol, max_iter=max_iter, law=law)
+        return r_new, its, True
+    if method != "nsgs":
+        raise ValueError(f"unknown polish {method!r}")
+    try:
+        from .registry import _REGISTRY, _load_backends
+        _load_backends()
+        spec = _REGISTRY.get("nsgs")
+    except Exception:  # pragma: no cover - registry import problems
+        spec = None
+    if spec is None:
+        return None, 0, False
+    target = problem.to_local() if problem.is_global else problem
+    try:
+        res = spec.func(target, law, tol=tol, max_iter=max_iter, r0=r, history=False)
+    except Exception:
+        return None, 0, False
+    return np.asarray(res.r, dtype=np.float64), int(res.iterations), True
+
+
+__all__ = ["desaxce_fixed_point", "desaxce_shift", "OUTER_DEFAULTS"]

@@ -1,0 +1,238 @@
+"""Compiled NSGS sweeps and error evaluation (numba, ``cache=True``).
+
+:func:`nsgs_loop` runs the whole iteration — sweeps over contacts, one-contact
+solves, light and full error evaluations, stopping rules — in compiled code;
+the Python side (:mod:`socp_cd.solvers.nsgs`) only prepares arrays and decodes
+the outcome.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .local_solvers import LAW_COULOMB, LAW_TRESCA, law_velocity, local_solve, project_law
+
+STATUS_CONVERGED = 0
+STATUS_MAX_ITER = 1
+STATUS_STALLED = 2
+STATUS_NUMERICAL = 3
+STATUS_NAMES = ("converged", "max_iter", "stalled", "numerical_error")
+
+
+@njit(cache=True)
+def local_free_velocity(i, d, indptr, indices, blocks, q, r, b):
+    """``b = q_i + sum_{j != i} W_ij r_j`` from block row ``i``."""
+    for a in range(d):
+        b[a] = q[i * d + a]
+    for p in range(indptr[i], indptr[i + 1]):
+        j = indices[p]
+        if j == i:
+            continue
+        o = j * d
+        for a in range(d):
+            s = 0.0
+            for c in range(d):
+                s += blocks[p, a, c] * r[o + c]
+            b[a] += s
+
+
+@njit(cache=True)
+def block_matvec(d, nc, indptr, indices, blocks, x, q, out):
+    """``out = W x + q``."""
+    for i in range(nc):
+        for a in range(d):
+            out[i * d + a] = q[i * d + a]
+        for p in range(indptr[i], indptr[i + 1]):
+            o = indices[p] * d
+            for a in range(d):
+                s = 0.0
+                for c in range(d):
+                    s += blocks[p, a, c] * x[o + c]
+                out[i * d + a] += s
+
+
+@njit(cache=True)
+def full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u, w1, w2, w3):
+    """Relative residual of the law, ``||r - P(r - û)|| / max(||q||, ||r||, ||u||)``.
+
+    ``u = W r + q`` is recomputed (into ``u``); same measure as
+    :func:`socp_cd.error` (Coulomb) and :mod:`socp_cd.laws` (other laws).
+    """
+    block_matvec(d, nc, indptr, indices, blocks, r, q, u)
+    s = 0.0
+    nr = 0.0
+    nu = 0.0
+    for i in range(nc):
+        o = i * d
+        for a in range(d):
+            w1[a] = u[o + a]
+            nr += r[o + a] * r[o + a]
+            nu += u[o + a] * u[o + a]
+        law_velocity(w1, d, mu[i], law, w2)
+        for a in range(d):
+            w2[a] = r[o + a] - w2[a]
+        project_law(w2, d, mu[i], g[i], law, w3)
+        for a in range(d):
+            e = r[o + a] - w3[a]
+            s += e * e
+    den = norm_q
+    if np.sqrt(nr) > den:
+        den = np.sqrt(nr)
+    if np.sqrt(nu) > den:
+        den = np.sqrt(nu)
+    if den <= 2.220446049250313e-16:
+        den = 1.0
+    return np.sqrt(s) / den
+
+
+@njit(cache=True)
+def nsgs_loop(d, nc, indptr, indices, blocks, diag, q, mu, g, law, kind, rhoN, rhoT, rhoP,
+              r, tol, max_iter, omega, shuffle, seed, error_every, stall_window, record,
+              loc_tol, newton_maxit, proj_maxit, hist):
+    """Nonsmooth block Gauss–Seidel iterations, in place on ``r``.
+
+    Error policy (Siconos' ``LIGHT_WITH_FULL_FINAL`` plus a periodic check):
+    after each sweep the light error ``||r_k+1 - r_k|| / ||r_k+1||`` is
+    accumulated contact by contact; the full relative error is evaluated when
+    the light error drops below the light tolerance (initially ``tol``; on a
+    false alarm it is tightened to ``light * tol / full``), every
+    ``error_every`` sweeps (``0``: never), at the last sweep, and at every
+    sweep when ``record``.  Convergence is declared on the full error only.
+
+    Returns
+    -------
+    status, iterations, error, n_full_evaluations, n_local_failures, light_error
+    """
+    order = np.arange(nc)
+    if shuffle:
+        np.random.seed(seed)
+    work = np.zeros((8, d))
+    J = np.zeros((d, d))
+    M = np.zeros((d, d))
+    b = np.zeros(d)
+    rl = np.zeros(d)
+    rold = np.zeros(d)
+    u = np.zeros(nc * d)
+    w1 = np.zeros(d)
+    w2 = np.zeros(d)
+    w3 = np.zeros(d)
+    norm_q = 0.0
+    for k in range(nc * d):
+        norm_q += q[k] * q[k]
+    norm_q = np.sqrt(norm_q)
+    light_tol = tol
+    best = np.inf
+    best_iter = 0
+    err = np.inf
+    light = np.inf
+    n_full = 0
+    n_fail = 0
+    for it in range(1, max_iter + 1):
+        if shuffle:
+            np.random.shuffle(order)
+        dsum = 0.0
+        for kk in range(nc):
+            i = order[kk]
+            o = i * d
+            local_free_velocity(i, d, indptr, indices, blocks, q, r, b)
+            for a in range(d):
+                rold[a] = r[o + a]
+                rl[a] = r[o + a]
+            flag = local_solve(kind, diag[i], b, mu[i], g[i], law, rhoN[i], rhoT[i], rhoP[i],
+                               rl, d, loc_tol, newton_maxit, proj_maxit, work, J, M)
+            if flag != 0:
+                n_fail += 1
+            finite = True
+            for a in range(d):
+                if not np.isfinite(rl[a]):
+                    finite = False
+            if not finite:
+                err = full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q,
+                                 u, w1, w2, w3)
+                return STATUS_NUMERICAL, it, err, n_full + 1, n_fail, light
+            for a in range(d):
+                v = omega * rl[a] + (1.0 - omega) * rold[a]
+                e = v - rold[a]
+                dsum += e * e
+                r[o + a] = v
+        nr = 0.0
+        for k in range(nc * d):
+            nr += r[k] * r[k]
+        nr = np.sqrt(nr)
+        light = np.sqrt(dsum)
+        if nr > 2.220446049250313e-16:
+            light /= nr
+        full_now = record or light <= light_tol or it == max_iter
+        if error_every > 0 and it % error_every == 0:
+            full_now = True
+        if full_now:
+            err = full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q,
+                             u, w1, w2, w3)
+            n_full += 1
+            if record:
+                hist[it - 1] = err
+            if not np.isfinite(err):
+                return STATUS_NUMERICAL, it, err, n_full, n_fail, light
+            if err <= tol:
+                return STATUS_CONVERGED, it, err, n_full, n_fail, light
+            if light <= light_tol:
+                if light == 0.0:
+                    # the sweep is a fixed point but not a solution
+                    return STATUS_STALLED, it, err, n_full, n_fail, light
+                light_tol = light * tol / err
+            if err < 0.99 * best:
+                best = err
+                best_iter = it
+            elif stall_window > 0 and it - best_iter >= stall_window:
+                return STATUS_STALLED, it, err, n_full, n_fail, light
+    return STATUS_MAX_ITER, max_iter, err, n_full, n_fail, light
+
+
+@njit(cache=True)
+def local_parameters(diag, blocks):
+    """Per-contact step sizes of the local solvers and ill-posed contacts.
+
+    Returns
+    -------
+    rhoN, rhoT, rhoP : ndarray, shape (n_contacts,)
+        ``rhoN = 1 / W_NN``; ``rhoT = 1 / lambda_max`` of the symmetric part of
+        the tangential block (Siconos' "split spectral norm" choice);
+        ``rhoP = 1 / ||W_ii||_F`` for the projection fixed point.
+    bad : ndarray of bool
+        Contacts whose ``W_NN <= 1e-14 max|W|`` (no well-posed local problem).
+    """
+    nc = diag.shape[0]
+    d = diag.shape[1]
+    scale = 0.0
+    for p in range(blocks.shape[0]):
+        for a in range(d):
+            for c in range(d):
+                if abs(blocks[p, a, c]) > scale:
+                    scale = abs(blocks[p, a, c])
+    if scale == 0.0:
+        scale = 1e-300
+    rhoN = np.zeros(nc)
+    rhoT = np.zeros(nc)
+    rhoP = np.zeros(nc)
+    bad = np.zeros(nc, dtype=np.bool_)
+    for i in range(nc):
+        A = diag[i]
+        wn = A[0, 0]
+        if not (wn > 1e-14 * scale):
+            bad[i] = True
+            continue
+        rhoN[i] = 1.0 / wn
+        if d == 2:
+            lt = A[1, 1]
+        else:
+            a = A[1, 1]
+            c = A[2, 2]
+            bs = 0.5 * (A[1, 2] + A[2, 1])
+            lt = 0.5 * (a + c) + np.sqrt(0.25 * (a - c) ** 2 + bs * bs)
+        rhoT[i] = 1.0 / lt if lt > 0.0 else rhoN[i]
+        fro = 0.0
+        for a2 in range(d):
+            for c2 in range(d):
+                fro += A[a2, c2] * A[a2, c2]
+        rhoP[i] = 1.0 / np.sqrt(fro)
+    return rhoN, rhoT, rhoP, bad

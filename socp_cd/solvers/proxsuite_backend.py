@@ -1,0 +1,281 @@
+"""Polyhedral contact laws as QPs solved by ProxQP (backend ``"proxsuite"``).
+
+ProxQP (proxsuite) solves ``min ½ xᵀHx + gᵀx  s.t.  Ax = b,  l <= Cx <= u``.
+Every law handled here has a polyhedral feasible set, so it is exactly one
+such QP (no equality rows, ``A`` empty):
+
+=================  =========  ========================  ======================
+formulation        x          C, l, u                    dims
+=================  =========  ========================  ======================
+``frictionless``   ``r_N``    ``I``, ``0``, ``+inf``     2, 3 (``H = W_NN``)
+``associated``     ``r``      wedge rows, ``-inf``, 0    2
+``coulomb``        ``r``      wedge rows (De Saxcé)      2
+``tresca``         ``r``      ``I``, ``(0,-g)``,         2
+                              ``(+inf, g)``
+``faceted``        ``r``      facet rows, ``-inf``, 0    2 (= associated), 3
+=================  =========  ========================  ======================
+
+with ``H = W_s = (W + Wᵀ)/2`` and ``g = q`` (or the De Saxcé shifted ``q``).
+The 3D Coulomb and Tresca sets are round (not polyhedral): ask for
+``formulation="faceted"`` or another solver.  See
+``formulations/frictionless_qp.md`` and ``formulations/faceted.md``.
+
+The ProxQP object is built once per solve and re-used across the outer
+iterations of the 2D Coulomb fixed point with ``qp.update(g=...)`` and
+``InitialGuess.WARM_START_WITH_PREVIOUS_RESULT``.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import UnsupportedError
+from ..laws import LAW_RESIDUALS
+from .faceted import check_facets, cone_matrix, faceted_error
+from .registry import register
+from .result import SolverResult
+
+try:
+    from proxsuite import proxqp
+except ModuleNotFoundError:  # pragma: no cover - proxsuite is a declared dependency
+    proxqp = None
+
+DEFAULT_FACETS = 8
+DEFAULT_MAX_ITER = 50       #: outer De Saxcé iterations (2D coulomb)
+
+
+def _status_map():
+    S = proxqp.QPSolverOutput
+    return {
+        S.PROXQP_SOLVED: ("converged", ""),
+        S.PROXQP_MAX_ITER_REACHED: ("max_iter", "ProxQP hit its iteration cap "
+                                                "(also its symptom of an unbounded QP: no solution)"),
+        S.PROXQP_PRIMAL_INFEASIBLE: ("numerical_error", "ProxQP reported primal infeasibility, "
+                                                        "impossible (r = 0 is feasible)"),
+        S.PROXQP_DUAL_INFEASIBLE: ("numerical_error", "ProxQP reported dual infeasibility: the QP "
+                                                      "is unbounded below, the law has no solution"),
+        S.PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE: ("numerical_error", "ProxQP returned the closest "
+                                                                     "primal-feasible QP"),
+        S.PROXQP_NOT_RUN: ("numerical_error", "ProxQP did not run"),
+    }
+
+
+class ProxQPInner:
+    """``min ½ xᵀHx + gᵀx, l <= Cx <= u`` held in one ProxQP object.
+
+    Implements the inner-solver protocol of
+    :func:`socp_cd.solvers.desaxce.desaxce_fixed_point` for polyhedral sets:
+    ``solve(g, tol) -> (r, info)``, with ``r = E x`` (``E`` scatters the QP
+    unknowns into the stacked impulses).
+
+    Parameters
+    ----------
+    H : sparse matrix (n, n)
+        Symmetric PSD Hessian (ProxQP reads its upper triangle).
+    C : sparse matrix (k, n), l, u : ndarray (k,)
+    E : sparse matrix (m, n), optional
+        Map from ``x`` to ``r`` (identity when None).
+    scale : float
+        Magnitude used to turn a relative ``tol`` into ProxQP's absolute
+        ``eps_abs`` (``||q||``).
+    qp_max_iter : int, optional
+        ProxQP's own iteration cap.
+    """
+
+    def __init__(self, H, C, l, u, E=None, scale: float = 1.0, qp_max_iter=None):
+        if proxqp is None:  # pragma: no cover
+            raise UnsupportedError("solver 'proxsuite' needs the proxsuite package")
+        H, C = sp.csc_matrix(H), sp.csc_matrix(C)
+        n, k = H.shape[0], C.shape[0]
+        self.qp = proxqp.sparse.QP(n, 0, k)
+        self.qp.settings.eps_rel = 0.0
+        # r = 0 is always feasible: primal infeasibility cannot happen, and ProxQP's
+        # detector (eps_primal_inf = 1e-4) misfires on the redundant, nearly parallel
+        # facet rows of fine faceted cones; make it effectively silent.
+        self.qp.settings.eps_primal_inf = 1e-300
+        if qp_max_iter is not None:
+            self.qp.settings.max_iter = int(qp_max_iter)
+        self.H, self.C, self.l, self.u = H, C, np.asarray(l, float), np.asarray(u, float)
+        self.E = E
+        self.scale = max(float(scale), np.finfo(float).tiny)
+        self.n = n
+        self.initialized = False
+        self.status_map = _status_map()
+
+    def eps_abs(self, tol: float) -> float:
+        """ProxQP's absolute tolerance (inf-norm of its residuals) for a relative ``tol``."""
+        return 0.1 * tol * self.scale / np.sqrt(max(self.n, 1))
+
+    def solve(self, g, tol: float):
+        """Solve for the linear term ``g`` (warm-started after the first call)."""
+        g = np.asarray(g, dtype=np.float64)
+        if self.E is not None and g.shape[0] != self.n:
+            g = self.E.T @ g                      # linear term seen by the QP unknowns
+        self.qp.settings.eps_abs = self.eps_abs(tol)
+        if not self.initialized:
+            self.qp.init(self.H, g, None, None, self.C, self.l, self.u)
+            self.initialized = True
+        else:
+            self.qp.settings.initial_guess = proxqp.WARM_START_WITH_PREVIOUS_RESULT
+            self.qp.update(g=g)
+        self.qp.solve()
+        res = self.qp.results
+        st, why = self.status_map.get(res.info.status, ("numerical_error", "unknown ProxQP status"))
+        x = np.array(res.x, dtype=np.float64)
+        r = x if self.E is None else self.E @ x
+        return r, {"iterations": int(res.info.iter), "status": res.info.status.name,
+                   "ok": st == "converged", "socp_status": st, "why": why,
+                   "objective": float(res.info.objValue), "z": np.array(res.z)}
+
+
+def _scatter_normal(problem) -> sp.csr_matrix:
+    """``E`` with ``r = E r_N`` (tangential components zero)."""
+    nc, d = problem.n_contacts, problem.dim
+    return sp.csr_matrix((np.ones(nc), (d * np.arange(nc), np.arange(nc))), shape=(problem.m, nc))
+
+
+def frictionless_qp(problem, W_sym=None, qp_max_iter=None) -> ProxQPInner:
+    """Signorini QP ``min ½ r_Nᵀ W_NN r_N + q_Nᵀ r_N, r_N >= 0`` (``r_T = 0``)."""
+    Ws = problem.symmetric_part() if W_sym is None else W_sym
+    E = _scatter_normal(problem)
+    H = (E.T @ Ws @ E).tocsc()                    # W_NN: the tangential rows drop out
+    nc = problem.n_contacts
+    return ProxQPInner(H, sp.identity(nc, format="csc"), np.zeros(nc), np.full(nc, np.inf), E,
+                       np.linalg.norm(problem.q_local), qp_max_iter)
+
+
+def cone_qp(problem, W_sym=None, n_facets=DEFAULT_FACETS, placement="inscribed",
+            qp_max_iter=None) -> ProxQPInner:
+    """QP ``min ½ rᵀ W_s r + gᵀ r, C r <= 0`` on the (faceted) cone, see :func:`cone_matrix`."""
+    Ws = problem.symmetric_part() if W_sym is None else W_sym
+    C = cone_matrix(problem.mu, problem.dim, n_facets, placement)
+    k = C.shape[0]
+    return ProxQPInner(Ws, C, np.full(k, -np.inf), np.zeros(k), None,
+                       np.linalg.norm(problem.q_local), qp_max_iter)
+
+
+def tresca_qp(problem, threshold, W_sym=None, qp_max_iter=None) -> ProxQPInner:
+    """2D Tresca QP: ``r_N >= 0``, ``-g <= r_T <= g`` (box, ``C = I``)."""
+    Ws = problem.symmetric_part() if W_sym is None else W_sym
+    g = np.asarray(threshold, dtype=np.float64)
+    lo = np.column_stack([np.zeros_like(g), -g]).ravel()
+    hi = np.column_stack([np.full_like(g, np.inf), g]).ravel()
+    return ProxQPInner(Ws, sp.identity(problem.m, format="csc"), lo, hi, None,
+                       np.linalg.norm(problem.q_local), qp_max_iter)
+
+
+def _solve_law(problem, inner: ProxQPInner, tol: float, max_iter: int, residual) -> SolverResult:
+    """One QP with ``W_s``; with a non-symmetric ``W``, a splitting on the skew part.
+
+    ``W_s r_{k+1} + (q + W_a r_k) = u`` is re-solved (warm-started, ``g``
+    updated) until ``residual(r) <= tol`` — so the law is solved for the true
+    ``W = W_s + W_a`` — or ``max_iter`` QPs were solved.  The splitting
+    converges when ``W_a`` is small against the curvature of ``W_s`` on the
+    active set.
+    """
+    q = problem.q_local
+    W_a = None if problem.is_symmetric else problem.skew_part()
+    r, info = inner.solve(q, tol)
+    total, k = info["iterations"], 1
+    status = info["socp_status"]
+    if W_a is not None:
+        while info["ok"] and k < max_iter and residual(r) > tol:
+            r, info = inner.solve(q + W_a @ r, tol)
+            total, k = total + info["iterations"], k + 1
+        status = info["socp_status"]
+        if status == "converged" and residual(r) > tol:
+            status = "max_iter"
+    msg = f"ProxQP: {info['status']}" + (f" ({info['why']})" if info["why"] else "")
+    if W_a is not None:
+        msg += f"; {k} QP(s) of the skew-part splitting"
+    return SolverResult(r=r, status=status, iterations=k, message=msg,
+                        info={"proxqp_status": info["status"], "objective": info["objective"],
+                              "inner_iterations": total, "skew_splitting": W_a is not None})
+
+
+@register("proxsuite", ("frictionless", "faceted", "coulomb", "associated", "tresca"), dims=(2, 3),
+          description="ProxQP on polyhedral laws: frictionless (2D/3D), faceted cone (3D), "
+                      "coulomb/associated/tresca (2D only)")
+def solve_proxsuite(problem, formulation, *, tol, max_iter=None, r0=None, history=False, **options):
+    """Backend ``"proxsuite"``.
+
+    Options
+    -------
+    facets : int
+        Number of facets of the 3D faceted cone (default 8, ``>= 3``).
+    placement : {"inscribed", "circumscribed"}
+        Faceted polygon inscribed in the friction circle (default; the faceted
+        reactions are then admissible for the exact cone) or circumscribed.
+    threshold : array_like
+        Tresca thresholds (2D only).
+    qp_max_iter : int
+        ProxQP's iteration cap per QP (default ProxQP's, 10000).
+    **outer_options
+        For 2D ``"coulomb"``: forwarded to
+        :func:`socp_cd.solvers.desaxce.desaxce_fixed_point` (``polish`` is
+        None by default here, so the result is ProxQP's alone).
+
+    Raises
+    ------
+    UnsupportedError
+        For ``coulomb``/``associated``/``tresca`` in 3D (round sets, not QPs).
+
+    Notes
+    -----
+    The QPs use ``W_s``.  With a non-symmetric ``W`` the single-QP laws are
+    re-solved in a splitting ``q + W_a r_k`` on the skew part (``max_iter``
+    QPs at most, default 50; ``iterations`` counts QPs) and 2D ``coulomb``
+    moves ``W_a`` into the De Saxcé shift.  In 2D ``associated`` and
+    ``faceted`` are the same law (the wedge is already polyhedral).
+    """
+    qp_max_iter = options.pop("qp_max_iter", None)
+    if problem.dim == 3 and formulation in ("coulomb", "associated", "tresca"):
+        raise UnsupportedError(
+            f"solver 'proxsuite' cannot solve {formulation!r} in 3D: the 3D "
+            + ("Coulomb cone" if formulation != "tresca" else "Tresca disc")
+            + " is round, not polyhedral, so it is not a QP. Use formulation='faceted' "
+              "(polyhedral cone, option facets=) or solver='clarabel'/'cvxpy'.")
+    outer_cap = DEFAULT_MAX_ITER if max_iter is None else max_iter
+    if formulation == "frictionless":
+        _no_options(options)
+        return _solve_law(problem, frictionless_qp(problem, qp_max_iter=qp_max_iter), tol,
+                          outer_cap, lambda r: LAW_RESIDUALS["frictionless"](problem, r))
+    if formulation == "tresca":
+        threshold = options.pop("threshold")
+        _no_options(options)
+        return _solve_law(problem, tresca_qp(problem, threshold, qp_max_iter=qp_max_iter), tol,
+                          outer_cap, lambda r: LAW_RESIDUALS["tresca"](problem, r,
+                                                                       threshold=threshold))
+    if formulation in ("associated", "faceted"):
+        nf, placement = check_facets(options.pop("facets", DEFAULT_FACETS),
+                                     options.pop("placement", "inscribed"))
+        _no_options(options)
+
+        def residual(r):
+            return faceted_error(problem, r, None, nf, placement)
+
+        res = _solve_law(problem, cone_qp(problem, None, nf, placement, qp_max_iter), tol,
+                         outer_cap, residual)
+        if formulation == "faceted":
+            res.info["law_residual"] = residual(res.r)
+            res.info.update(facets=nf if problem.dim == 3 else 2, placement=placement)
+        return res
+    # 2D coulomb: De Saxcé fixed point, every inner problem a QP on the exact wedge
+    from .desaxce import desaxce_fixed_point
+    options.setdefault("polish", None)
+
+    def factory(prob, W_sym):
+        return cone_qp(prob, W_sym, qp_max_iter=qp_max_iter)
+
+    return desaxce_fixed_point(problem, factory, tol=tol,
+                               max_iter=DEFAULT_MAX_ITER if max_iter is None else max_iter,
+                               r0=r0, history=history, **options)
+
+
+def _no_options(options):
+    if options:
+        raise UnsupportedError(f"solver 'proxsuite' got unexpected options {sorted(options)}")
+
+
+__all__ = ["ProxQPInner", "frictionless_qp", "cone_qp", "tresca_qp", "solve_proxsuite",
+           "DEFAULT_FACETS"]

@@ -1,0 +1,406 @@
+"""Malformed problem files raise a socp_cd exception naming the file and the field."""
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from socp_cd import FrictionContactProblem, GlobalFrictionContactProblem
+from socp_cd.errors import InvalidProblemError, ProblemFormatError, SocpCdError
+from socp_cd.io import read_problem, write_fclib
+
+# A valid local problem: dim 3, one contact, dense W = identity (column-major).
+GOOD = ["3", "1", "0", "3", "3", "3", "3",
+        "1", "0", "0", "0", "1", "0", "0", "0", "1",
+        "-1", "0", "0",
+        "0.5"]
+W_FIRST = 7   # index of the first W value in GOOD
+Q_FIRST = 16  # index of the first q value
+
+
+def check(exc_info, path, field, exc_type=ProblemFormatError):
+    exc = exc_info.value
+    assert type(exc) is exc_type
+    assert isinstance(exc, SocpCdError)
+    assert exc.source == str(path)
+    assert exc.field == field
+    msg = str(exc)
+    assert str(path) in msg
+    assert f"'{field}'" in msg
+    return msg
+
+
+def write_tokens(tmp_path, tokens, name="bad.dat"):
+    path = tmp_path / name
+    path.write_text("\n".join(tokens) + "\n")
+    return path
+
+
+def replaced(index, value):
+    toks = list(GOOD)
+    toks[index] = value
+    return toks
+
+
+def test_good_base_file_is_valid(tmp_path):
+    p = read_problem(write_tokens(tmp_path, GOOD, "good.dat"))
+    np.testing.assert_array_equal(p.W.toarray(), np.eye(3))
+
+
+# ------------------------------------------------------------------ any file
+def test_nonexistent_file(tmp_path):
+    path = tmp_path / "missing.dat"
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "does not exist" in check(ei, path, "file")
+
+
+def test_directory_instead_of_file(tmp_path):
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(tmp_path)
+    check(ei, tmp_path, "file")
+
+
+def test_empty_file(tmp_path):
+    path = tmp_path / "empty.dat"
+    path.write_bytes(b"")
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "empty" in check(ei, path, "file")
+
+
+def test_whitespace_only_file(tmp_path):
+    path = tmp_path / "blank.dat"
+    path.write_text("\n \n\t\n")
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "empty" in check(ei, path, "dim")
+
+
+# ------------------------------------------------------------------ Siconos text
+def test_truncated_text_missing_mu(tmp_path):
+    path = write_tokens(tmp_path, GOOD[:-1])
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "truncated" in check(ei, path, "mu")
+
+
+def test_truncated_text_inside_matrix(tmp_path):
+    path = write_tokens(tmp_path, GOOD[:W_FIRST + 4])
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "truncated" in check(ei, path, "W")
+
+
+def test_non_numeric_token(tmp_path):
+    path = write_tokens(tmp_path, replaced(W_FIRST + 4, "1.0x"))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "1.0x" in check(ei, path, "W")
+
+
+def test_non_integer_header(tmp_path):
+    path = write_tokens(tmp_path, replaced(1, "one"))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "one" in check(ei, path, "n_contacts")
+
+
+def test_unknown_storage_code(tmp_path):
+    path = write_tokens(tmp_path, replaced(2, "7"))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "storage code 7" in check(ei, path, "W.storage")
+
+
+def test_wrong_dim(tmp_path):
+    path = write_tokens(tmp_path, replaced(0, "4"))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "got 4" in check(ei, path, "dim")
+
+
+def test_negative_mu(tmp_path):
+    path = write_tokens(tmp_path, replaced(-1, "-0.3"))
+    with pytest.raises(InvalidProblemError) as ei:
+        read_problem(path)
+    assert ">= 0" in check(ei, path, "mu", InvalidProblemError)
+
+
+def test_nan_in_q(tmp_path):
+    path = write_tokens(tmp_path, replaced(Q_FIRST + 1, "nan"))
+    with pytest.raises(InvalidProblemError) as ei:
+        read_problem(path)
+    assert "NaN" in check(ei, path, "q", InvalidProblemError)
+
+
+def test_inf_in_matrix(tmp_path):
+    path = write_tokens(tmp_path, replaced(W_FIRST + 2, "inf"))
+    with pytest.raises(InvalidProblemError) as ei:
+        read_problem(path)
+    assert "NaN/Inf" in check(ei, path, "W", InvalidProblemError)
+
+
+def test_zero_contacts(tmp_path):
+    path = write_tokens(tmp_path, replaced(1, "0"))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "zero contacts" in check(ei, path, "n_contacts")
+
+
+def test_matrix_size_disagrees_with_contacts(tmp_path):
+    path = write_tokens(tmp_path, replaced(1, "2"))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "expected 6 x 6" in check(ei, path, "W")
+
+
+def test_dense_header_mismatch(tmp_path):
+    path = write_tokens(tmp_path, replaced(5, "2"))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    check(ei, path, "W")
+
+
+def test_trailing_garbage(tmp_path):
+    path = write_tokens(tmp_path, GOOD + ["0.5", "0.5"])
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "unexpected tokens" in check(ei, path, "end of file")
+
+
+SBM = ["3", "1", "1", "3", "3", "1", "1", "1", "3", "3", "2", "1", "0", "1", "0",
+       "0", "1", "0", "0", "0", "1", "0", "0", "0", "1",
+       "-1", "0", "0", "0.5"]
+
+
+def test_sbm_valid_then_bad_block_number(tmp_path):
+    p = read_problem(write_tokens(tmp_path, SBM, "sbm_ok.dat"))
+    np.testing.assert_array_equal(p.W.toarray(), np.eye(3))
+    bad = list(SBM)
+    bad[15] = "5"  # block number must be 0
+    path = write_tokens(tmp_path, bad)
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "block number" in check(ei, path, "W blocks")
+
+
+def test_sbm_block_column_out_of_range(tmp_path):
+    bad = list(SBM)
+    bad[14] = "3"  # index2_data: only one block column
+    path = write_tokens(tmp_path, bad)
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "out of range" in check(ei, path, "W.index2_data")
+
+
+def test_sbm_block_sizes_disagree_with_matrix(tmp_path):
+    bad = list(SBM)
+    bad[8] = "4"  # cumulative row size 4 != 3
+    path = write_tokens(tmp_path, bad)
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    check(ei, path, "W.blocksize0")
+
+
+CSC_LINES = ["2", "1", "2", "2", "2", "2",
+             "CSparse Version 3.1.9, May 4, 2016.  Copyright (c) Timothy A. Davis, 2006-2016",
+             "2-by-2, nzmax: 2 nnz: 2, 1-norm: 1",
+             "    col 0 : locations 0 to 0", "      0 : 1",
+             "    col 1 : locations 1 to 1", "      1 : 1",
+             "0 0", "0.1"]
+
+
+def test_csparse_locations_inconsistent(tmp_path):
+    p = read_problem(write_tokens(tmp_path, CSC_LINES, "csc_ok.dat"))
+    np.testing.assert_array_equal(p.W.toarray(), np.eye(2))
+    bad = list(CSC_LINES)
+    bad[8] = "    col 0 : locations 0 to 1"
+    path = write_tokens(tmp_path, bad)
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    check(ei, path, "W column pointers")
+
+
+def test_csparse_row_index_out_of_range(tmp_path):
+    bad = list(CSC_LINES)
+    bad[11] = "      5 : 1"
+    path = write_tokens(tmp_path, bad)
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "out of range" in check(ei, path, "W")
+
+
+# ------------------------------------------------------------------ FCLib HDF5
+@pytest.fixture
+def good_h5(tmp_path):
+    """A valid local FCLib file (written once per test, 3 contacts)."""
+    rng = np.random.default_rng(0)
+    A = rng.standard_normal((9, 9))
+    p = FrictionContactProblem(sp.csr_matrix(A @ A.T), rng.standard_normal(9), 0.3, 3)
+    path = write_fclib(p, tmp_path / "good.hdf5")
+    assert read_problem(path).n_contacts == 3
+    return path
+
+
+def mutate(path, fn):
+    with h5py.File(path, "r+") as h:
+        fn(h)
+    return path
+
+
+def replace_ds(h, name, data):
+    del h[name]
+    h.create_dataset(name, data=data)
+
+
+def test_truncated_hdf5(good_h5):
+    data = good_h5.read_bytes()
+    good_h5.write_bytes(data[: len(data) // 2])
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    exc = ei.value
+    assert exc.source == str(good_h5) and str(good_h5) in str(exc)
+    assert f"'{exc.field}'" in str(exc) and exc.field  # a named field (file or dataset)
+
+
+def test_hdf5_header_only(good_h5):
+    good_h5.write_bytes(good_h5.read_bytes()[:16])
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "cannot be opened" in check(ei, good_h5, "HDF5 file")
+
+
+def test_hdf5_without_fclib_groups(tmp_path):
+    path = tmp_path / "other.h5"
+    with h5py.File(path, "w") as h:
+        h.create_dataset("data", data=np.arange(3))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "not an FCLib" in check(ei, path, "/fclib_local or /fclib_global")
+
+
+@pytest.mark.parametrize("name", ["/fclib_local/W", "/fclib_local/vectors/q", "/fclib_local/vectors/mu",
+                                  "/fclib_local/spacedim", "/fclib_local/W/x"])
+def test_hdf5_missing_dataset(good_h5, name):
+    mutate(good_h5, lambda h: h.__delitem__(name))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "missing" in check(ei, good_h5, name)
+
+
+def test_hdf5_q_length_mismatch(good_h5):
+    mutate(good_h5, lambda h: replace_ds(h, "/fclib_local/vectors/q", np.zeros(8)))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "expected 9" in check(ei, good_h5, "/fclib_local/vectors/q")
+
+
+def test_hdf5_non_numeric_vector(good_h5):
+    mutate(good_h5, lambda h: replace_ds(h, "/fclib_local/vectors/q", np.bytes_(b"oops")))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "numeric" in check(ei, good_h5, "/fclib_local/vectors/q")
+
+
+def test_hdf5_nan_mu(good_h5):
+    mutate(good_h5, lambda h: replace_ds(h, "/fclib_local/vectors/mu", [0.3, np.nan, 0.3]))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "NaN" in check(ei, good_h5, "/fclib_local/vectors/mu")
+
+
+def test_hdf5_negative_mu(good_h5):
+    mutate(good_h5, lambda h: replace_ds(h, "/fclib_local/vectors/mu", [0.3, -0.1, 0.3]))
+    with pytest.raises(InvalidProblemError) as ei:
+        read_problem(good_h5)
+    check(ei, good_h5, "mu", InvalidProblemError)
+
+
+def test_hdf5_wrong_spacedim(good_h5):
+    mutate(good_h5, lambda h: replace_ds(h, "/fclib_local/spacedim", np.array([4], dtype=np.int32)))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "got 4" in check(ei, good_h5, "/fclib_local/spacedim")
+
+
+def _to_triplet(h, row_shift=0):
+    W = sp.coo_matrix(np.ones((9, 9)))
+    replace_ds(h, "/fclib_local/W/nz", np.array([W.nnz], dtype=np.int32))
+    replace_ds(h, "/fclib_local/W/i", (W.row + row_shift).astype(np.int32))
+    replace_ds(h, "/fclib_local/W/p", W.col.astype(np.int32))
+    replace_ds(h, "/fclib_local/W/x", W.data)
+
+
+def test_hdf5_triplet_index_out_of_range(good_h5):
+    mutate(good_h5, lambda h: _to_triplet(h, row_shift=1))  # largest row index becomes 9 >= m
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "row index 9 out of range" in check(ei, good_h5, "/fclib_local/W/i")
+
+
+def test_hdf5_csc_pointers_decreasing(good_h5):
+    def fn(h):
+        p = h["/fclib_local/W/p"][()]
+        p[3], p[4] = p[4], p[3]
+        replace_ds(h, "/fclib_local/W/p", p)
+    mutate(good_h5, fn)
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "non-decreasing" in check(ei, good_h5, "/fclib_local/W/p")
+
+
+def test_hdf5_csc_pointer_beyond_entries(good_h5):
+    def fn(h):
+        p = h["/fclib_local/W/p"][()]
+        p[-1] += 5
+        replace_ds(h, "/fclib_local/W/p", p)
+    mutate(good_h5, fn)
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "pointer array ends at" in check(ei, good_h5, "/fclib_local/W/i")
+
+
+def test_hdf5_csc_too_few_pointers(good_h5):
+    mutate(good_h5, lambda h: replace_ds(h, "/fclib_local/W/p", h["/fclib_local/W/p"][()][:5]))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "expected 10" in check(ei, good_h5, "/fclib_local/W/p")
+
+
+def test_hdf5_unknown_storage_code(good_h5):
+    mutate(good_h5, lambda h: replace_ds(h, "/fclib_local/W/nz", np.array([-3], dtype=np.int32)))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "unknown storage code -3" in check(ei, good_h5, "/fclib_local/W/nz")
+
+
+def test_hdf5_global_H_rows_mismatch(tmp_path):
+    g = GlobalFrictionContactProblem(sp.eye(4), sp.csr_matrix(np.ones((4, 3))), np.ones(4), np.zeros(3), 0.2, 3)
+    path = write_fclib(g, tmp_path / "g.hdf5")
+
+    def fn(h):
+        replace_ds(h, "/fclib_global/H/m", np.array([5], dtype=np.int32))
+    mutate(path, fn)
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "expected 4" in check(ei, path, "/fclib_global/H")
+
+
+def test_hdf5_missing_guess_group(good_h5):
+    def fn(h):
+        g = h.create_group("guesses")
+        g.create_dataset("number_of_guesses", data=np.array([2], dtype=np.int32))
+        g.create_group("1").create_dataset("r", data=np.zeros(9))
+    mutate(good_h5, fn)
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "missing group" in check(ei, good_h5, "/guesses/2")
+
+
+def test_hdf5_solution_wrong_length(good_h5):
+    mutate(good_h5, lambda h: h.create_group("solution").create_dataset("r", data=np.zeros(4)))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "expected 9" in check(ei, good_h5, "/solution/r")

@@ -1,0 +1,323 @@
+"""Clarabel backend, conic data and the De Saxcé fixed point.
+
+Expected solutions are derived by hand (single contacts with W = I) or built
+backwards: pick ``(r*, u*)`` obeying the law contact by contact, then set
+``q = u* - W r*``.
+"""
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from socp_cd.cones import in_cone_violation, project_cone, project_dual_cone
+from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem
+from socp_cd.residuals import error
+from socp_cd.solvers import solve
+from socp_cd.solvers import clarabel_backend as cb
+from socp_cd.solvers.conic_data import coulomb_cone_map, dual_cone_map, tresca_map
+from socp_cd.solvers.desaxce import desaxce_fixed_point
+
+TOL = 1e-8
+
+
+def one_contact(q, mu=0.5, dim=3, W=None):
+    W = np.eye(dim) if W is None else W
+    return FrictionContactProblem(W, q, mu, dim)
+
+
+# ---------------------------------------------------------------- cone maps
+@pytest.mark.parametrize("dim", [2, 3])
+def test_cone_maps_describe_the_cones(dim):
+    rng = np.random.default_rng(0)
+    mu = np.array([0.0, 0.3, 1.2, 0.0, 0.7])
+    X = rng.normal(size=(400, 5 * dim))
+    cm, dm = coulomb_cone_map(mu, dim), dual_cone_map(mu, dim)
+    for cmap, proj in ((cm, project_cone), (dm, project_dual_cone)):
+        for x in X:
+            y = proj(x, mu, dim)          # a point of the set
+            s = cmap.G @ y + cmap.g       # must land in the Clarabel cones
+            z0 = cmap.n_zero
+            n1 = z0 + cmap.n_nonneg
+            assert np.allclose(s[:z0], 0.0, atol=1e-12)
+            assert np.all(s[z0:n1] >= -1e-12)
+            soc = s[n1:].reshape(-1, 3)
+            assert np.all(np.linalg.norm(soc[:, 1:], axis=1) <= soc[:, 0] + 1e-12)
+    # and a point outside K_mu violates some cone row
+    x = np.zeros(5 * dim)
+    x[dim:2 * dim] = [1.0, 1.0] + ([0.0] if dim == 3 else [])   # ||r_T|| = 1 > 0.3 * 1
+    s = cm.G @ x
+    n1 = cm.n_zero + cm.n_nonneg
+    soc_bad = s[n1:].reshape(-1, 3) if cm.n_soc else np.zeros((0, 3))
+    viol = np.any(s[cm.n_zero:n1] < -1e-12) or np.any(
+        np.linalg.norm(soc_bad[:, 1:], axis=1) > soc_bad[:, 0] + 1e-12)
+    assert viol
+    assert len(cm.cones()) <= 2 + cm.n_soc
+
+
+def test_tresca_map_is_the_ball():
+    g = np.array([0.5, 0.0])
+    tm = tresca_map(g, 3)
+    r = np.array([1.0, 0.3, -0.39, 2.0, 0.0, 0.0])
+    s = tm.G @ r + tm.g
+    assert np.allclose(s[:2], [1.0, 2.0])                     # r_N >= 0 rows
+    assert np.allclose(s[2:].reshape(2, 3), [[0.5, 0.3, -0.39], [0.0, 0.0, 0.0]])
+
+
+# ------------------------------------------------- single contacts by hand
+# W = I, mu = 0.5.  separate: r = 0; stick: r = -q; slide q = (-1, 2, 0):
+# u_N = 0 -> r_N = 1, r_T = -mu r_N = -0.5, u_T = 1.5.
+@pytest.mark.parametrize("q, r_exp", [
+    ((1.0, 0.2, 0.0), (0.0, 0.0, 0.0)),
+    ((-1.0, 0.1, -0.2), (1.0, -0.1, 0.2)),
+    ((-1.0, 2.0, 0.0), (1.0, -0.5, 0.0)),
+    ((-1.0, 0.0, -2.0), (1.0, 0.0, 0.5)),
+])
+def test_single_contact_coulomb(q, r_exp):
+    res = solve(one_contact(q), "clarabel", "coulomb", tol=TOL)
+    assert res.converged and res.status == "converged"
+    assert np.allclose(res.r, r_exp, atol=1e-7)
+    assert res.error <= TOL and res.coulomb_error == res.error
+
+
+def test_associated_relaxation_dilates():
+    # associated: r = P_K(-q) = P_K((1, -2, 0)) = (1.6, -0.8, 0), u = (0.6, 1.2, 0)
+    p = one_contact((-1.0, 2.0, 0.0))
+    res = solve(p, "clarabel", "associated", tol=TOL)
+    assert res.converged
+    assert np.allclose(res.r, [1.6, -0.8, 0.0], atol=1e-7)
+    assert np.allclose(res.u, [0.6, 1.2, 0.0], atol=1e-7)
+    # judged by the exact law it is wrong, and the result says so
+    assert res.coulomb_error > 1e-2
+    assert res.info["clarabel_status"] == "Solved"
+
+
+def test_frictionless_and_tresca_by_hand():
+    p = one_contact((-1.0, 2.0, 0.0))
+    res = solve(p, "clarabel", "frictionless", tol=TOL)
+    assert res.converged and np.allclose(res.r, [1.0, 0.0, 0.0], atol=1e-7)
+    slide = solve(p, "clarabel", "tresca", tol=TOL, threshold=0.3)     # |q_T| > g: slides
+    assert slide.converged and np.allclose(slide.r, [1.0, -0.3, 0.0], atol=1e-7)
+    stick = solve(p, "clarabel", "tresca", tol=TOL, threshold=5.0)     # |q_T| < g: sticks
+    assert stick.converged and np.allclose(stick.r, [1.0, -2.0, 0.0], atol=1e-7)
+
+
+def test_2d_slide():
+    p = one_contact((-1.0, 2.0), dim=2)
+    res = solve(p, "clarabel", "coulomb", tol=TOL)
+    assert res.converged and np.allclose(res.r, [1.0, -0.5], atol=1e-7)
+
+
+# --------------------------------------------- multi-contact built backwards
+def law_pair(kinds, mu, dim, rng):
+    """(r*, u*) obeying the Coulomb law, contact kinds 'sep', 'stick', 'slide'."""
+    r, u = [], []
+    for k, m in zip(kinds, mu):
+        t = rng.normal(size=dim - 1)
+        t /= np.linalg.norm(t)
+        if k == "sep":
+            r.append(np.r_[0.0, 0.0 * t]); u.append(np.r_[rng.uniform(0.5, 1), 0.3 * t])
+        elif k == "stick":
+            r.append(np.r_[1.0, 0.5 * m * t]); u.append(np.zeros(dim))
+        else:
+            r.append(np.r_[1.0, -m * t]); u.append(np.r_[0.0, rng.uniform(0.5, 1) * t])
+    return np.concatenate(r), np.concatenate(u)
+
+
+def spd(m, rng, cond=10.0):
+    Q, _ = np.linalg.qr(rng.normal(size=(m, m)))
+    return Q @ np.diag(np.linspace(1.0, cond, m)) @ Q.T
+
+
+def test_sticking_solution_associated_equals_coulomb():
+    rng = np.random.default_rng(1)
+    mu = np.full(3, 0.6)
+    r_s, u_s = law_pair(["stick"] * 3, mu, 3, rng)
+    W = spd(9, rng)
+    p = FrictionContactProblem(W, u_s - W @ r_s, mu, 3)
+    a = solve(p, "clarabel", "associated", tol=TOL)
+    c = solve(p, "clarabel", "coulomb", tol=TOL)
+    assert a.converged and c.converged
+    for res in (a, c):
+        assert np.allclose(res.r, r_s, atol=1e-6)
+        assert np.allclose(res.u, 0.0, atol=1e-6)
+    assert a.coulomb_error <= 1e-7
+
+
+def test_asymmetric_W_mixed_contacts():
+    rng = np.random.default_rng(2)
+    mu = np.array([0.3, 0.5, 0.2, 0.4])
+    r_s, u_s = law_pair(["slide", "stick", "sep", "slide"], mu, 3, rng)
+    S = rng.normal(size=(12, 12))
+    W = spd(12, rng, 5.0) + 0.05 * (S - S.T)
+    p = FrictionContactProblem(W, u_s - W @ r_s, mu, 3)
+    assert not p.is_symmetric
+    res = solve(p, "clarabel", "coulomb", tol=TOL)
+    assert res.converged and res.error <= TOL
+    assert np.allclose(res.r, r_s, atol=1e-6) and np.allclose(res.u, u_s, atol=1e-6)
+    # the associated relaxation also handles the skew part in the outer loop
+    a = solve(p, "clarabel", "associated", tol=TOL)
+    assert a.error <= 1e-6
+
+
+def test_mu_zero_contacts():
+    rng = np.random.default_rng(3)
+    mu = np.array([0.0, 0.5, 0.0])
+    # mu = 0: r_T = 0 and any tangential velocity is allowed
+    r_s = np.array([1.0, 0.0, 0.0, 1.0, -0.5, 0.0, 0.0, 0.0, 0.0])
+    u_s = np.array([0.0, 0.4, -0.3, 0.0, 0.8, 0.0, 0.7, 0.1, 0.2])
+    W = spd(9, rng)
+    p = FrictionContactProblem(W, u_s - W @ r_s, mu, 3)
+    res = solve(p, "clarabel", "coulomb", tol=TOL)
+    assert res.converged
+    assert np.allclose(res.r, r_s, atol=1e-6) and np.allclose(res.u, u_s, atol=1e-6)
+    # associated law: the friction contact sticks, u = 0 there
+    r_s[3:6], u_s[3:6] = [1.0, 0.2, -0.1], 0.0
+    p = FrictionContactProblem(W, u_s - W @ r_s, mu, 3)
+    res = solve(p, "clarabel", "associated", tol=TOL)
+    assert res.converged
+    assert np.allclose(res.r, r_s, atol=1e-6) and np.allclose(res.u, u_s, atol=1e-6)
+
+
+def test_rank_deficient_u_unique_r_not():
+    rng = np.random.default_rng(4)
+    mu = np.full(3, 0.5)
+    H = rng.normal(size=(5, 9))                     # 5 dofs, 9 contact unknowns
+    W = H.T @ H                                     # rank 5 < 9
+    r_s, u_s = law_pair(["stick", "stick", "sep"], mu, 3, rng)
+    p = FrictionContactProblem(W, u_s - W @ r_s, mu, 3)
+    assert p.is_rank_deficient
+    res = solve(p, "clarabel", "coulomb", tol=TOL)
+    assert res.converged and error(p, res.r) <= TOL
+    assert np.allclose(res.u, u_s, atol=1e-6)
+    # impulses differing by a null-space direction of W are equally valid
+    assert np.allclose(W @ (res.r - r_s), 0.0, atol=1e-6)
+
+
+def small_global(rng, mu=0.4):
+    n, nc = 8, 2
+    M = spd(n, rng, 4.0)
+    H = rng.normal(size=(n, 3 * nc))
+    f = rng.normal(size=n)
+    w = np.array([-0.5, 0.3, 0.1, 0.2, -0.1, 0.4])
+    return GlobalFrictionContactProblem(M, H, f, w, mu, 3)
+
+
+@pytest.mark.parametrize("form", ["coulomb", "associated"])
+def test_global_form_equals_condensed(form):
+    g = small_global(np.random.default_rng(5))
+    loc = g.to_local()
+    rg = solve(g, "clarabel", form, tol=TOL)
+    rl = solve(loc, "clarabel", form, tol=TOL)
+    assert rg.converged and rl.converged
+    assert "condensed_to_local" not in rg.info
+    assert np.allclose(rg.u, rl.u, atol=1e-6)
+    assert np.allclose(rg.v, g.global_velocity(rl.r), atol=1e-6)
+    if form == "associated":   # same convex program: same optimal value
+        obj = lambda r: 0.5 * r @ (loc.W @ r) + loc.q @ r  # noqa: E731
+        assert abs(obj(rg.r) - obj(rl.r)) <= 1e-7 * max(1.0, abs(obj(rl.r)))
+
+
+# ---------------------------------------------------------- generic loop
+class ExactInner:
+    """Inner solver for W = I: the associated SOCP solution is P_K(-q_shift)."""
+
+    def __init__(self, problem, W_sym):
+        assert np.allclose(W_sym.toarray(), np.eye(problem.m))
+        self.mu, self.dim, self.calls = problem.mu, problem.dim, 0
+
+    def solve(self, q_shift, tol):
+        self.calls += 1
+        return project_cone(-q_shift, self.mu, self.dim), {"iterations": 0, "status": "exact", "ok": True}
+
+
+def test_desaxce_generic_signature():
+    p = one_contact((-1.0, 2.0, 0.0))
+    res = desaxce_fixed_point(p, ExactInner, tol=1e-12, max_iter=200, polish=None)
+    assert res.status == "converged"
+    assert np.allclose(res.r, [1.0, -0.5, 0.0], atol=1e-10)
+
+
+# ---------------------------------------------------------------- statuses
+def test_max_iter_one_outer_iteration():
+    p = one_contact((-1.0, 2.0, 0.0))
+    res = solve(p, "clarabel", "coulomb", tol=TOL, max_iter=1, polish=None)
+    assert not res.converged and res.status == "max_iter" and res.iterations == 1
+    assert res.error > TOL
+
+
+def test_clarabel_max_iterations_mapping():
+    rng = np.random.default_rng(6)
+    mu = np.full(4, 0.5)
+    r_s, u_s = law_pair(["slide", "stick", "sep", "slide"], mu, 3, rng)
+    W = spd(12, rng)
+    p = FrictionContactProblem(W, u_s - W @ r_s, mu, 3)
+    res = solve(p, "clarabel", "associated", tol=TOL, max_iter=2, polish=None)
+    assert res.info["clarabel_status"] == "MaxIterations"
+    assert res.status == "max_iter" and not res.converged
+
+
+def test_unbounded_relaxation_is_numerical_error():
+    # W = 0 and q_N < 0: the associated SOCP min q.r over K is unbounded
+    p = FrictionContactProblem(np.zeros((3, 3)), [-1.0, 0.0, 0.0], 0.5, 3)
+    res = solve(p, "clarabel", "associated", tol=TOL)
+    assert "Infeasible" in res.info["clarabel_status"]
+    assert res.status == "numerical_error" and not res.converged
+
+
+def test_converged_only_when_recomputed_error_small():
+    rng = np.random.default_rng(7)
+    mu = np.full(4, 0.5)
+    r_s, u_s = law_pair(["slide", "stick", "sep", "slide"], mu, 3, rng)
+    W = spd(12, rng)
+    p = FrictionContactProblem(W, u_s - W @ r_s, mu, 3)
+    res = solve(p, "clarabel", "associated", tol=1e-14, inner_tol=1e-3, polish=None)
+    assert res.info["clarabel_status"] == "Solved"     # Clarabel is happy at its loose tolerance
+    assert res.error > 1e-14 and not res.converged and res.status == "stalled"
+    # the Newton polish (default) repairs the loose interior-point iterate
+    pol = solve(p, "clarabel", "associated", tol=1e-12, inner_tol=1e-3)
+    assert pol.converged and pol.info["polish_iterations"] >= 1
+
+
+def test_inner_failure_reported(monkeypatch):
+    def broken(self, q_shift, tol):
+        return np.full(self.problem.m, np.nan), {"iterations": 3, "status": "NumericalError", "ok": False}
+
+    monkeypatch.setattr(cb.ClarabelInner, "solve", broken)
+    res = solve(one_contact((-1.0, 2.0, 0.0)), "clarabel", "coulomb", tol=TOL, polish=None)
+    assert res.status == "numerical_error" and not res.converged
+    assert res.info["clarabel_status"] == "NumericalError"
+
+
+def test_status_map_covers_clarabel():
+    import clarabel
+    names = [a for a in dir(clarabel.SolverStatus) if not a.startswith("_")]
+    assert set(names) <= set(cb.STATUS_MAP)
+    assert cb.map_status("Solved") == "converged"
+    assert all(cb.map_status(n) in ("max_iter", "stalled", "numerical_error", "time_limit")
+               for n in names if n != "Solved")
+
+
+def test_unknown_option_rejected():
+    with pytest.raises(TypeError):
+        solve(one_contact((-1.0, 2.0, 0.0)), "clarabel", "coulomb", bogus=1)
+    with pytest.raises(TypeError):
+        solve(one_contact((-1.0, 2.0, 0.0)), "clarabel", "associated", settings={"no_such": 1})
+
+
+def test_settings_passthrough_changes_clarabel():
+    p = one_contact((-1.0, 2.0, 0.0))
+    res = solve(p, "clarabel", "associated", tol=TOL, settings={"max_iter": 1}, polish=None)
+    assert res.info["clarabel_status"] == "MaxIterations" and res.status == "max_iter"
+
+
+# ---------------------------------------------------------------- real data
+def test_real_problem_reaches_siconos_tolerance():
+    from socp_cd.data import shared_problems_dir
+    d = shared_problems_dir()
+    if d is None or not (d / "Capsules-i125-1213.hdf5").exists():
+        pytest.skip("shared data not available")
+    from socp_cd.io import read_problem
+    p = read_problem(d / "Capsules-i125-1213.hdf5")
+    assert not p.is_symmetric
+    res = solve(p, "clarabel", "coulomb", tol=1e-8)
+    assert res.converged and error(p, res.r) <= 1e-8
+    assert in_cone_violation(res.r, p.mu, 3).max() <= 1e-8 * max(1.0, np.abs(res.r).max())

@@ -1,0 +1,273 @@
+"""Tests of the reference NSGS backend (``solver="nsgs"``).
+
+Single-contact problems are built backwards from a hand-chosen solution
+(``q = u* - W r*``), so the expected ``r*`` and ``u*`` are known exactly.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+
+import socp_cd
+from socp_cd import FrictionContactProblem, fenchel_young_gap, solve
+from socp_cd.residuals import feasibility
+
+TOL = 1e-10
+
+
+def _check_law(problem, r, atol=1e-9):
+    """Feasibility and a vanishing Fenchel–Young gap (independent of the solver)."""
+    u = problem.velocity(r)
+    feas = feasibility(problem, r, u)
+    assert feas["cone"] <= atol
+    assert feas["normal_velocity"] <= atol
+    gap = fenchel_young_gap(r, u, problem.mu, problem.dim)
+    assert np.max(np.abs(gap)) <= atol
+
+
+# ----------------------------------------------------------------------------- 2D cases
+W2 = np.array([[2.0, 0.5], [0.5, 1.0]])
+MU2 = 0.5
+CASES_2D = {
+    # name: (r*, u*) with q = u* - W r*
+    "separation": (np.array([0.0, 0.0]), np.array([1.0, 3.0])),
+    "stick": (np.array([1.0, 0.2]), np.array([0.0, 0.0])),
+    "slide_forward": (np.array([1.0, -0.5]), np.array([0.0, 1.0])),     # u_T > 0, r_T = -mu r_N
+    "slide_backward": (np.array([1.0, 0.5]), np.array([0.0, -2.0])),    # u_T < 0, r_T = +mu r_N
+}
+
+
+@pytest.mark.parametrize("local_solver", ["exact", "ac_newton", "projection"])
+@pytest.mark.parametrize("case", sorted(CASES_2D))
+def test_single_contact_2d_cases(case, local_solver):
+    r_star, u_star = CASES_2D[case]
+    q = u_star - W2 @ r_star
+    p = FrictionContactProblem(W2, q, MU2, dim=2)
+    res = solve(p, "nsgs", tol=TOL, max_iter=50, local_solver=local_solver)
+    assert res.converged, res
+    np.testing.assert_allclose(res.r, r_star, atol=1e-9)
+    np.testing.assert_allclose(res.u, u_star, atol=1e-9)
+    _check_law(p, res.r)
+
+
+@pytest.mark.parametrize("case", ["stick", "slide_forward", "slide_backward"])
+def test_single_contact_2d_nonsymmetric_block(case):
+    # nonsymmetric diagonal block: the case analysis must still pick the consistent case
+    W = np.array([[2.0, 0.8], [-0.3, 1.0]])
+    r_star, u_star = CASES_2D[case]
+    q = u_star - W @ r_star
+    p = FrictionContactProblem(W, q, MU2, dim=2)
+    res = solve(p, "nsgs", tol=TOL, max_iter=50, local_solver="exact")
+    assert res.converged, res
+    _check_law(p, res.r)
+    np.testing.assert_allclose(res.u, u_star, atol=1e-9)
+
+
+# ----------------------------------------------------------------------------- 3D cases
+W3 = np.array([[1.0, 0.1, 0.05], [0.1, 1.2, 0.1], [0.05, 0.1, 0.9]])
+MU3 = 0.5
+CASES_3D = {
+    "separation": (np.zeros(3), np.array([1.0, 2.0, -1.0])),
+    "stick": (np.array([1.0, 0.1, -0.2]), np.zeros(3)),
+    # slide: u_T = (0.6, 0.8) (unit), r_T = -mu r_N u_T/|u_T|
+    "slide": (np.array([1.0, -0.3, -0.4]), np.array([0.0, 0.6, 0.8])),
+}
+
+
+@pytest.mark.parametrize("local_solver", ["ac_newton", "projection"])
+@pytest.mark.parametrize("case", sorted(CASES_3D))
+def test_single_contact_3d_cases(case, local_solver):
+    r_star, u_star = CASES_3D[case]
+    q = u_star - W3 @ r_star
+    p = FrictionContactProblem(W3, q, MU3, dim=3)
+    res = solve(p, "nsgs", tol=TOL, max_iter=50, local_solver=local_solver)
+    assert res.converged, res
+    np.testing.assert_allclose(res.r, r_star, atol=1e-8)
+    np.testing.assert_allclose(res.u, u_star, atol=1e-8)
+    _check_law(p, res.r, atol=1e-8)
+
+
+# ----------------------------------------------------------------------------- multi-contact
+def _random_problem(nc, dim, seed, mu=0.3, dofs_per_body=6, n_bodies=None, duplicate=0):
+    """``W = H^T M^{-1} H`` with a random H and a block-diagonal SPD mass matrix."""
+    rng = np.random.default_rng(seed)
+    n_bodies = n_bodies or max(2, nc // 2)
+    blocks = []
+    for _ in range(n_bodies):
+        A = rng.normal(size=(dofs_per_body, dofs_per_body))
+        blocks.append(A @ A.T + dofs_per_body * np.eye(dofs_per_body))
+    M = sla.block_diag(*blocks)
+    n = M.shape[0]
+    H = rng.normal(size=(n, dim * nc)) * (rng.random((n, dim * nc)) < 0.3)
+    H[:, ::dim] += 0.5 * rng.normal(size=(n, nc))
+    if duplicate:
+        # the last `duplicate` contacts repeat the first ones: W singular
+        H[:, dim * (nc - duplicate):] = H[:, :dim * duplicate]
+    W = H.T @ np.linalg.solve(M, H)
+    q = rng.normal(size=dim * nc)
+    q[::dim] -= 1.0            # mostly approaching contacts
+    return FrictionContactProblem(W, q, mu, dim=dim)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_random_spd_problems_converge(dim):
+    p = _random_problem(30, dim, seed=dim)
+    res = solve(p, "nsgs", tol=1e-9, max_iter=20000)
+    assert res.converged and res.error <= 1e-9, res
+    assert socp_cd.error(p, res.r) <= 1e-9
+    _check_law(p, res.r, atol=1e-6 * max(1.0, np.linalg.norm(res.r)))
+
+
+def test_asymmetric_W():
+    p = _random_problem(20, 3, seed=11)
+    rng = np.random.default_rng(5)
+    S = rng.normal(size=(p.m, p.m)) * 0.02
+    p2 = p.with_(W=p.W.toarray() + (S - S.T))
+    assert not p2.is_symmetric
+    res = solve(p2, "nsgs", tol=1e-9, max_iter=20000)
+    assert res.converged, res
+
+
+def test_rank_deficient_W_u_unique():
+    p = _random_problem(16, 3, seed=3, duplicate=4)
+    assert p.is_rank_deficient
+    a = solve(p, "nsgs", tol=1e-10, max_iter=50000)
+    b = solve(p, "nsgs", tol=1e-10, max_iter=50000, ordering="shuffled", seed=7)
+    assert a.converged and b.converged, (a, b)
+    # u is unique, r need not be
+    assert np.linalg.norm(a.u - b.u) <= 1e-6 * max(1.0, np.linalg.norm(a.u))
+
+
+def test_mu_zero_is_frictionless():
+    p = _random_problem(20, 3, seed=4, mu=0.0)
+    res = solve(p, "nsgs", tol=1e-10, max_iter=20000)
+    assert res.converged, res
+    R = res.r.reshape(-1, 3)
+    assert np.max(np.abs(R[:, 1:])) == 0.0
+    f = solve(p.with_(mu=0.7), "nsgs", formulation="frictionless", tol=1e-10, max_iter=20000)
+    assert f.converged
+    np.testing.assert_allclose(f.u, res.u, atol=1e-7)
+
+
+def test_tresca_single_contact_slide():
+    # 2D, threshold g = 0.25: r_T = -g sign(u_T), u_N = 0
+    r_star, u_star = np.array([1.0, -0.25]), np.array([0.0, 2.0])
+    q = u_star - W2 @ r_star
+    p = FrictionContactProblem(W2, q, MU2, dim=2)
+    res = solve(p, "nsgs", formulation="tresca", threshold=0.25, tol=TOL, max_iter=50)
+    assert res.converged, res
+    np.testing.assert_allclose(res.r, r_star, atol=1e-9)
+
+
+def test_tresca_and_associated_multi_contact():
+    p = _random_problem(20, 3, seed=8)
+    t = solve(p, "nsgs", formulation="tresca", threshold=np.linspace(0.0, 0.5, 20), tol=1e-9,
+              max_iter=20000)
+    assert t.converged, t
+    a = solve(p, "nsgs", formulation="associated", tol=1e-9, max_iter=20000)
+    assert a.converged, a
+
+
+def test_singular_diagonal_block_numerical_error():
+    W = np.eye(6)
+    W[3:, 3:] = 0.0                     # contact 1 has a zero diagonal block
+    p = FrictionContactProblem(W, -np.ones(6), 0.3, dim=3)
+    res = solve(p, "nsgs", tol=1e-8)
+    assert res.status == "numerical_error" and not res.converged
+    assert np.all(np.isfinite(res.r))
+    assert 1 in res.info["singular_contacts"]
+
+
+def test_max_iter_status():
+    p = _random_problem(30, 3, seed=1)
+    res = solve(p, "nsgs", tol=1e-12, max_iter=1)
+    assert res.status == "max_iter" and res.iterations == 1 and not res.converged
+
+
+def test_warm_start_from_solution_one_sweep():
+    p = _random_problem(25, 3, seed=2)
+    ref = solve(p, "nsgs", tol=1e-12, max_iter=50000)
+    assert ref.converged
+    res = solve(p, "nsgs", tol=1e-8, r0=ref.r, max_iter=100)
+    assert res.converged and res.iterations == 1
+
+
+def test_shuffled_reproducible_and_history():
+    p = _random_problem(25, 3, seed=6)
+    kw = dict(tol=1e-9, max_iter=20000, ordering="shuffled", seed=3)
+    a = solve(p, "nsgs", **kw)
+    b = solve(p, "nsgs", **kw)
+    assert a.converged and b.converged
+    np.testing.assert_array_equal(a.r, b.r)
+    assert a.iterations == b.iterations
+    h = solve(p, "nsgs", history=True, **kw)     # full error at every sweep
+    assert h.converged and h.iterations == len(h.history) <= a.iterations
+    assert h.history[-1] <= 1e-9 < h.history[0]
+    assert h.history[-1] == pytest.approx(socp_cd.error(p, h.r), rel=1e-6)
+
+
+def test_relaxation_converges():
+    p = _random_problem(20, 2, seed=9)
+    res = solve(p, "nsgs", tol=1e-9, max_iter=20000, omega=0.8)
+    assert res.converged, res
+
+
+def test_bad_options():
+    p = _random_problem(4, 3, seed=0)
+    with pytest.raises(socp_cd.UnsupportedError):
+        solve(p, "nsgs", local_solver="exact")          # 2D only
+    with pytest.raises(socp_cd.UnsupportedError):
+        solve(p, "nsgs", not_an_option=1)
+    with pytest.raises(socp_cd.InvalidProblemError):
+        solve(p, "nsgs", omega=2.5)
+
+
+# ----------------------------------------------------------------------------- real data
+def _data_dir() -> Path:
+    env = os.environ.get("SOCP_CD_DATA")
+    if env:
+        return Path(env)
+    return Path(__file__).resolve().parents[1].parent / "shared" / "data" / "problems"
+
+
+@pytest.mark.parametrize("name", ["Rover1039.dat", "FC3D_Example1_SBM.dat",
+                                  "Confeti-ex13-4contact-Fc3D-SBM.dat",
+                                  "FC2D_SliderCrankLagrangian00000.dat",
+                                  "FrictionContactProblem00071.dat"])
+def test_real_problems_converge(name):
+    path = _data_dir() / name
+    if not path.exists():
+        pytest.skip(f"shared data absent: {path}")
+    try:
+        p = socp_cd.read_problem(path)
+    except ImportError:
+        pytest.skip("socp_cd.io.read_problem not available")
+    res = solve(p, "nsgs", tol=1e-8, max_iter=100000)
+    assert res.converged and socp_cd.error(p, res.r) <= 1e-8, res
+
+
+def test_block_storage_reproduces_W():
+    import scipy.sparse as sp
+    from socp_cd.solvers.block_storage import block_csr
+    d, nc = 3, 7
+    A = sp.random(d * nc, d * nc, density=0.2, random_state=2).tocsr()
+    # unsorted column indices and a duplicate entry, as real files may have
+    coo = A.tocoo()
+    rows = np.r_[coo.row[::-1], 0]
+    cols = np.r_[coo.col[::-1], 0]
+    vals = np.r_[coo.data[::-1], 1.5]
+    W = sp.csr_matrix((vals, (rows, cols)), shape=A.shape)
+    W.has_sorted_indices = False
+    S = block_csr(W, d)
+    dense = np.zeros((d * nc, d * nc))
+    for i in range(nc):
+        for p in range(S.indptr[i], S.indptr[i + 1]):
+            j = S.indices[p]
+            dense[i * d:(i + 1) * d, j * d:(j + 1) * d] += S.blocks[p]
+    np.testing.assert_allclose(dense, W.toarray())
+    expected_diag = np.stack([W.toarray()[i * d:(i + 1) * d, i * d:(i + 1) * d] for i in range(nc)])
+    np.testing.assert_allclose(S.diag, expected_diag)

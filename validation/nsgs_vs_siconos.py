@@ -1,0 +1,187 @@
+"""socp_cd NSGS against Siconos 4.4 ``fc3d_nsgs`` / ``fc2d_nsgs`` on the shared local problems.
+
+Both solvers start from ``r = 0`` with ``tol = 1e-8`` and ``max_iter = 1e5``
+(sweeps).  Siconos runs with its default NSGS options (one-contact
+Alart–Curnier Newton ``FC3D_ONECONTACT_NSN_GP_HYBRID`` local solver, error
+evaluation ``LIGHT_WITH_FULL_FINAL``), all its runs in *one* worker process
+(:func:`socp_cd.bench.siconos_peer.siconos_batch`); socp_cd NSGS runs with its
+defaults.  Timing: the numba compilation is done (and timed) first by
+:func:`socp_cd.solvers.nsgs.warmup`; every solve is repeated 3 times and the
+minimum kept; socp_cd's time is the backend time (block storage rebuilt every
+run, Python overhead included), Siconos' the ``*_driver`` call.  Every final
+``r`` is judged by :func:`socp_cd.error` and by Siconos' own error function.
+
+Writes ``validation/results/nsgs_vs_siconos.csv`` and ``.md`` and prints the
+table.  Usage: ``python validation/nsgs_vs_siconos.py [--only NAME ...] [--repeat 3]``
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import socp_cd
+from socp_cd.bench.siconos_peer import siconos_available, siconos_batch
+from socp_cd.data import shared_problems_dir
+from socp_cd.solvers import block_storage
+from socp_cd.solvers.nsgs import warmup
+
+OUT = Path(__file__).resolve().parent / "results"
+TOL = 1e-8
+MAX_ITER = 100_000
+
+COLUMNS = ["problem", "dim", "contacts", "status", "sic_status", "iters", "sic_iters",
+           "iter_ratio", "time", "sic_time", "sweep_us", "sic_sweep_us", "sweep_ratio",
+           "loop_sweep_us", "error", "error_by_siconos", "sic_error", "sic_own_error"]
+
+
+def run_ours(problem, repeat):
+    """Min-of-``repeat`` socp_cd NSGS solve; the block storage is rebuilt each time."""
+    best = None
+    for _ in range(repeat):
+        block_storage._CACHE.clear()
+        res = socp_cd.solve(problem, "nsgs", tol=TOL, max_iter=MAX_ITER)
+        if best is None or res.time < best.time:
+            best = res
+    return best
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", nargs="*", help="problem file names")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--time-limit", type=float, default=900.0, help="per Siconos task (s)")
+    args = ap.parse_args(argv)
+    data = shared_problems_dir()
+    if data is None:
+        print("shared problems not found (set SOCP_CD_DATA)")
+        return 1
+    if not siconos_available():
+        print("Siconos not available for /usr/bin/python3")
+        return 1
+
+    compile_time = warmup()
+    print(f"numba warm-up (compile or cache load): {compile_time:.2f} s")
+
+    problems = []
+    for path in sorted(data.iterdir()):
+        if args.only and path.name not in args.only:
+            continue
+        if path.name.startswith(("MANIFEST", "README")):
+            continue
+        p = socp_cd.read_problem(path)
+        if not p.is_global:
+            problems.append((path, p))
+
+    ours = {}
+    for path, p in problems:
+        res = run_ours(p, args.repeat)
+        ours[path.name] = res
+        print(f"socp_cd  {path.name:45s} {res.status:10s} it={res.iterations:6d} "
+              f"err={res.error:.2e} t={res.time:.4f}s", flush=True)
+
+    tasks = []
+    for path, p in problems:
+        for _ in range(args.repeat):
+            tasks.append({"task": "solve", "problem": str(path), "solver": "nsgs", "tol": TOL,
+                          "max_iter": MAX_ITER, "time_limit": args.time_limit})
+        tasks.append({"task": "error", "problem": str(path), "rs": ours[path.name].r})
+    t0 = time.perf_counter()
+    sic = siconos_batch(tasks)
+    print(f"Siconos batch: {time.perf_counter() - t0:.1f} s")
+
+    rows = []
+    k = 0
+    for path, p in problems:
+        runs = sic[k:k + args.repeat]
+        err_task = sic[k + args.repeat]
+        k += args.repeat + 1
+        res = ours[path.name]
+        ok = [s for s in runs if s.get("status") == "ok"]
+        row = {"problem": path.name, "dim": p.dim, "contacts": p.n_contacts,
+               "status": res.status, "iters": res.iterations, "time": res.time,
+               "sweep_us": 1e6 * res.time / max(res.iterations, 1),
+               "loop_sweep_us": 1e6 * res.info.get("loop_time", np.nan) / max(res.iterations, 1),
+               "error": socp_cd.error(p, res.r)}
+        ebs = err_task.get("errors") if err_task.get("status") == "ok" else None
+        row["error_by_siconos"] = float(np.asarray(ebs)[0]) if ebs is not None else np.nan
+        if ok:
+            s = min(ok, key=lambda x: x["time"])
+            se = socp_cd.error(p, s["r"])
+            row.update(sic_iters=int(s["iterations"]), sic_time=float(s["time"]),
+                       sic_sweep_us=1e6 * float(s["time"]) / max(int(s["iterations"]), 1),
+                       sic_error=se, sic_own_error=float(s.get("error", np.nan)),
+                       sic_status=("converged" if se <= TOL else
+                                   "max_iter" if int(s["iterations"]) >= MAX_ITER else "not_converged"))
+            row["iter_ratio"] = row["iters"] / max(row["sic_iters"], 1)
+            row["sweep_ratio"] = row["sweep_us"] / row["sic_sweep_us"]
+        else:
+            row.update(sic_status=runs[0].get("status", "?"), sic_iters=np.nan, sic_time=np.nan,
+                       sic_sweep_us=np.nan, sic_error=np.nan, sic_own_error=np.nan,
+                       iter_ratio=np.nan, sweep_ratio=np.nan)
+        rows.append(row)
+
+    OUT.mkdir(parents=True, exist_ok=True)
+    with open(OUT / "nsgs_vs_siconos.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=COLUMNS)
+        w.writeheader()
+        for row in rows:
+            w.writerow({c: (f"{row[c]:.6g}" if isinstance(row[c], float) else row[c])
+                        for c in COLUMNS})
+    md = render_markdown(rows, compile_time, args.repeat)
+    (OUT / "nsgs_vs_siconos.md").write_text(md)
+    print(md)
+    return 0
+
+
+def _fmt(x, spec):
+    if isinstance(x, float) and not np.isfinite(x):
+        return "—"
+    return format(x, spec)
+
+
+def render_markdown(rows, compile_time, repeat) -> str:
+    head = ("| problem | d | nc | status (ours / Siconos) | sweeps ours | sweeps Siconos | "
+            "sweep ratio | time ours [s] | time Siconos [s] | µs/sweep ours | µs/sweep Siconos | "
+            "time/sweep ratio | error ours | ours by Siconos | Siconos r by socp_cd | "
+            "Siconos own |")
+    lines = [head, "|" + "---|" * 16]
+    for r in rows:
+        lines.append(
+            f"| {r['problem']} | {r['dim']} | {r['contacts']} | {r['status']} / {r['sic_status']} | "
+            f"{r['iters']} | {_fmt(float(r['sic_iters']), '.0f')} | {_fmt(r['iter_ratio'], '.2f')} | "
+            f"{r['time']:.4g} | {_fmt(r['sic_time'], '.4g')} | {r['sweep_us']:.3g} | "
+            f"{_fmt(r['sic_sweep_us'], '.3g')} | {_fmt(r['sweep_ratio'], '.2f')} | "
+            f"{r['error']:.2e} | {_fmt(r['error_by_siconos'], '.2e')} | {_fmt(r['sic_error'], '.2e')} | "
+            f"{_fmt(r['sic_own_error'], '.2e')} |")
+    out = ["# socp_cd NSGS vs Siconos 4.4 NSGS", "",
+           f"tol = {TOL:g}, max_iter = {MAX_ITER} sweeps, r0 = 0, min of {repeat} timed runs, "
+           f"numba warm-up {compile_time:.2f} s (not included). Machine: 2 cores shared with "
+           "other jobs, so timings carry noise.", "",
+           "Time per sweep = solver time / sweeps (socp_cd: backend time incl. block-storage "
+           "build and Python overhead; Siconos: the driver call). Ratios are ours / Siconos.", ""]
+    out += lines
+    out.append("")
+    for d in (3, 2):
+        sel = [r for r in rows if r["dim"] == d and np.isfinite(r["sweep_ratio"])]
+        if not sel:
+            continue
+        both = [r for r in sel if r["sic_status"] == "converged"]
+        missed = [r["problem"] for r in both if r["status"] != "converged"]
+        out.append(f"**{d}D** ({len(sel)} problems): median time/sweep ratio "
+                   f"{np.median([r['sweep_ratio'] for r in sel]):.2f}, median sweep-count ratio "
+                   f"{np.median([r['iter_ratio'] for r in sel]):.2f} "
+                   f"(max {max(r['iter_ratio'] for r in sel):.2f}); "
+                   f"Siconos converged on {len(both)}, socp_cd converged on "
+                   f"{sum(r['status'] == 'converged' for r in sel)}"
+                   + (f"; socp_cd missed: {', '.join(missed)}" if missed else "") + ".")
+        out.append("")
+    return "\n".join(out) + "\n"
+
+
+if __name__ == "__main__":
+    sys.exit(main())
