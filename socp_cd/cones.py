@@ -138,13 +138,17 @@ def fenchel_young_gap(r, u, mu, dim: int = 3) -> np.ndarray:
     return np.einsum("ij,ij->i", R, Uh)
 
 
-def bipotential(u, r, mu, dim: int = 3, feas_tol: float = 0.0) -> np.ndarray:
+def bipotential(u, r, mu, dim: int = 3, feas_tol: float | None = None) -> np.ndarray:
     """De Saxcé's bipotential ``b(-u, r)`` per contact (``+inf`` off its domain).
 
-    Domain: ``r ∈ K_mu`` and ``u_N >= 0`` (up to ``feas_tol``).
+    Domain: ``r ∈ K_mu`` and ``u_N >= 0`` up to ``feas_tol`` (default: 1e-13
+    times the largest entry of ``r``/``u``, so round-off from a projection does
+    not count as infeasible; pass 0.0 for the exact domain).
     """
     R = _blocks(r, dim)
     U = _blocks(u, dim)
+    if feas_tol is None:
+        feas_tol = 1e-13 * max(float(np.max(np.abs(R), initial=0.0)), float(np.max(np.abs(U), initial=0.0)))
     mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), (R.shape[0],))
     val = mu * R[:, 0] * tangential_norm(U, dim)
     bad = (in_cone_violation(R, mu, dim) > feas_tol) | (U[:, 0] < -feas_tol)

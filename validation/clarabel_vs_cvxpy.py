@@ -115,6 +115,7 @@ def main(argv=None) -> int:
             ua, ub = P.velocity(a["r"]), P.velocity(b["r"])
             row = {
                 "problem": path.name, "dim": P.dim, "contacts": P.n_contacts,
+                "norm_q": float(np.linalg.norm(P.q)),
                 "formulation": formulation,
                 **{f"clarabel_{k}": a[k] for k in ("build", "solve", "total")},
                 **{f"cvxpy_{k}": b[k] for k in ("build", "solve", "total")},
@@ -176,6 +177,17 @@ def write(rows, args):
                 f"{r['ratio_build']:.1f} | {r['outer_clarabel']}/{r['outer_cvxpy']} | "
                 f"{r['error_clarabel']:.1e}/{r['error_cvxpy']:.1e} | {r['u_discrepancy']:.1e} |")
         lines.append("")
+        odd = [r for r in sub if r["u_discrepancy"] > 1e-3]
+        if odd:
+            lines.append("Rows with a u discrepancy above 1e-3:")
+            lines.append("")
+            for r in odd:
+                why = ("||q|| = %.1e: r = 0 solves it and the relative error is ill-conditioned"
+                       % r["norm_q"]) if r["norm_q"] < 1e-12 else (
+                    "both paths meet the Coulomb law to %.1e/%.1e: distinct solutions "
+                    "(Coulomb solutions need not be unique)" % (r["error_clarabel"], r["error_cvxpy"]))
+                lines.append(f"* {r['problem']}: du = {r['u_discrepancy']:.1e}; {why}.")
+            lines.append("")
     (OUT / "clarabel_vs_cvxpy.md").write_text("\n".join(lines))
     print(f"wrote {OUT / 'clarabel_vs_cvxpy.csv'} and .md")
 

@@ -13,6 +13,8 @@ import math
 import os
 from pathlib import Path
 
+import numpy as np
+
 #: Column order of the CSV table.
 FIELDS = (
     "suite", "problem", "family", "source", "dim", "contacts", "nnz", "solver", "formulation",
@@ -76,8 +78,12 @@ def _parse(row: dict) -> dict:
 
 
 def _fmt(v) -> str:
-    if isinstance(v, float):
-        return repr(v)  # round-trips exactly ("inf", "nan" included)
+    if isinstance(v, (bool, np.bool_)):
+        return str(bool(v))
+    if isinstance(v, (float, np.floating)):
+        return repr(float(v))  # round-trips exactly ("inf", "nan" included)
+    if isinstance(v, np.integer):
+        return str(int(v))
     return str(v)
 
 

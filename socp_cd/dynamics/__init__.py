@@ -1,0 +1,33 @@
+"""Moreau–Jean contact dynamics of rigid disks, convex polygons (2D) and spheres (3D).
+
+Typical use::
+
+    from socp_cd.dynamics import Scene, Disk, Polygon, Line, Simulation
+    scene = Scene([Disk(0.1, (0, 0.5)), Polygon.box(0.2, 0.1, (0.5, 0.05))],
+                  obstacles=[Line((0, 0), (0, 1))], mu=0.3, restitution=0.0)
+    sim = Simulation(scene, h=1e-3, solver="nsgs")        # or solver="clarabel"
+    traj = sim.run(1000, path="run.h5")                  # Trajectory (HDF5)
+    frame = traj.frames[-1]                              # pos, angle, vel, contacts
+    frame.contacts.pairs, frame.contacts.force           # global contact data
+
+See :mod:`socp_cd.dynamics.stepper` for the scheme, :mod:`~.detection` for the
+contact conventions (pair ``(i, j)``, ``j = -1`` for obstacles, normal from
+``j`` into ``i``), :mod:`~.cases` / :mod:`~.validate` for exact-solution checks.
+"""
+from .bodies import (Disk, FixedDisk, FixedPolygon, FixedSphere, Force, Line, Plane, Polygon, Sphere,
+                     Spring)
+from .detection import Contacts, detect
+from .scene import Scene, System, compile_scene
+from .stepper import ContactFrame, Frame, Simulation, StepStats
+from .trajectory import Trajectory
+
+
+def render_frame(*args, **kwargs):
+    """Draw a 2D frame to PNG (see :func:`socp_cd.dynamics.render.render_frame`)."""
+    from .render import render_frame as _r
+    return _r(*args, **kwargs)
+
+
+__all__ = ["Scene", "System", "compile_scene", "Disk", "Polygon", "Sphere", "Line", "Plane", "FixedDisk",
+           "FixedPolygon", "FixedSphere", "Spring", "Force", "Contacts", "detect", "Simulation",
+           "StepStats", "Frame", "ContactFrame", "Trajectory", "render_frame"]

@@ -125,8 +125,8 @@ def case_sweeping(solver="nsgs", quick=False):
     (``omega = sqrt(k/m)``); the θ-scheme adds O(hV).  Tolerance on ``x(T) - x0``:
     ``(V/omega + 2 h V) / (x_qs(T) - x0)``; on the onset time ``t_s = mu m g/(k V)``: ``2h / t_s``.
     """
-    mu, m, k, V, h = 0.3, 1.0, 100.0, 0.01, 5e-3
-    T = 6.0 if quick else 10.0
+    mu, m, k, V, h = 0.3, 1.0, 1000.0, 0.01, 5e-3
+    T = 2.0 if quick else 10.0
     n = int(round(T / h))
     x0 = 0.0
     drv = lambda t: (x0 + V * t, 0.1)  # noqa: E731

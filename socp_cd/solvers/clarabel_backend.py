@@ -202,15 +202,16 @@ def _single_socp(problem, formulation, tol, options):
         law_err = LAW_RESIDUALS[formulation]
         e0 = law_err(problem, r)
         if e0 > tol:
-            target = problem if formulation == "associated" else problem.with_(mu=np.zeros(problem.n_contacts)) \
-                if not problem.is_global else None
-            if target is not None:
-                r_pol, its = natural_map_newton(target, r, tol=tol, max_iter=options.get("polish_max_iter", 15),
-                                                law="associated")
-                info["polish_iterations"] = its
-                if law_err(problem, r_pol) < e0:
-                    r = r_pol
-                    v = problem.global_velocity(r) if problem.is_global else None
+            target = problem.to_local() if problem.is_global else problem
+            if formulation == "frictionless":
+                target = target.with_(mu=np.zeros(problem.n_contacts))
+            r_pol, its = natural_map_newton(target, r, tol=tol,
+                                            max_iter=options.get("polish_max_iter", 15),
+                                            law="associated")
+            info["polish_iterations"] = its
+            if law_err(problem, r_pol) < e0:
+                r = r_pol
+                v = problem.global_velocity(r) if problem.is_global else None
     return SolverResult(r=r, v=v, status=prov, iterations=int(sol.iterations),
                         info=info, message=f"Clarabel: {status}")
 

@@ -220,16 +220,23 @@ def solve_cvxpy(problem, formulation, *, tol, max_iter=None, r0=None, history=Fa
 
     Notes
     -----
-    ``associated``, ``tresca`` and ``frictionless`` are single cone programs
-    with ``W_s``; when ``W`` is not symmetric they solve the law for ``W_s``,
-    not ``W``, and :func:`socp_cd.solve`'s recomputed residual (with the true
-    ``W``) tells how far that is. ``"coulomb"`` handles the skew part in the
-    outer fixed point. ``max_iter`` caps the outer iterations of ``"coulomb"``.
+    ``tresca`` and ``frictionless`` are single cone programs with ``W_s``;
+    when ``W`` is not symmetric they solve the law for ``W_s``, not ``W``, and
+    :func:`socp_cd.solve`'s recomputed residual (with the true ``W``) tells
+    how far that is. ``"associated"`` is one cone program when ``W`` is
+    symmetric, otherwise the skew part goes to the outer fixed point
+    (``law="associated"``, as the direct Clarabel path); ``"coulomb"`` always
+    uses it. ``max_iter`` caps those outer iterations (default 50). Unlike the
+    direct path, no Newton/NSGS polish is applied by default (``polish=None``):
+    the result is cvxpy's alone.
     """
     _require_cvxpy()
     solver_options = options.pop("solver_options", None)
     threshold = options.pop("threshold", None)
-    if formulation == "coulomb":
+    # "coulomb", and "associated" with a non-symmetric W (skew part in an outer loop)
+    outer_law = formulation if formulation == "coulomb" or (
+        formulation == "associated" and not problem.is_symmetric) else None
+    if outer_law is not None:
         try:
             from .desaxce import desaxce_fixed_point
         except ModuleNotFoundError as exc:  # pragma: no cover - written concurrently
@@ -239,6 +246,8 @@ def solve_cvxpy(problem, formulation, *, tol, max_iter=None, r0=None, history=Fa
             return CvxpyModel(prob, W_sym, "coulomb", solver_options=solver_options)
 
         options.setdefault("polish", None)   # the reference result is cvxpy's alone
+        if outer_law == "associated":
+            options["law"] = "associated"
         return desaxce_fixed_point(problem, factory, tol=tol,
                                    max_iter=DEFAULT_MAX_ITER if max_iter is None else max_iter,
                                    r0=r0, history=history, **options)

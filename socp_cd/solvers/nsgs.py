@@ -73,7 +73,7 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         raise UnsupportedError(f"nsgs: unknown option(s) {sorted(unknown)}; "
                                f"known: {sorted(_OPTIONS)}")
     d, nc = problem.dim, problem.n_contacts
-    t_setup = time.perf_counter()
+    t_setup, cpu0 = time.perf_counter(), time.process_time()
     ls_name = _option(options, "local_solver", "exact" if d == 2 else "ac_newton")
     if ls_name not in _KINDS:
         raise InvalidProblemError("local_solver", f"must be one of {sorted(_KINDS)}, got {ls_name!r}")
@@ -126,6 +126,7 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         rhoN, rhoT, rhoP, r, float(tol), max_iter, omega, ordering == "shuffled", seed,
         error_every, stall_window, bool(history), loc_tol, newton_maxit, proj_maxit, hist)
     info["loop_time"] = time.perf_counter() - t0
+    info["cpu_time"] = time.process_time() - cpu0
     info.update(full_error_evaluations=int(n_full), local_failures=int(n_fail),
                 light_error=float(light), internal_error=float(err))
     status_name = STATUS_NAMES[status]
