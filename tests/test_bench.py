@@ -207,6 +207,7 @@ def test_solver_spec_parsing():
     assert (s.name, s.formulation, dict(s.options)) == ("nsgs", "tresca", {"omega": 1.5, "ordering": "shuffled"})
     assert C.parse_solver("siconos:NSN_AC").name == "siconos:nsn_ac"
     assert C.resolve_tolerances(["mid", "sweep"])[0] == 1e-2 and len(C.resolve_tolerances("sweep")) == 9
+    assert C.resolve_tolerances("all") == [1e-2, 1e-4, 1e-6, 1e-8, 1e-10]
     assert C.resolve_tolerances(None) == [1e-4, 1e-6, 1e-8]
 
 
@@ -251,10 +252,7 @@ def test_dask_matches_serial():
         pytest.skip("no real solver registered")
     probs = C.generated_problems("manufactured", sizes=(3,), dims=(2, 3))
     serial = C.run_campaign(probs, real, [1e-6], 60.0)
-    from dask.distributed import Client, LocalCluster
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
-        par = C.run_campaign(probs, real, [1e-6], 60.0, dask=client)
+    par = C.run_campaign(probs, real, [1e-6], 60.0, dask=True)   # LocalCluster, 2 worker processes
     assert len(serial) == len(par) == len(probs) * len(real)
     key = lambda r: (r["problem"], r["solver"])  # noqa: E731
     for a, b in zip(sorted(serial, key=key), sorted(par, key=key)):

@@ -184,7 +184,7 @@ def write(rows, args):
             for r in odd:
                 why = ("||q|| = %.1e: r = 0 solves it and the relative error is ill-conditioned"
                        % r["norm_q"]) if r["norm_q"] < 1e-12 else (
-                    "both paths meet the Coulomb law to %.1e/%.1e: distinct solutions "
+                    "Coulomb residuals %.1e/%.1e: two different approximate solutions "
                     "(Coulomb solutions need not be unique)" % (r["error_clarabel"], r["error_cvxpy"]))
                 lines.append(f"* {r['problem']}: du = {r['u_discrepancy']:.1e}; {why}.")
             lines.append("")

@@ -75,6 +75,8 @@ def main(argv=None):
     ap.add_argument("--tol", type=float, default=1e-8)
     ap.add_argument("--only", nargs="*", default=None)
     ap.add_argument("--no-siconos", action="store_true")
+    ap.add_argument("--reuse-siconos", action="store_true",
+                    help="take the Siconos columns from the previous conic_vs_siconos.csv")
     args = ap.parse_args(argv)
     d = shared_problems_dir()
     if d is None:
@@ -104,6 +106,14 @@ def main(argv=None):
     note = ""
     if args.no_siconos:
         note = "Siconos not run (--no-siconos)"
+    elif args.reuse_siconos:
+        prev = {r["problem"]: r for r in csv.DictReader(open(OUT / "conic_vs_siconos.csv"))}
+        for row in rows:
+            old = prev.get(row["problem"], {})
+            for key in COLS[10:]:
+                val = old.get(key, "")
+                row[key] = (None if val == "" else val if key.endswith("status")
+                            else float(val) if key.endswith(("error", "time")) else int(float(val)))
     else:
         t0 = time.perf_counter()
         results, note = run_siconos(tasks)

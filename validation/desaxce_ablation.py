@@ -4,9 +4,11 @@ Variants, run on every shared 3D problem (local and global) at tol 1e-8:
 
 * ``plain``      — fixed inner tolerance ``min(1e-10, tol/100)``, no acceleration, no polish;
 * ``+adaptive``  — inner tolerance follows the outer error (loose early, tight late);
-* ``+anderson``  — plus Anderson acceleration (memory 5, safeguarded) of the shift;
-* ``+polish``    — plus the semismooth-Newton polish on the natural map (the default);
-* ``plain+polish`` — the polish alone on top of ``plain``.
+* ``+anderson``  — Anderson acceleration (memory 5, safeguarded) of the shift;
+* ``+anderson+adaptive`` — both;
+* ``plain+polish`` — the semismooth-Newton polish on the natural map alone;
+* ``+anderson+polish (default)`` — what ``solve(p, "clarabel")`` does;
+* ``+anderson+adaptive+polish`` — everything.
 
 Columns: outer iterations (SOCP solves), Clarabel interior-point iterations,
 Newton polish steps (one sparse LU each), wall time, final Siconos error.
@@ -35,9 +37,11 @@ TOL = 1e-8
 VARIANTS = {
     "plain": dict(accel=None, adaptive_tol=False, polish=None),
     "+adaptive": dict(accel=None, adaptive_tol=True, polish=None),
-    "+anderson": dict(accel="anderson", adaptive_tol=True, polish=None),
-    "+polish": dict(accel="anderson", adaptive_tol=True, polish="newton"),
+    "+anderson": dict(accel="anderson", adaptive_tol=False, polish=None),
+    "+anderson+adaptive": dict(accel="anderson", adaptive_tol=True, polish=None),
     "plain+polish": dict(accel=None, adaptive_tol=False, polish="newton"),
+    "+anderson+polish (default)": dict(accel="anderson", adaptive_tol=False, polish="newton"),
+    "+anderson+adaptive+polish": dict(accel="anderson", adaptive_tol=True, polish="newton"),
 }
 
 
@@ -61,7 +65,7 @@ def main():
                          "clarabel_it": res.info.get("inner_iterations", 0),
                          "polish_it": res.info.get("polish_iterations", 0), "time": res.time})
             r = rows[-1]
-            print(f"{name[:40]:40s} {var:13s} {r['status']:10s} err={r['error']:.2e} "
+            print(f"{name[:40]:40s} {var:27s} {r['status']:10s} err={r['error']:.2e} "
                   f"outer={r['outer_it']:3d} ipm={r['clarabel_it']:5d} newton={r['polish_it']:3d} "
                   f"t={r['time']:.3f}", flush=True)
     OUT.mkdir(parents=True, exist_ok=True)

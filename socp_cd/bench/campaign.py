@@ -32,6 +32,8 @@ from .records import append_records, new_record, settings_string
 #: Tolerance presets (qpbenchmark style) and the work–precision sweep.
 PRESETS = {"low": 1e-4, "mid": 1e-6, "high": 1e-8}
 SWEEP = tuple(10.0 ** -k for k in range(2, 11))
+#: Tolerances of ``--preset all``: every other decade of the sweep (contains the presets).
+ALL = tuple(10.0 ** -k for k in range(2, 11, 2))
 #: Prefix of Siconos peer solvers in solver specs and records.
 SICONOS_PREFIX = "siconos:"
 #: Siconos solvers run by default when Siconos is available.
@@ -569,7 +571,11 @@ def run_skipped(task: RunTask) -> dict:
 
 
 def resolve_tolerances(tolerances) -> list[float]:
-    """Expand preset names (``low``, ``mid``, ``high``, ``sweep``, ``all``) and numbers."""
+    """Expand preset names and numbers into a decreasing list of tolerances.
+
+    ``low`` 1e-4, ``mid`` 1e-6, ``high`` 1e-8, ``sweep`` 1e-2, 1e-3, ..., 1e-10,
+    ``all`` 1e-2, 1e-4, ..., 1e-10 (the three presets plus both ends).
+    """
     if tolerances is None:
         tolerances = ["low", "mid", "high"]
     if isinstance(tolerances, (str, float, int)):
@@ -578,8 +584,10 @@ def resolve_tolerances(tolerances) -> list[float]:
     for t in tolerances:
         if isinstance(t, str) and t in PRESETS:
             out.append(PRESETS[t])
-        elif t in ("sweep", "all"):
+        elif t == "sweep":
             out += list(SWEEP)
+        elif t == "all":
+            out += list(ALL)
         else:
             out.append(float(t))
     return sorted(set(out), reverse=True)
@@ -601,7 +609,8 @@ def run_campaign(problems, solvers=None, tolerances=None, time_limit: float = 30
         Siconos is available.
     tolerances : list, optional
         Numbers and/or preset names ``low`` (1e-4), ``mid`` (1e-6),
-        ``high`` (1e-8), ``sweep`` (1e-2 ... 1e-10); default the three presets.
+        ``high`` (1e-8), ``sweep`` (1e-2 ... 1e-10, every decade), ``all``
+        (1e-2 ... 1e-10, every other decade); default the three presets.
     time_limit : float
         Seconds per run; a run exceeding it is killed (status ``time_limit``).
     max_iter : int, optional

@@ -46,11 +46,12 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--sizes", default="1,10,100", help="contacts of generated problems")
     ap.add_argument("--dims", default="2,3", help="dimensions of generated problems")
     ap.add_argument("--seeds", default="0", help="seeds of generated problems")
-    ap.add_argument("--solvers", default="", help="comma-less list separated by ';' or ',' of "
-                    "name[:formulation] or siconos:NAME (default: all registered + Siconos)")
+    ap.add_argument("--solvers", default="", help="comma-separated specs name[:formulation][,key=value] "
+                    "or siconos:NAME (default: every registered Coulomb solver + Siconos peers)")
     ap.add_argument("--no-siconos", action="store_true", help="leave the Siconos peers out")
     ap.add_argument("--preset", default=None,
-                    help="low|mid|high|sweep|all (all = sweep 1e-2..1e-10, contains the presets)")
+                    help="low (1e-4) | mid (1e-6) | high (1e-8) | sweep (1e-2..1e-10, every decade) | "
+                    "all (1e-2..1e-10 every other decade: the presets + work-precision ends)")
     ap.add_argument("--tol", type=float, action="append", default=[], help="explicit tolerance(s)")
     ap.add_argument("--time-limit", type=float, default=30.0, help="seconds per run (default 30)")
     ap.add_argument("--max-iter", type=int, default=None)

@@ -65,8 +65,8 @@ def extreme_problems(size: int = 50, large: int = 10_000, dims=(3,), cases=None,
     for case in (cases or CASES):
         if case == "large" and not large:
             continue
-        for dim in dims:
-            n = large if case == "large" else size
+        for dim in ((max(dims),) if case == "large" else dims):   # one large problem (3D)
+            n = large if case == "large" else (0 if case == "zero_contacts" else size)
             kw = dict(_builder="extremes", case=case, n_contacts=int(n), dim=int(dim), seed=seed)
             out.append(ProblemRef(f"{case} ({dim}d, {n})", "extremes", generator=json.dumps(kw, sort_keys=True)))
     return out
@@ -116,14 +116,14 @@ def run_extremes(solvers=None, tol: float = 1e-6, time_limit: float = 20.0, *, s
 
 
 def honest(rec: dict) -> bool:
-    """A run's status is honest when it claims convergence exactly when ``error <= tol``.
+    """A status is dishonest when it claims convergence but ``error > tol``.
 
-    Non-solver outcomes (``rejected``, ``unsupported``, ``time_limit``,
-    ``crashed``) claim nothing and are honest by definition.
+    Under-claiming (a solver stopping with ``max_iter`` although its
+    recomputed error is already below ``tol``, which Siconos' own, differently
+    normalized stopping test can do) is conservative and counted as honest;
+    the record still shows ``success``.
     """
-    if rec["status"] in ("rejected", "unsupported", "time_limit", "crashed"):
-        return True
-    return (rec["status"] == "converged") == bool(rec["success"])
+    return not (rec["status"] == "converged" and not rec["success"])
 
 
 def _cell(rec: dict) -> str:
@@ -133,7 +133,7 @@ def _cell(rec: dict) -> str:
     err = rec["error"]
     e = f"{err:.1e}" if math.isfinite(err) else ("NaN" if rec["nan"] else "—")
     mark = "ok" if rec["success"] else st
-    flags = ("" if honest(rec) else " DISHONEST") + (" NaN!" if rec["nan"] else "")
+    flags = ("" if honest(rec) else " (claimed converged)") + (" NaN!" if rec["nan"] else "")
     return f"{mark} {e}{flags}"
 
 
@@ -149,8 +149,8 @@ def extremes_markdown(records) -> str:
     lines = ["# Extremes suite", "",
              f"Requested tolerance {tol:.0e}; each cell: `ok` (Siconos error recomputed from r <= tol) "
              f"or the solver's status, then the achieved error. Runs: {len(records)}; crashed: {n_crash}; "
-             f"runs with NaN/Inf: {n_bad}; dishonest statuses (converged claimed with error > tol or "
-             f"vice versa): {n_dis}.", "",
+             f"runs with NaN/Inf: {n_bad}; over-claimed statuses (solver claimed convergence, "
+             f"recomputed error > tol, marked `(claimed converged)`): {n_dis}.", "",
              "| case | " + " | ".join(solvers) + " |", "|---|" + "---|" * len(solvers)]
     for c in cases:
         lines.append(f"| {c} | " + " | ".join(_cell(cell[(c, s)]) if (c, s) in cell else "" for s in solvers) + " |")

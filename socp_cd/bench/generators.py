@@ -146,8 +146,10 @@ def delassus(n_contacts: int, dim: int = 3, structure: str = "tree", mass_ratio:
     nc = int(n_contacts)
     if structure == "tree":
         nb = nc
-        # parent of contact i: a body j < i or the ground (-1)
-        parent = np.concatenate([[-1], rng.integers(-1, np.arange(1, nc))]).astype(int)
+        # parent of contact i: a body j < i, or the ground (-1) with probability 1/2
+        # (grounding keeps the trees shallow and W well conditioned)
+        parent = np.concatenate([[-1], rng.integers(0, np.arange(1, nc))]).astype(int)
+        parent[rng.random(nc) < 0.5] = -1
         bodies = np.stack([np.arange(nc), parent], axis=1)
     elif structure == "redundant":
         nb = max(1, int(np.ceil(bodies_per_contact * nc)))

@@ -164,7 +164,7 @@ def case_bouncing_ball(solver="nsgs", quick=False):
     e, h0, R = 0.5, 1.0, 0.1
     h = 1e-3 if quick else 5e-4
     T_rest = np.sqrt(2 * h0 / G) * (1 + e) / (1 - e)
-    T = 1.2 * T_rest if not quick else 1.0
+    T = 1.2 * T_rest if not quick else 1.1
     n = int(round(T / h))
     sc = Scene([Disk(R, (0.0, R + h0))], [Line()], restitution=e)
     sim = _sim(sc, h, solver)

@@ -6,11 +6,12 @@ One step from ``(q_k, v_k, t_k)`` (see ``formulations/moreau_jean.md``):
 2. free velocity ``v_free = v_k + M̂⁻¹ h (f_θ - K (q_k + hθ v_k))`` with the
    iteration matrix ``M̂ = M + h²θ² K`` (``K``: spring stiffness, springs are
    implicit), ``f_θ = θ f(t_{k+1}) + (1-θ) f(t_k)``-type loads;
-3. activation: a contact enters the step's problem iff its predicted gap
-   ``g + h(θ u_N^free + (1-θ) u_N^k) <= margin``;
+3. activation: a contact enters the step's problem iff its gap
+   ``g <= margin`` or its predicted gap ``g + h(θ u_N^free + (1-θ) u_N^k) <= margin``
+   (it closes during the step);
 4. the local problem ``u = W r + q`` with ``W = Hᵀ M̂⁻¹ H``,
    ``q = Hᵀ v_free + s``; the normal shift ``s_N`` is Newton's ``e u_N^k`` for
-   contacts closing with ``e > 0`` (impact law ``u_N⁺ + e u_N⁻ ≥ 0``) and the
+   contacts predicted to close with ``u_N^k < 0`` and ``e > 0`` (impact law ``u_N⁺ + e u_N⁻ ≥ 0``) and the
    gap correction ``max(0, g + h(1-θ) u_N^k)/(hθ) ≥ 0`` otherwise (a contact
    activated early through the margin cannot act at a distance);
 5. solve with :func:`socp_cd.solve` (warm start from the previous step's
@@ -126,8 +127,9 @@ class Simulation:
     tol : float
         Solver tolerance (Siconos relative error).
     max_iter : int, optional
-    margin : float
-        Activation safety margin on the predicted gap (>= 0).
+    margin : float, optional
+        Activation safety margin on the gap and predicted gap (>= 0); default
+        ``1e-3 ×`` the smallest body radius.
     warm_start : bool
         Start the solver from the previous step's impulses (matched by key).
     form : {"local", "global"}
@@ -140,12 +142,14 @@ class Simulation:
 
     def __init__(self, scene: Scene, h: float, *, theta: float = 0.5, solver: str = "nsgs",
                  formulation: Optional[str] = None, tol: float = 1e-8, max_iter: Optional[int] = None,
-                 margin: float = 0.0, warm_start: bool = True, form: str = "local",
+                 margin: Optional[float] = None, warm_start: bool = True, form: str = "local",
                  solver_options: Optional[dict] = None, t0: float = 0.0):
         if not (np.isfinite(h) and h > 0):
             raise InvalidProblemError("h", f"must be a positive time step, got {h!r}")
         if not (0.0 < theta <= 1.0):
             raise InvalidProblemError("theta", f"must lie in (0, 1], got {theta!r}")
+        if margin is None:
+            margin = 1e-3 * float(min(b.bounding_radius for b in scene.bodies)) if scene.bodies else 0.0
         if not (np.isfinite(margin) and margin >= 0):
             raise InvalidProblemError("margin", f"must be >= 0, got {margin!r}")
         if form not in ("local", "global"):
@@ -232,12 +236,13 @@ class Simulation:
             E = contact_frames(C.normal)
             uN0 = local_velocity(s, C, v0, E)[:, 0]
             uNf = local_velocity(s, C, vfree, E)[:, 0]
-            active = C.gap + h * (th * uNf + (1 - th) * uN0) <= self.margin
+            closing = C.gap + h * (th * uNf + (1 - th) * uN0) <= self.margin
+            active = closing | (C.gap <= self.margin)
             if active.any():
                 A = C.subset(active)
                 Ha, Ea = assemble_H(s, A)
                 u0 = uN0[active]
-                impact = (u0 < 0) & (A.e > 0)
+                impact = (u0 < 0) & (A.e > 0) & closing[active]
                 shift = np.where(impact, A.e * u0, np.maximum(0.0, A.gap + h * (1 - th) * u0) / (h * th))
                 w = np.zeros(A.n * dim)
                 w[::dim] = shift

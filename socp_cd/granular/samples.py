@@ -55,9 +55,9 @@ def biaxial_box_scene(n: int = 200, r_min: float = 0.35, r_max: float = 0.65,
     top walls are non-rotating rectangles pushed inwards by
     ``P_x * H0`` and ``P_y * W0`` (``H0``, ``W0`` the initial box sizes; the
     load is a force, so the final pressure is ``P * L0 / L``, which the
-    analysis recomputes from the actual wall forces).  All walls have friction
-    ``mu_wall`` (default 0: frictionless, so the moving walls cannot drift
-    sideways).
+    analysis recomputes from the actual wall forces).  The moving walls are
+    frictionless (so they cannot drift sideways); the fixed lines have friction
+    ``mu_wall``.
 
     Returns
     -------
@@ -80,8 +80,8 @@ def biaxial_box_scene(n: int = 200, r_min: float = 0.35, r_max: float = 0.65,
     t = 2 * r_max
     big = 3 * max(W0, H0)
     mw = wall_mass_factor * m_grains / np.sqrt(n)
-    right = Polygon.box(t, big, position=(W0 + t / 2, big / 2 - t), mass=mw, fixed_rotation=True, mu=mu_wall)
-    top = Polygon.box(big, t, position=(big / 2 - t, H0 + t / 2), mass=mw, fixed_rotation=True, mu=mu_wall)
+    right = Polygon.box(t, big, position=(W0 + t / 2, big / 2 - t), mass=mw, fixed_rotation=True, mu=0.0)
+    top = Polygon.box(big, t, position=(big / 2 - t, H0 + t / 2), mass=mw, fixed_rotation=True, mu=0.0)
     Px, Py = map(float, pressure)
     forces = [Force(n, lambda _t, f=-Px * H0: (f, 0.0)), Force(n + 1, lambda _t, f=-Py * W0: (0.0, f))]
     scene = Scene(bodies=grains + [right, top],

@@ -9,8 +9,10 @@ with ``S`` the Coulomb cone ``K_mu`` (``"associated"``, ``"coulomb"``), Tresca's
 set ``{r_N >= 0, ||r_T|| <= g}`` (``"tresca"``) or ``{r_N >= 0, r_T = 0}``
 (``"frictionless"``).  ``q̃`` is a ``cp.Parameter`` so that the model is built
 and canonicalized once and re-solved cheaply: ``q̃ = q`` for the associated
-laws, ``q̃ = q + mu ||u_T|| e_N (+ skew-part term)`` inside the De Saxcé fixed
-point for ``"coulomb"`` (:func:`socp_cd.solvers.desaxce.desaxce_fixed_point`).
+laws, ``q̃ = q + mu ||u_T|| e_N + W_a r`` inside the De Saxcé fixed point
+for ``"coulomb"`` (:func:`socp_cd.solvers.desaxce.desaxce_fixed_point`;
+``W_a`` the skew part of ``W``, also moved to that outer loop for
+``"associated"`` when ``W`` is not symmetric).
 
 The quadratic term is ``cp.quad_form(r, cp.psd_wrap(W_s))``: cvxpy hands
 ``W_s`` to Clarabel as its ``P`` matrix unchanged (no factorization, no extra
@@ -31,6 +33,7 @@ import warnings
 import numpy as np
 
 from ..errors import UnsupportedError
+from .desaxce import desaxce_fixed_point
 from .registry import register
 from .result import SolverResult
 
@@ -193,7 +196,7 @@ class CvxpyModel:
         }
 
 
-def _result_from_inner(problem, r, info, formulation) -> SolverResult:
+def _result_from_inner(r, info) -> SolverResult:
     status, why = STATUS_MAP.get(info["status"], ("numerical_error", "unknown cvxpy status"))
     msg = f"cvxpy/Clarabel: {info['status']}" + (f" ({why})" if why else "")
     return SolverResult(r=r, status=status, iterations=info["iterations"],
@@ -237,11 +240,6 @@ def solve_cvxpy(problem, formulation, *, tol, max_iter=None, r0=None, history=Fa
     outer_law = formulation if formulation == "coulomb" or (
         formulation == "associated" and not problem.is_symmetric) else None
     if outer_law is not None:
-        try:
-            from .desaxce import desaxce_fixed_point
-        except ModuleNotFoundError as exc:  # pragma: no cover - written concurrently
-            raise UnsupportedError("cvxpy 'coulomb' needs socp_cd.solvers.desaxce") from exc
-
         def factory(prob, W_sym):
             return CvxpyModel(prob, W_sym, "coulomb", solver_options=solver_options)
 
@@ -255,7 +253,7 @@ def solve_cvxpy(problem, formulation, *, tol, max_iter=None, r0=None, history=Fa
         raise UnsupportedError(f"solver 'cvxpy' got unknown options {sorted(options)}")
     model = CvxpyModel(problem, None, formulation, threshold, solver_options)
     r, info = model.solve(problem.q, single_program_tol(tol))
-    return _result_from_inner(problem, r, info, formulation)
+    return _result_from_inner(r, info)
 
 
 __all__ = ["CvxpyModel", "law_constraints", "clarabel_tolerances", "single_program_tol", "solve_cvxpy", "STATUS_MAP"]

@@ -43,7 +43,7 @@ LOCAL_OK = 0
 LOCAL_NOT_CONVERGED = 1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _matvec_plus(A, x, b, d, out):
     """``out = A x + b``."""
     for a in range(d):
@@ -53,7 +53,7 @@ def _matvec_plus(A, x, b, d, out):
         out[a] = s
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _tnorm(x, d):
     """``||x_T||`` of a local vector."""
     if d == 2:
@@ -61,7 +61,7 @@ def _tnorm(x, d):
     return np.sqrt(x[1] * x[1] + x[2] * x[2])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _norm(x, d):
     s = 0.0
     for a in range(d):
@@ -69,7 +69,7 @@ def _norm(x, d):
     return np.sqrt(s)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def project_law(x, d, mu, g, law, out):
     """Project ``x`` on ``K_mu`` (Coulomb, associated) or ``R+ x B(0, g)`` (Tresca)."""
     xn = x[0]
@@ -96,7 +96,7 @@ def project_law(x, d, mu, g, law, out):
             out[a] = s * x[a]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def law_velocity(u, d, mu, law, out):
     """``û = u + mu ||u_T|| e_N`` for Coulomb, ``u`` otherwise."""
     for a in range(d):
@@ -200,7 +200,7 @@ def projection_fp(A, b, mu, g, law, rho, r, d, maxit, tol, w1, w2):
 
 
 # --------------------------------------------------------------------------- Alart–Curnier
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def ac_function(A, b, mu, g, law, rhoN, rhoT, r, d, u, F, J, want_jac):
     """Alart–Curnier function ``F(r)`` and one element ``J`` of its generalized Jacobian.
 
@@ -265,7 +265,7 @@ def ac_function(A, b, mu, g, law, rhoN, rhoT, r, d, u, F, J, want_jac):
     return _norm(F, d)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def solve_small(J, rhs, d, x, M):
     """Solve ``J x = rhs`` (``d <= 3``) by Gaussian elimination with partial pivoting.
 

@@ -19,7 +19,7 @@ STATUS_NUMERICAL = 3
 STATUS_NAMES = ("converged", "max_iter", "stalled", "numerical_error")
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def local_free_velocity(i, d, indptr, indices, blocks, q, r, b):
     """``b = q_i + sum_{j != i} W_ij r_j`` from block row ``i``."""
     for a in range(d):

@@ -165,32 +165,45 @@ def tresca_qp(problem, threshold, W_sym=None, qp_max_iter=None) -> ProxQPInner:
 
 
 def _solve_law(problem, inner: ProxQPInner, tol: float, max_iter: int, residual) -> SolverResult:
-    """One QP with ``W_s``; with a non-symmetric ``W``, a splitting on the skew part.
+    """QP(s) with ``W_s`` until the law residual (true ``W``) is ``<= tol``.
 
-    ``W_s r_{k+1} + (q + W_a r_k) = u`` is re-solved (warm-started, ``g``
-    updated) until ``residual(r) <= tol`` — so the law is solved for the true
-    ``W = W_s + W_a`` — or ``max_iter`` QPs were solved.  The splitting
-    converges when ``W_a`` is small against the curvature of ``W_s`` on the
-    active set.
+    After the first QP, while ``residual(r) > tol`` (at most ``max_iter`` QPs):
+
+    * the QP is re-solved warm-started with ProxQP's tolerance divided by 10
+      (down to ``1e-6 tol``; with a skew part only when the residual did not
+      halve): ``eps_abs`` bounds ProxQP's own KKT residuals, which on badly
+      scaled data are a poor proxy for the law residual;
+    * with a non-symmetric ``W``, the linear term becomes ``q + W_a r_k`` — a
+      splitting on the skew part, so that a fixed point solves
+      ``W_s r + q + W_a r = u`` for the true ``W``. It converges when ``W_a``
+      is small against the curvature of ``W_s`` on the active set.
     """
     q = problem.q_local
     W_a = None if problem.is_symmetric else problem.skew_part()
-    r, info = inner.solve(q, tol)
+    itol, floor = tol, 1e-6 * tol
+    r, info = inner.solve(q, itol)
     total, k = info["iterations"], 1
+    err = residual(r)
+    err_prev = np.inf
+    while info["ok"] and k < max_iter and err > tol:
+        if W_a is None and itol <= floor:
+            break
+        if W_a is None or err > 0.5 * err_prev:    # splitting alone no longer helps
+            itol = max(0.1 * itol, floor)
+        r, info = inner.solve(q if W_a is None else q + W_a @ r, itol)
+        total, k, err_prev = total + info["iterations"], k + 1, err
+        err = residual(r)
     status = info["socp_status"]
-    if W_a is not None:
-        while info["ok"] and k < max_iter and residual(r) > tol:
-            r, info = inner.solve(q + W_a @ r, tol)
-            total, k = total + info["iterations"], k + 1
-        status = info["socp_status"]
-        if status == "converged" and residual(r) > tol:
-            status = "max_iter"
+    if status == "converged" and err > tol:
+        status = "stalled" if W_a is None else "max_iter"
     msg = f"ProxQP: {info['status']}" + (f" ({info['why']})" if info["why"] else "")
-    if W_a is not None:
-        msg += f"; {k} QP(s) of the skew-part splitting"
+    if k > 1:
+        msg += f"; {k} QPs (" + ("skew-part splitting, " if W_a is not None else "") + \
+            f"last eps_abs for tol {itol:.0e})"
     return SolverResult(r=r, status=status, iterations=k, message=msg,
                         info={"proxqp_status": info["status"], "objective": info["objective"],
-                              "inner_iterations": total, "skew_splitting": W_a is not None})
+                              "inner_iterations": total, "skew_splitting": W_a is not None,
+                              "law_error": err})
 
 
 @register("proxsuite", ("frictionless", "faceted", "coulomb", "associated", "tresca"), dims=(2, 3),

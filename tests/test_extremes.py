@@ -1,0 +1,72 @@
+"""Reduced extremes suite: every registered solver, no crash, no NaN, honest statuses."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import socp_cd
+from socp_cd.bench.extremes import CASES, build, extremes_markdown, honest, run_extremes
+from socp_cd.bench.records import RUN_STATUSES
+from socp_cd.errors import InvalidProblemError
+
+
+def test_extreme_cases_have_their_advertised_property():
+    with pytest.raises(InvalidProblemError, match="zero contacts"):
+        build("zero_contacts")
+    assert np.all(build("mu=1e3", 5).mu == 1e3)
+    red = build("redundant", 12)
+    assert red.is_rank_deficient
+    bad = build("badly_scaled", 40)
+    a = np.abs(bad.W.data)
+    assert a.max() / a.min() > 1e8 and np.linalg.norm(bad.q) > 1e2
+    graze = build("all_grazing", 6)
+    assert np.all(graze.q == 0) and np.all(graze.solution.r == 0)
+    for case in CASES:
+        if case not in ("zero_contacts", "large"):
+            p = build(case, 6)
+            assert socp_cd.error(p, p.solution.r) < 1e-12, case
+
+
+@pytest.fixture(scope="module")
+def records():
+    solvers = [n for n, s in socp_cd.solvers().items() if "coulomb" in s["formulations"]]
+    return solvers, run_extremes(solvers, tol=1e-6, time_limit=30.0, size=6, large=0, dims=(2, 3))
+
+
+def test_every_solver_every_case_has_a_valid_outcome(records):
+    solvers, recs = records
+    n_cases = 2 * (len(CASES) - 1)          # 2D and 3D, no large case
+    assert len(recs) == n_cases * len(solvers)
+    for r in recs:
+        assert r["status"] in RUN_STATUSES, r
+        assert r["status"] != "crashed", (r["problem"], r["solver"], r["message"])
+        assert not r["nan"], (r["problem"], r["solver"])
+        assert honest(r), (r["problem"], r["solver"], r["error"])
+        if r["status"] not in ("rejected", "unsupported", "time_limit"):
+            assert np.isfinite(r["error"])
+            assert r["success"] == (r["error"] <= 1e-6)
+
+
+def test_zero_contacts_rejected_for_every_solver(records):
+    solvers, recs = records
+    zero = [r for r in recs if r["problem"].startswith("zero_contacts")]
+    assert len(zero) == 2 * len(solvers)
+    assert all(r["status"] == "rejected" and "zero contacts" in r["message"] for r in zero)
+
+
+def test_frictionless_successes_recover_the_unique_velocity(records):
+    # mu = 0 and SPD W: a strictly convex QP, so u (and r) are unique
+    _, recs = records
+    ok = [r for r in recs if r["problem"].startswith("mu=0 ") and r["success"]]
+    assert ok, "no solver solved the frictionless case"
+    for r in ok:
+        assert r["u_error"] < 1e-3, (r["solver"], r["u_error"])
+
+
+def test_markdown_table_lists_every_case(records):
+    solvers, recs = records
+    md = extremes_markdown(recs)
+    for case in CASES:
+        if case != "large":
+            assert f"| {case} (" in md
+    assert md.count("| zero_contacts (2d, 0) | " + " | ".join(["rejected"] * len(solvers))) == 1
