@@ -6,7 +6,6 @@ backwards: pick ``(r*, u*)`` obeying the law contact by contact, then set
 """
 import numpy as np
 import pytest
-import scipy.sparse as sp
 
 from socp_cd.cones import in_cone_violation, project_cone, project_dual_cone
 from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem

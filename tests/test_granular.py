@@ -255,3 +255,64 @@ def test_invalid_volume_and_cut():
         cut_traction(s, [0, 0], [0, 0], 1.0)
     with pytest.raises(InvalidProblemError):
         cut_traction(s, [0, 0, 0], [0, 1], 1.0)
+
+
+# ------------------------------------------------------------------ simulator-built packing
+@pytest.fixture(scope="module")
+def settled_packing():
+    """20 polydisperse frictional disks settled under gravity in a box (Moreau–Jean, NSGS)."""
+    from socp_cd.dynamics.bodies import Disk, Line
+    from socp_cd.dynamics.scene import Scene
+    from socp_cd.dynamics.stepper import Simulation
+    from socp_cd.granular.samples import relax
+
+    rng = np.random.default_rng(3)
+    disks = [Disk(radius=rng.uniform(0.28, 0.36), mu=0.3,
+                  position=((k % 4 + 0.5) * 0.75 + rng.uniform(-0.03, 0.03), 0.4 + (k // 4) * 0.75))
+             for k in range(20)]
+    W = 3.0
+    scene = Scene(bodies=disks, obstacles=[Line((0, 0), (0, 1)), Line((0, 0), (1, 0)),
+                                           Line((W, 0), (-1, 0))], mu=0.3)
+    sim = Simulation(scene, h=5e-3, tol=1e-10, max_iter=2000)
+    steps, prev, vmax = relax(sim, 500, 1e-3, min_steps=100)
+    return sim, prev, vmax, W * 6 * 0.75
+
+
+def test_simulated_packing_symmetric_and_reference_free(settled_packing):
+    from socp_cd.granular import from_simulation
+    sim, prev, vmax, V = settled_packing
+    assert vmax < 1e-3                                   # the packing is at rest
+    s = from_simulation(sim, prev_vel=prev)
+    assert s.n_contacts >= 20
+    sig = moreau_stress(s, V)
+    scale = np.linalg.norm(sig)
+    # Moreau–Jean impulse balance m(v+ - v-) = h m g + Σ r holds per step, so with the
+    # inertia term every grain is balanced to round-off and the origin does not matter
+    assert np.abs(s.resultants()).max() < 1e-9 * np.abs(s.forces).max()
+    assert np.linalg.norm(moreau_stress(s, V, origin=[7.0, -3.0]) - sig) < 1e-10 * scale
+    # symmetric to the solver tolerance (rotational inertia is not in the formula)
+    assert asymmetry(sig) < 1e-7
+    # compressive under gravity: both principal values negative, vertical dominates
+    assert sig[1, 1] < sig[0, 0] < 0
+    # Gauss–Ostrogradsky: walls ⊗ points + (gravity - inertia) ⊗ centres, explicit loop
+    expect = np.zeros((2, 2))
+    for (i, j), p, f in zip(s.pairs, s.points, s.forces):
+        if j < 0:
+            expect += np.outer(p, f)
+    for x, m, a in zip(s.centers, s.masses, s.accelerations):
+        expect += np.outer(x, m * (s.gravity - a))
+    np.testing.assert_allclose(sig * V, expect, atol=1e-9 * scale * V)
+    rep = stress_report(s, V)
+    assert rep.decomposition_residual < 1e-10
+
+
+def test_hdf5_frame_matches_live_state(settled_packing, tmp_path):
+    from socp_cd.granular import from_hdf5, from_simulation
+    sim, _, _, V = settled_packing
+    v_before = sim.sys.vel.copy()
+    sim.run(1, record_every=1, progress=False, path=tmp_path / "traj.h5")
+    live = from_simulation(sim, prev_vel=v_before)
+    disk = from_hdf5(tmp_path / "traj.h5", -1, gravity=sim.sys.gravity)
+    np.testing.assert_allclose(disk.accelerations, live.accelerations, atol=1e-12)
+    np.testing.assert_allclose(disk.volumes, np.pi * np.asarray(disk.radii) ** 2)
+    np.testing.assert_allclose(moreau_stress(disk, V), moreau_stress(live, V), atol=1e-12)

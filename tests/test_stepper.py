@@ -125,6 +125,7 @@ def test_trajectory_roundtrip_and_render(tmp_path):
     # force is the global image of the local impulse / h, normal first
     assert np.allclose(np.einsum("cd,cd->c", cb.force, cb.normal), cb.r[:, 0] / 1e-3)
     assert len(back.stats) == 30 and back.stats[-1].solver == "nsgs"
+    assert np.allclose(back.meta["gravity"], [0, -9.81]) and back.meta["h"] == 1e-3
     fig = render_frame(back, tmp_path / "f.png")
     import matplotlib.image as mpimg
     img = mpimg.imread(tmp_path / "f.png")

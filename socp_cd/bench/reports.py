@@ -183,10 +183,10 @@ def plot_work_precision(records, path, title="Work–precision (tolerance sweep)
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker  # noqa: F401
     data = work_precision_data(records)
     fams = sorted(data)
-    solvers = sorted({s for d in data.values() for s in d})
-    style = _style(solvers)
+    style = _style(sorted({r["solver"] for r in records}))
     ncol = min(3, max(1, len(fams)))
     nrow = max(1, math.ceil(len(fams) / ncol))
     fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol, 4.0 * nrow), squeeze=False)
@@ -203,20 +203,14 @@ def plot_work_precision(records, path, title="Work–precision (tolerance sweep)
                        s=28, zorder=3, label=None if any(full) else s)
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_title(f"{fam} ({_n_problems(records, fam)} problems)", fontsize=10)
         ax.set_xlabel("time, SGM over problems [s]")
         ax.set_ylabel("achieved Siconos error (geo. mean)")
         ax.grid(True, which="major", alpha=0.3)
     for ax in list(axes.flat)[len(fams):]:
         ax.axis("off")
-    handles, labels = [], []
-    for ax in axes.flat:
-        for h, lab in zip(*ax.get_legend_handles_labels()):
-            if lab not in labels and not lab.startswith("_"):
-                handles.append(h)
-                labels.append(lab)
-    fig.legend(handles, labels, loc="lower center", ncol=min(6, max(1, len(labels))), fontsize=9,
-               frameon=False)
+    _figure_legend(fig, axes)
     fig.suptitle(title + " — filled: all runs reached the tolerance, hollow: some failed "
                  "(charged the time limit)", fontsize=10)
     fig.tight_layout(rect=(0, 0.06, 1, 0.96))
@@ -225,6 +219,19 @@ def plot_work_precision(records, path, title="Work–precision (tolerance sweep)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def _figure_legend(fig, axes):
+    """One legend for the figure, below the panels."""
+    handles, labels = [], []
+    for ax in axes.flat:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            if lab not in labels and not lab.startswith("_"):
+                handles.append(h)
+                labels.append(lab)
+    if labels:
+        fig.legend(handles, labels, loc="lower center", ncol=min(6, len(labels)), fontsize=9,
+                   frameon=False)
 
 
 def _n_problems(records, fam):
@@ -258,9 +265,10 @@ def plot_performance_profiles(records, path, presets=None, title="Performance pr
         ax.set_ylabel(r"$\rho_s(\tau)$")
         ax.set_title(f"{preset}: tol {tol:.0e}, {len(table)} problems", fontsize=10)
         ax.grid(True, alpha=0.3)
-    axes.flat[0].legend(fontsize=8, loc="lower right")
-    fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
+    _figure_legend(fig, axes)
+    fig.suptitle(title + " — fraction of problems solved within a factor tau of the fastest solver",
+                 fontsize=10)
+    fig.tight_layout(rect=(0, 0.1, 1, 0.95))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)

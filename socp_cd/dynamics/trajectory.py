@@ -2,7 +2,8 @@
 
 HDF5 layout (``h5py``)::
 
-    /            attrs: dim, ndof, h, theta, solver, formulation, n_bodies, format="socp_cd-trajectory-1"
+    /            attrs: dim, ndof, h, theta, solver, formulation, n_bodies, gravity (d,),
+                 mu_default, restitution_default, format="socp_cd-trajectory-1"
     /geometry    is_poly, radius, mass, poly_vertices, poly_nv, poly_of_body,
                  halfspace_point, halfspace_normal, fixed_round_center, fixed_round_radius,
                  fixed_poly_vertices, fixed_poly_nv
@@ -35,7 +36,8 @@ class Trajectory:
     frames : list of Frame
     stats : list of StepStats
     meta : dict
-        ``dim, ndof, h, theta, solver, formulation, n_bodies``.
+        ``dim, ndof, h, theta, solver, formulation, n_bodies, gravity, mu_default,
+        restitution_default``.
     geometry : dict
         Arrays describing bodies and obstacles (for rendering and analysis).
     """
@@ -57,7 +59,9 @@ class Trajectory:
             "fixed_poly_vertices": s.fixed_poly[0], "fixed_poly_nv": s.fixed_poly[1],
         }
         meta = {"dim": s.dim, "ndof": s.ndof, "h": sim.h, "theta": sim.theta, "solver": sim.solver,
-                "formulation": sim.formulation or "auto", "n_bodies": s.n_bodies}
+                "formulation": sim.formulation or "auto", "n_bodies": s.n_bodies,
+                "gravity": np.asarray(s.gravity, dtype=np.float64), "mu_default": s.mu_default,
+                "restitution_default": s.e_default}
         return cls(frames=[sim.frame()], meta=meta, geometry={k: np.asarray(v) for k, v in geom.items()})
 
     def append(self, frame: Frame) -> None:
@@ -140,7 +144,8 @@ class Trajectory:
             with h5py.File(path, "r") as f:
                 if f.attrs.get("format") != _FORMAT:
                     raise ProblemFormatError("format", f"not a {_FORMAT} file", str(path))
-                meta = {k: (v.item() if hasattr(v, "item") else v) for k, v in f.attrs.items() if k != "format"}
+                meta = {k: (v.item() if hasattr(v, "item") and np.ndim(v) == 0 else v)
+                        for k, v in f.attrs.items() if k != "format"}
                 meta = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in meta.items()}
                 geom = {k: f["geometry"][k][()] for k in f["geometry"]}
                 fr = f["frames"]

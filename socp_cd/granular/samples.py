@@ -3,8 +3,10 @@
 * :func:`biaxial_box_scene` — polydisperse disks in a box closed by two fixed
   lines (left, bottom) and two movable, frictionless, non-rotating wall bodies
   (right, top) pushed by constant forces: a pressure-controlled biaxial cell.
-* :func:`talus_scene` — random convex polygons (5–8 sides) raining in a narrow
-  column near a vertical wall onto a rough slope made of fixed disks.
+* :func:`talus_bed` + :func:`pour_talus` — random convex polygons (5–8 sides)
+  poured in small batches near a vertical wall onto a rough slope made of
+  fixed disks.
+* :func:`relax` — step until the grains are at rest.
 * :func:`random_convex_polygon` — the grain generator.
 """
 from __future__ import annotations
@@ -15,7 +17,8 @@ import numpy as np
 
 from ..errors import InvalidProblemError
 
-__all__ = ["random_convex_polygon", "BiaxialBox", "biaxial_box_scene", "Talus", "talus_scene", "relax"]
+__all__ = ["random_convex_polygon", "BiaxialBox", "biaxial_box_scene", "Talus", "talus_bed", "pour_talus",
+           "relax"]
 
 
 def random_convex_polygon(rng, radius: float, n_min: int = 5, n_max: int = 8,
@@ -94,49 +97,103 @@ def biaxial_box_scene(n: int = 200, r_min: float = 0.35, r_max: float = 0.65,
 
 @dataclass
 class Talus:
-    """A talus scene and its geometry."""
+    """A talus: a vertical wall at ``x = 0`` and a rough bed descending from it."""
 
-    scene: object
-    n_grains: int
+    obstacles: list         #: the wall line followed by the bed's fixed disks
     slope_angle: float      #: radians
     bed_radius: float
+    mu: float
+    n_grains: int = 0       #: grains poured so far (bodies 0..n_grains-1)
+
+    def bed_y(self, x):
+        """Height of the bed line (through the bed disks' centres) at abscissa ``x``."""
+        return -np.tan(self.slope_angle) * np.asarray(x, dtype=float)
 
 
-def talus_scene(n: int = 300, r_mean: float = 0.5, spread: float = 0.3, slope_deg: float = 10.0,
-                length: float = 40.0, mu: float = 0.3, column_width: float = 5.0,
-                gap: float = 0.3, seed: int = 0) -> Talus:
-    """Random convex polygons raining near the left wall onto a rough slope.
+def talus_bed(slope_deg: float = 10.0, length: float = 60.0, bed_radius: float = 0.25,
+              mu: float = 0.3) -> Talus:
+    """The fixed part of the talus: wall ``x = 0`` and touching fixed disks along the slope.
 
-    The bed is a row of touching fixed disks (radius ``0.5 r_mean``) along a
-    line descending from the left wall at ``slope_deg`` degrees (the heap
-    builds against the wall and spreads downslope by avalanches).
-    The grains start in a column of width ``column_width`` mean diameters
-    against the wall, spaced vertically by ``gap`` diameters, so they arrive
-    one layer after another (a crude steady pour).
+    The bed disks' centres lie on ``y = -tan(slope) x`` for ``0 <= x <= length``.
     """
-    from ..dynamics.bodies import FixedDisk, Line, Polygon
-    from ..dynamics.scene import Scene
-    rng = np.random.default_rng(seed)
+    from ..dynamics.bodies import FixedDisk, Line
+    if not 0 <= slope_deg < 90:
+        raise InvalidProblemError("slope_deg", f"must lie in [0, 90), got {slope_deg!r}")
     a = np.radians(slope_deg)
+    s = np.arange(0.0, length / np.cos(a), 2 * bed_radius)
+    bed = [FixedDisk(bed_radius, (si * np.cos(a), -si * np.sin(a)), mu=mu) for si in s]
+    return Talus(obstacles=[Line((0.0, 0.0), (1.0, 0.0), mu=mu)] + bed, slope_angle=a,
+                 bed_radius=bed_radius, mu=mu)
+
+
+def _rebuild(sim, extra, talus, h, sim_kwargs):
+    """A new Simulation with the current bodies of ``sim`` (if any) plus ``extra``."""
+    from ..dynamics.bodies import Polygon
+    from ..dynamics.scene import Scene
+    from ..dynamics.stepper import Simulation
+    bodies = []
+    if sim is not None:
+        S = sim.sys
+        for b in range(S.n_bodies):
+            k = S.poly_of_body[b]
+            bodies.append(Polygon(S.poly_local[k, :S.poly_nv[k]], position=S.pos[b], angle=S.angle[b],
+                                  velocity=S.vel[b, :2], omega=S.vel[b, 2], mass=S.mass[b],
+                                  inertia=S.inertia[b], mu=talus.mu))
+    scene = Scene(bodies=bodies + extra, obstacles=talus.obstacles, mu=talus.mu, restitution=0.0)
+    return Simulation(scene, h=h, **sim_kwargs)
+
+
+def pour_talus(talus: Talus, n: int, *, batch: int = 8, steps_per_batch: int = 150,
+               r_mean: float = 0.5, spread: float = 0.3, feed_width: float = 4.0,
+               drop: float = 1.0, h: float = 4e-3, seed: int = 0, sim_kwargs=None,
+               callback=None):
+    """Pour ``n`` random convex polygons near the wall, ``batch`` at a time.
+
+    The simulator compiles a fixed scene, so pouring is done by rebuilding
+    the simulation (same grains, positions, orientations and velocities) with
+    a new batch placed ``drop`` mean diameters above the highest grain of the
+    feed zone ``0 < x < feed_width`` diameters; each batch falls and
+    avalanches for ``steps_per_batch`` steps.  Small drops keep the impact
+    speed low, as in a slow pour.
+
+    Returns
+    -------
+    sim : Simulation
+        The simulation holding all ``n`` grains (bodies ``0..n-1``), after the
+        last batch's steps (not yet settled: see :func:`relax`).
+    """
+    from ..dynamics.bodies import Polygon
+    rng = np.random.default_rng(seed)
     d = 2 * r_mean
-    rb = 0.5 * r_mean
-    # bed: fixed disks along y = -tan(a) x, from the wall to x = length
-    s = np.arange(0.0, length / np.cos(a), 2 * rb)
-    bed = [FixedDisk(rb, (si * np.cos(a), -si * np.sin(a)), mu=mu) for si in s]
-    radii = r_mean * rng.uniform(1 - spread, 1 + spread, n)
-    cw = column_width * d
-    per_row = max(1, int(cw // (d * (1 + spread))))
-    pitch = cw / per_row
-    grains = []
-    y0 = 3 * d
-    for k, r in enumerate(radii):
-        row, col = divmod(k, per_row)
-        x = (col + 0.5) * pitch + rng.uniform(-0.1, 0.1) * d
-        y = y0 + row * d * (1 + spread) * (1 + gap)
-        grains.append(Polygon(random_convex_polygon(rng, r), position=(x, y), mu=mu))
-    wall = Line((0.0, 0.0), (1.0, 0.0), mu=mu)
-    scene = Scene(bodies=grains, obstacles=[wall] + bed, mu=mu, restitution=0.0)
-    return Talus(scene=scene, n_grains=n, slope_angle=a, bed_radius=rb)
+    sim_kwargs = dict(sim_kwargs or {})
+    sim = None
+    poured = 0
+    cell = d * (1 + spread) * 1.05
+    per_row = max(1, int(feed_width * d // cell))
+    while poured < n:
+        k = min(batch, n - poured)
+        if sim is None:
+            top = float(talus.bed_y(0.0)) + talus.bed_radius
+        else:
+            V = sim.sys.poly_world()
+            feed = V[..., 0].max(axis=1) < feed_width * d + d
+            top = max(float(V[feed, :, 1].max()) if feed.any() else -np.inf,
+                      float(talus.bed_y(0.0)) + talus.bed_radius)
+        extra = []
+        for m in range(k):
+            row, col = divmod(m, per_row)
+            x = (col + 0.5) * cell + rng.uniform(-0.05, 0.05) * d
+            y = top + drop * d + (row + 0.5) * cell
+            r = r_mean * rng.uniform(1 - spread, 1 + spread)
+            extra.append(Polygon(random_convex_polygon(rng, r), position=(x, y), mu=talus.mu))
+        sim = _rebuild(sim, extra, talus, h, sim_kwargs)
+        poured += k
+        talus.n_grains = poured
+        for _ in range(steps_per_batch):
+            sim.step()
+        if callback is not None:
+            callback(sim, poured)
+    return sim
 
 
 def relax(sim, max_steps: int, v_tol: float, bodies=None, min_steps: int = 0,

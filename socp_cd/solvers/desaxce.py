@@ -354,7 +354,7 @@ def _newton_directions(J, F, eye):
             yield d
 
 
-def natural_map_newton(problem, r, *, tol, max_iter=20, law="coulomb"):
+def natural_map_newton(problem, r, *, tol, max_iter=20, law="coulomb", rho=None):
     """Semismooth Newton on the natural map, started from ``r`` (a polish).
 
     Solves ``F(r) = r - P_K(r - û(r)) = 0`` (``law="associated"``: ``u`` instead
@@ -378,6 +378,9 @@ def natural_map_newton(problem, r, *, tol, max_iter=20, law="coulomb"):
     prob = problem.to_local() if problem.is_global else problem
     err_fn = coulomb_error if law == "coulomb" else associated_error
     W = prob.W.tocsr()
+    if rho is None:  # scale-free map: rho ~ 1 / (typical diagonal of W); same zeros as rho = 1
+        dg = np.abs(W.diagonal())
+        rho = 1.0 / float(np.mean(dg)) if np.any(dg > 0) else 1.0
     dim, mu = prob.dim, prob.mu
     m = prob.m
     eye = sp.identity(m, format="csr")
@@ -390,8 +393,8 @@ def natural_map_newton(problem, r, *, tol, max_iter=20, law="coulomb"):
             break
         u = prob.velocity(r)
         uh = desaxce_velocity(u, mu, dim) if law == "coulomb" else u
-        x = r - uh
-        F = r - project_cone(x, mu, dim)
+        x = r - rho * uh
+        F = r - project_cone(x, mu, dim)   # zero iff the law holds (any rho > 0)
         JP = _block_diag(_projection_jacobian(x, mu, dim))
         if law == "coulomb":
             U = u.reshape(-1, dim)
@@ -403,7 +406,7 @@ def natural_map_newton(problem, r, *, tol, max_iter=20, law="coulomb"):
             dU = _block_diag(DS) @ W
         else:
             dU = W
-        J = (eye - JP @ (eye - dU)).tocsc()
+        J = (eye - JP @ (eye - rho * dU)).tocsc()
         improved = False
         for d in _newton_directions(J, F, eye):
             step = 1.0

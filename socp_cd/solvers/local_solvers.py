@@ -121,7 +121,7 @@ def local_residual(A, b, mu, g, law, r, d, w1, w2):
 
 
 # --------------------------------------------------------------------------- 2D exact
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def exact_2d(A, b, mu, r):
     """Moreau's explicit solution of the 2D one-contact Coulomb problem.
 
@@ -308,47 +308,58 @@ def solve_small(J, rhs, d, x, M):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def ac_newton(A, b, mu, g, law, rhoN, rhoT, r, d, maxit, tol, u, F, J, M, dr, rt, Ft):
     """Semismooth Newton on the Alart–Curnier function with an Armijo line search.
 
     Converged when ``||F|| <= tol * max(||r||, rhoN ||b||)`` (or ``F = 0``).
     Returns the number of Newton iterations, negative when not converged
-    (iteration cap, singular Jacobian or failed line search).
+    (iteration cap, singular Jacobian or failed line search).  One evaluation
+    site of ``F`` (compact code once inlined): the trial point ``rt`` is
+    evaluated with its Jacobian, reused when the step is accepted.
     """
     nb = _norm(b, d) * rhoN
-    for k in range(maxit + 1):
-        nF = ac_function(A, b, mu, g, law, rhoN, rhoT, r, d, u, F, J, True)
+    for a in range(d):
+        rt[a] = r[a]
+    k = 0
+    ls = 0
+    step = 1.0
+    merit0 = 0.0
+    searching = False
+    while True:
+        nF = ac_function(A, b, mu, g, law, rhoN, rhoT, rt, d, u, Ft, J, True)
+        if searching:
+            if not (nF * nF <= (1.0 - 2e-4 * step) * merit0):
+                ls += 1
+                if ls == 10:
+                    return -(k + 1)
+                step *= 0.5
+                for a in range(d):
+                    rt[a] = r[a] + step * dr[a]
+                continue
+            for a in range(d):
+                r[a] = rt[a]
+            k += 1
         nr = _norm(r, d)
         scale = nr if nr > nb else nb
         if nF <= tol * scale or nF == 0.0:
             return k
-        if k == maxit:
-            break
+        if k >= maxit:
+            return -maxit
         for a in range(d):
-            Ft[a] = -F[a]
-        if not solve_small(J, Ft, d, dr, M):
+            F[a] = -Ft[a]
+        if not solve_small(J, F, d, dr, M):
             return -(k + 1)
         merit0 = nF * nF
         step = 1.0
-        accepted = False
-        for ls in range(10):
-            for a in range(d):
-                rt[a] = r[a] + step * dr[a]
-            nFt = ac_function(A, b, mu, g, law, rhoN, rhoT, rt, d, u, Ft, J, False)
-            if nFt * nFt <= (1.0 - 2e-4 * step) * merit0:
-                accepted = True
-                break
-            step *= 0.5
-        if not accepted:
-            return -(k + 1)
+        ls = 0
+        searching = True
         for a in range(d):
-            r[a] = rt[a]
-    return -maxit
+            rt[a] = r[a] + dr[a]
 
 
 # --------------------------------------------------------------------------- dispatcher
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def local_solve(kind, A, b, mu, g, law, rhoN, rhoT, rhoP, r, d, tol, newton_maxit, proj_maxit,
                 work, J, M):
     """Solve one contact problem in place in ``r`` (warm-started from ``r``).
@@ -371,29 +382,33 @@ def local_solve(kind, A, b, mu, g, law, rhoN, rhoT, rhoP, r, d, tol, newton_maxi
         if exact_2d(A, b, mu, r):
             return LOCAL_OK
         kind = KIND_AC_NEWTON
-    if law == LAW_ASSOCIATED or kind == KIND_PROJECTION:
+    newton = not (law == LAW_ASSOCIATED or kind == KIND_PROJECTION)
+    e_best = 0.0
+    for attempt in range(2 if newton else 1):
+        if newton:
+            if attempt == 0:
+                for a in range(d):
+                    best[a] = r[a]
+            it = ac_newton(A, b, mu, g, law, rhoN, rhoT, r, d, newton_maxit, tol, u, F, J, M,
+                           dr, rt, Ft)
+            if it >= 0:
+                return LOCAL_OK
+            # keep the better of the failed Newton iterate and the previous best
+            for a in range(d):
+                rt[a] = best[a]
+            for c in range(2):
+                e = local_residual(A, b, mu, g, law, rt if c == 0 else r, d, u, F)
+                if c == 0:
+                    e_best = e
+            if not (e <= e_best):
+                for a in range(d):
+                    r[a] = best[a]
+            else:
+                for a in range(d):
+                    best[a] = r[a]
+            if attempt == 1:
+                return LOCAL_NOT_CONVERGED
         it = projection_fp(A, b, mu, g, law, rhoP, r, d, proj_maxit, tol, u, F)
-        return LOCAL_OK if it > 0 else LOCAL_NOT_CONVERGED
-    for a in range(d):
-        best[a] = r[a]
-    it = ac_newton(A, b, mu, g, law, rhoN, rhoT, r, d, newton_maxit, tol, u, F, J, M, dr, rt, Ft)
-    if it >= 0:
-        return LOCAL_OK
-    # keep the better of the failed Newton iterate and the start point
-    e_start = local_residual(A, b, mu, g, law, best, d, u, F)
-    e_newton = local_residual(A, b, mu, g, law, r, d, u, F)
-    if not (e_newton <= e_start):
-        for a in range(d):
-            r[a] = best[a]
-        e_newton = e_start
-    for a in range(d):
-        best[a] = r[a]
-    projection_fp(A, b, mu, g, law, rhoP, r, d, proj_maxit, tol, u, F)
-    it = ac_newton(A, b, mu, g, law, rhoN, rhoT, r, d, newton_maxit, tol, u, F, J, M, dr, rt, Ft)
-    if it >= 0:
-        return LOCAL_OK
-    e_final = local_residual(A, b, mu, g, law, r, d, u, F)
-    if not (e_final <= e_newton):
-        for a in range(d):
-            r[a] = best[a]
+        if not newton:
+            return LOCAL_OK if it > 0 else LOCAL_NOT_CONVERGED
     return LOCAL_NOT_CONVERGED
