@@ -260,7 +260,7 @@ def test_invalid_volume_and_cut():
 # ------------------------------------------------------------------ simulator-built packing
 @pytest.fixture(scope="module")
 def settled_packing():
-    """20 polydisperse frictional disks settled under gravity in a box (Moreau–Jean, NSGS)."""
+    """24 polydisperse frictional disks settled under gravity in a box (Moreau–Jean, NSGS)."""
     from socp_cd.dynamics.bodies import Disk, Line
     from socp_cd.dynamics.scene import Scene
     from socp_cd.dynamics.stepper import Simulation
@@ -269,12 +269,12 @@ def settled_packing():
     rng = np.random.default_rng(3)
     disks = [Disk(radius=rng.uniform(0.28, 0.36), mu=0.3,
                   position=((k % 4 + 0.5) * 0.75 + rng.uniform(-0.03, 0.03), 0.4 + (k // 4) * 0.75))
-             for k in range(20)]
+             for k in range(24)]
     W = 3.0
     scene = Scene(bodies=disks, obstacles=[Line((0, 0), (0, 1)), Line((0, 0), (1, 0)),
                                            Line((W, 0), (-1, 0))], mu=0.3)
     sim = Simulation(scene, h=5e-3, tol=1e-10, max_iter=2000)
-    steps, prev, vmax = relax(sim, 500, 1e-3, min_steps=100)
+    steps, prev, vmax = relax(sim, 600, 1e-3, min_steps=100)
     return sim, prev, vmax, W * 6 * 0.75
 
 
@@ -316,3 +316,17 @@ def test_hdf5_frame_matches_live_state(settled_packing, tmp_path):
     np.testing.assert_allclose(disk.accelerations, live.accelerations, atol=1e-12)
     np.testing.assert_allclose(disk.volumes, np.pi * np.asarray(disk.radii) ** 2)
     np.testing.assert_allclose(moreau_stress(disk, V), moreau_stress(live, V), atol=1e-12)
+
+
+def test_from_frame_mapping_with_impulses():
+    from socp_cd.granular import from_frame
+    h = 0.01
+    frame = {"positions": [[0.0, R, 0.3]], "pairs": [[0, -1]], "points": [[0.0, 0.0]],
+             "impulses": [[0.0, M * G * h]], "h": h}
+    s = from_frame(frame, masses=[M], volumes=[1.0], gravity=GRAV)
+    np.testing.assert_allclose(s.centers, [[0.0, R]])          # angle column dropped
+    np.testing.assert_allclose(s.forces, [[0.0, M * G]])
+    np.testing.assert_allclose(moreau_stress(s, 1.0), [[0, 0], [0, -M * G * R]], atol=1e-12)
+    with pytest.raises(InvalidProblemError):
+        from_frame({"positions": [[0.0, R]], "pairs": [[0, -1]], "points": [[0.0, 0.0]],
+                    "impulses": [[0.0, 1.0]]}, masses=[M], volumes=[1.0])

@@ -44,7 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--family", action="append", default=[],
                     help="generated family (manufactured, manufactured_psd); repeatable")
     ap.add_argument("--sizes", default="1,10,100", help="contacts of generated problems")
-    ap.add_argument("--dims", default="2,3", help="dimensions of generated problems")
+    ap.add_argument("--dims", default="2,3", help="dimensions of generated problems (and extremes)")
     ap.add_argument("--seeds", default="0", help="seeds of generated problems")
     ap.add_argument("--solvers", default="", help="comma-separated specs name[:formulation][,key=value] "
                     "or siconos:NAME (default: every registered Coulomb solver + Siconos peers)")
@@ -113,6 +113,7 @@ def main(argv=None) -> int:
         tol = args.tol[0] if args.tol else C.PRESETS["mid"]
         recs = run_extremes(_solvers(args), tol, args.time_limit, size=args.size, large=args.large,
                             large_time_limit=args.large_time_limit,
+                            dims=tuple(int(d) for d in _csv_list(args.dims)),
                             csv_path=Path(args.csv) if args.csv else ext_out / "extremes.csv",
                             md_path=ext_out / "extremes.md", dask=dask, verbose=verbose)
         print(f"extremes: {len(recs)} runs -> {ext_out / 'extremes.md'}")

@@ -91,7 +91,8 @@ def run_extremes(solvers=None, tol: float = 1e-6, time_limit: float = 20.0, *, s
     cases : list of str, optional
         Subset of :data:`CASES`.
     csv_path, md_path : path, optional
-        Where to write the records and the Markdown table.
+        Where to append the records and write the Markdown table (built from
+        the whole CSV table, so runs for other dims/solvers accumulate).
     dask : optional
         As in :func:`~socp_cd.bench.campaign.run_campaign`.
 
@@ -110,8 +111,12 @@ def run_extremes(solvers=None, tol: float = 1e-6, time_limit: float = 20.0, *, s
     if big:
         recs += run_campaign(big, time_limit=large_time_limit, **common)
     if md_path is not None:
+        table = recs
+        if csv_path is not None:  # the whole suite table, earlier runs included
+            from .records import read_records
+            table = [r for r in read_records(csv_path) if r["suite"] == "extremes"]
         Path(md_path).parent.mkdir(parents=True, exist_ok=True)
-        Path(md_path).write_text(extremes_markdown(recs) + "\n")
+        Path(md_path).write_text(extremes_markdown(table) + "\n")
     return recs
 
 

@@ -288,19 +288,32 @@ def summary_markdown(records, presets=None, title="Solver comparison") -> str:
              f"{len({r['solver'] for r in records})} solvers, {len(records)} runs. "
              f"Success = Siconos relative error (recomputed by socp_cd.error from the returned r) "
              f"<= tol. SGM = shifted geometric mean of the time (shift {SGM_SHIFT * 1e3:g} ms), "
-             f"failures charged the time limit; relative SGM divides by the best solver's.", ""]
+             f"failures (unsupported problems included) charged the time limit; relative SGM divides "
+             f"by the best solver's. 'solved / supported' leaves out the problems a solver "
+             f"declares it cannot handle (e.g. proxsuite: 2D Coulomb only).", ""]
     for preset, tol in (PRESETS if presets is None else presets).items():
         block = [r for r in rows if r["preset"] == preset]
         if not block:
             continue
         lines += [f"## {preset} accuracy (tol = {tol:.0e})", "",
-                  "| solver | success rate | solved | SGM time [s] | relative SGM | time limit | unsupported | NaN |",
-                  "|---|---:|---:|---:|---:|---:|---:|---:|"]
+                  "| solver | success rate | solved | solved / supported | SGM time [s] | relative SGM "
+                  "| time limit | unsupported | NaN |",
+                  "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
         for r in sorted(block, key=lambda r: (-r["success_rate"], r["sgm_time"])):
+            sup = r["problems"] - r["unsupported"]
             lines.append(f"| {r['solver']} | {100 * r['success_rate']:.1f}% | {r['success']}/{r['problems']} "
-                         f"| {_g(r['sgm_time'], '.4g')} | {_g(r['relative_sgm'], '.2f')} | {r['time_limit']} "
+                         f"| {r['success']}/{sup} | {_g(r['sgm_time'], '.4g')} | {_g(r['relative_sgm'], '.2f')} | {r['time_limit']} "
                          f"| {r['unsupported']} | {r['nan']} |")
         lines.append("")
+        fails = defaultdict(list)
+        for r in _by_tol(records, tol):
+            if not r["success"] and r["status"] != "unsupported":
+                err = f" {r['error']:.0e}" if math.isfinite(r["error"]) else ""
+                fails[r["solver"]].append(f"{r['problem']} ({r['status']}{err})")
+        if fails:
+            lines += [f"Failures at {preset} (status, achieved error):", ""]
+            lines += [f"- {s}: " + "; ".join(v) for s, v in sorted(fails.items())]
+            lines.append("")
     return "\n".join(lines)
 
 

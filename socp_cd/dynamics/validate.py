@@ -47,14 +47,15 @@ def format_table(rows) -> str:
 
 
 def tolerance_notes(rows) -> str:
-    """One justification line per (case, quantity)."""
-    seen, out = set(), []
+    """One justification line per distinct reason, listing the rows it covers."""
+    groups: dict = {}
     for r in rows:
-        k = (r.case, r.quantity)
-        if k not in seen and r.why:
-            seen.add(k)
-            out.append(f"- *{r.case} — {r.quantity}*: {r.why}")
-    return "\n".join(out)
+        if r.why:
+            groups.setdefault(r.why, [])
+            label = f"{r.case}: {r.quantity}"
+            if label not in groups[r.why]:
+                groups[r.why].append(label)
+    return "\n".join(f"- {why} — {'; '.join(labels)}" for why, labels in groups.items())
 
 
 def write_results(rows, root: Path = REPO) -> None:

@@ -35,6 +35,7 @@ so the cone list is at most ``2 + n_soc`` entries long.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 import scipy.sparse as sp
@@ -132,10 +133,27 @@ def _soc_rows(rows: _Rows, idx: np.ndarray, dim: int, scale_n, scale_t, off_n):
     rows.add("soc", cols, vals, offs)
 
 
+def _diagonal_soc_map(n_scale, t_scale, nc: int) -> ConeMap:
+    """3D map with one SOC per contact and a diagonal ``G`` (every ``mu > 0``).
+
+    Built directly in CSC (``indptr = 0..m``): the common case costs two array
+    stacks instead of the generic triplet assembly.
+    """
+    m = 3 * nc
+    vals = np.empty((nc, 3))
+    vals[:, 0] = n_scale
+    vals[:, 1:] = np.asarray(t_scale, dtype=np.float64)[:, None]
+    idx = np.arange(m, dtype=np.int32)
+    G = sp.csc_matrix((vals.reshape(-1), idx, np.arange(m + 1, dtype=np.int32)), shape=(m, m))
+    return ConeMap(G, np.zeros(m), 0, 0, nc, 3)
+
+
 def coulomb_cone_map(mu, dim: int) -> ConeMap:
     """Cone map of ``r ∈ K_mu`` (primal Coulomb cone), see the module docstring."""
     mu = np.asarray(mu, dtype=np.float64).reshape(-1)
     nc = mu.shape[0]
+    if dim == 3 and nc and mu.min() > 0.0:
+        return _diagonal_soc_map(mu, np.ones(nc), nc)
     rows = _Rows(dim * nc)
     zero = np.flatnonzero(mu == 0.0)
     fric = np.flatnonzero(mu > 0.0)
@@ -159,6 +177,8 @@ def dual_cone_map(mu, dim: int) -> ConeMap:
     """Cone map of ``u ∈ K*_mu = {mu ||u_T|| <= u_N}`` (``mu = 0``: ``u_N >= 0``)."""
     mu = np.asarray(mu, dtype=np.float64).reshape(-1)
     nc = mu.shape[0]
+    if dim == 3 and nc and mu.min() > 0.0:
+        return _diagonal_soc_map(np.ones(nc), mu, nc)
     rows = _Rows(dim * nc)
     zero = np.flatnonzero(mu == 0.0)
     fric = np.flatnonzero(mu > 0.0)
@@ -226,10 +246,37 @@ class ConicData:
         return self.cone_map.cones()
 
 
+#: below this size ``P`` is passed with the full (dense) upper-triangle pattern
+DENSE_P_MAX = 30
+
+
+@lru_cache(maxsize=64)
+def _dense_upper_pattern(n: int):
+    """Row indices, column pointers and flat positions of the full upper triangle (CSC order)."""
+    cols, rows = np.tril_indices(n)            # (col >= row), ordered by column then row
+    indptr = np.zeros(n + 1, dtype=np.int32)
+    indptr[1:] = np.cumsum(np.arange(1, n + 1))
+    return rows.astype(np.int32), indptr, rows * n + cols
+
+
 def upper_csc(S) -> sp.csc_matrix:
-    """Upper triangle of a (symmetric) sparse matrix in CSC, as Clarabel wants ``P``."""
-    U = sp.triu(sp.csc_matrix(S), format="csc")
-    U.eliminate_zeros()
+    """Upper triangle of a (symmetric) matrix in CSC with sorted indices, as Clarabel wants ``P``.
+
+    Sparse input: the triplets with ``row <= col`` (explicit zeros dropped),
+    converted once.  Dense input (or sparse with at most :data:`DENSE_P_MAX`
+    rows): the whole upper-triangle pattern, zeros included (a structural
+    zero costs nothing at that size and the index arrays are cached).
+    """
+    n = S.shape[0]
+    if n <= DENSE_P_MAX or not sp.issparse(S):
+        D = S.toarray() if sp.issparse(S) else np.asarray(S, dtype=np.float64)
+        if n <= DENSE_P_MAX:
+            rows, indptr, flat = _dense_upper_pattern(n)
+            return sp.csc_matrix((D.reshape(-1)[flat], rows, indptr), shape=(n, n))
+        S = sp.coo_matrix(D)
+    C = S.tocoo()
+    keep = (C.row <= C.col) & (C.data != 0.0)
+    U = sp.csc_matrix((C.data[keep], (C.row[keep], C.col[keep])), shape=S.shape)
     U.sort_indices()
     return U
 
@@ -256,7 +303,7 @@ def local_conic_data(problem, formulation: str = "associated", *, threshold=None
     cm = law_cone_map(problem, formulation, threshold)
     Ws = problem.symmetric_part() if W_sym is None else W_sym
     q = problem.q if q_shift is None else np.asarray(q_shift, dtype=np.float64)
-    A = (-cm.G).tocsc()
+    A = -cm.G
     return ConicData(upper_csc(Ws), np.array(q, dtype=np.float64), A, cm.g.copy(), cm)
 
 

@@ -40,6 +40,16 @@ Accelerations (each optional, measured by ``validation/desaxce_ablation.py``)
   best iterate at the end); steps counted in ``info["polish_iterations"]``,
   the polished point kept only if its error is lower.  ``polish="nsgs"`` uses
   socp_cd's NSGS backend instead (warm-started sweeps).
+
+Small problems (``m <= DENSE_MAX``)
+-----------------------------------
+``W`` is formed densely once and the residuals and the Newton polish run in
+compiled code (:mod:`socp_cd.solvers.desaxce_kernels`).  A polish then costs
+less than one SOCP, so by default (``polish_switch=None``) it is tried from the
+first outer iterate on (every iterate for ``m <= CHEAP_POLISH_MAX``, otherwise
+after each 10x gain); when Newton stalls (degenerate problems) a bounded,
+warm-started NSGS polish (``nsgs_polish_sweeps`` sweeps) follows.  Larger
+problems keep ``polish_switch = 1e-5`` and the sparse Newton polish.
 """
 from __future__ import annotations
 
@@ -52,6 +62,10 @@ import scipy.sparse.linalg as spla
 
 from ..cones import tangential_norm
 from ..residuals import error as coulomb_error
+from ..problem import SYMMETRY_RTOL
+from .desaxce_kernels import LAW_ASSOCIATED, LAW_COULOMB
+from .desaxce_kernels import dense_error as _dense_error
+from .desaxce_kernels import dense_newton as _dense_newton
 from .result import SolverResult
 
 #: Default outer options (see :func:`desaxce_fixed_point`).
@@ -64,11 +78,83 @@ OUTER_DEFAULTS = dict(
     inner_tol_min=None,
     polish="newton",
     polish_max_iter=15,
-    polish_switch=1e-5,
+    polish_switch=None,
     law="coulomb",
     patience=8,
     time_limit=None,
 )
+
+
+#: largest ``m`` for which ``W`` is formed densely (compiled residuals and polish)
+DENSE_MAX = 600
+#: up to this ``m`` the dense polish is retried after every outer iteration
+CHEAP_POLISH_MAX = 60
+#: sweeps of the NSGS polish that follows a stalled dense Newton polish
+NSGS_POLISH_SWEEPS = 200
+#: ``polish_switch`` of the sparse path (used when ``polish_switch`` is None)
+SPARSE_POLISH_SWITCH = 1e-5
+
+
+class _Workspace:
+    """Per-solve data of the outer loop: ``W_s``, ``W_a`` and the residual evaluator.
+
+    For local problems with ``m <= DENSE_MAX`` ``W`` is densified once: the
+    symmetric/skew split is a pair of dense operations and every residual
+    (Siconos' error, ``u = W r + q`` recomputed) is one compiled call
+    (:func:`~socp_cd.solvers.desaxce_kernels.dense_error`).  Otherwise the
+    sparse ``problem.symmetric_part()`` / :func:`socp_cd.error` path is used.
+    """
+
+    def __init__(self, problem, friction: bool):
+        self.problem = problem
+        self.friction = friction
+        self.dense = (not problem.is_global) and problem.m <= DENSE_MAX
+        self.W_sym = self.W_a = None
+        if self.dense:
+            Wd = np.ascontiguousarray(problem.W.toarray())
+            self.Wd = Wd
+            self.q = np.ascontiguousarray(problem.q, dtype=np.float64)
+            self.mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
+            self.norm_q = float(np.sqrt(np.dot(self.q, self.q)))
+            self.law = LAW_COULOMB if friction else LAW_ASSOCIATED
+            skew = Wd - Wd.T
+            asym = float(np.max(np.abs(skew))) if skew.size else 0.0
+            if asym == 0.0:
+                self.W_sym = problem.W
+            else:
+                self.W_sym = sp.csr_matrix(0.5 * (Wd + Wd.T))
+                scale = float(np.max(np.abs(Wd)))
+                if asym > SYMMETRY_RTOL * max(scale, np.finfo(float).tiny):
+                    self.W_a = 0.5 * skew
+            dg = np.abs(np.diag(Wd))
+            rho = 1.0 / float(np.mean(dg)) if np.any(dg > 0) else 1.0
+            self.rho = np.full(problem.n_contacts, rho)
+        elif not problem.is_global:
+            self.W_sym = problem.symmetric_part()
+            if not problem.is_symmetric:
+                self.W_a = problem.skew_part()
+        self._err = coulomb_error if friction else _associated_error
+
+    def evaluate(self, r):
+        """``(error, u)`` of ``r`` (``u = W r + q`` recomputed)."""
+        if self.dense:
+            u = np.empty(r.shape[0])
+            err = _dense_error(self.Wd, self.q, r, self.mu, self.problem.dim, self.law,
+                               self.norm_q, u)
+            return float(err), u
+        u = self.problem.velocity(r)
+        return self._err(self.problem, r, u), u
+
+    def error(self, r):
+        """Siconos' relative error of ``r``."""
+        return self.evaluate(r)[0]
+
+    def dense_newton(self, r, tol, budget):
+        """Compiled Newton polish; returns ``(r, iterations, error)``."""
+        r_pol, its, err = _dense_newton(self.Wd, self.q, self.mu, self.problem.dim, self.law,
+                                        np.ascontiguousarray(r, dtype=np.float64), tol, budget,
+                                        self.rho, self.norm_q)
+        return r_pol, int(its), float(err)
 
 
 def _associated_error(problem, r, u=None):
@@ -157,8 +243,10 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
     **outer_options
         ``accel`` ("anderson" or None), ``memory`` (int), ``adaptive_tol``
         (bool), ``kappa``, ``inner_tol_max``, ``inner_tol_min`` (default
-        ``min(1e-10, tol/100)``), ``polish`` ("nsgs" or None),
-        ``polish_max_iter``, ``patience`` (outer iterations without a 10 %
+        ``min(1e-10, tol/100)``), ``polish`` ("newton", "nsgs" or None),
+        ``polish_max_iter``, ``polish_switch`` (error below which the polish is
+        tried; None: ``inf`` for small dense problems, ``1e-5`` otherwise),
+        ``patience`` (outer iterations without a 10 %
         improvement before declaring a stall), ``time_limit`` (seconds).
 
     Returns
@@ -180,28 +268,29 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
     tmin = opts["inner_tol_min"] if opts["inner_tol_min"] is not None else min(1e-10, tol * 1e-2)
     t_start = _time.perf_counter()
     friction = opts["law"] == "coulomb"
-    err_fn = coulomb_error if friction else _associated_error
 
-    W_sym = W_a = None
-    if not problem.is_global:
-        W_sym = problem.symmetric_part()
-        if not problem.is_symmetric:
-            W_a = problem.skew_part()
-    inner = inner_factory(problem, W_sym)
+    ws = _Workspace(problem, friction)
+    W_a = ws.W_a
+    inner = inner_factory(problem, ws.W_sym)
     q = np.asarray(problem.q_local, dtype=np.float64)
+    switch = opts["polish_switch"]
+    if switch is None:
+        switch = np.inf if ws.dense else SPARSE_POLISH_SWITCH
+    retry_factor = 1.0 if (ws.dense and problem.m <= CHEAP_POLISH_MAX) else 0.1
 
     def shift(r, u):
         return desaxce_shift(problem, r, u, W_a, friction=friction)
 
     if r0 is not None:
         r0 = np.asarray(r0, dtype=np.float64)
-        c = shift(r0, problem.velocity(r0))
+        e_r0, u_r0 = ws.evaluate(r0)
+        c = shift(r0, u_r0)
     else:
         c = np.zeros(problem.m)
     aa = _Anderson(opts["memory"]) if opts["accel"] == "anderson" else None
 
     hist = [] if history else None
-    best_r, best_err = (r0.copy(), err_fn(problem, r0)) if r0 is not None else (None, np.inf)
+    best_r, best_err = (r0.copy(), e_r0) if r0 is not None else (None, np.inf)
     inner_its, status, message = 0, "max_iter", ""
     last_inner = {}
     info = {"polish_iterations": 0, "polish_calls": 0}
@@ -214,6 +303,19 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
 
     def try_polish(r_start, budget):
         """Polish from ``r_start``; returns (r, err) of the polished point or None."""
+        if ws.dense and opts["polish"] == "newton":
+            r_pol, its, e_pol = ws.dense_newton(r_start, tol, budget)
+            info["polish_iterations"] += its
+            info["polish_calls"] += 1
+            if e_pol > tol:   # stalled Newton (degenerate problem): warm-started NSGS sweeps
+                r_ns, sweeps, ok = _polish(problem, r_pol, tol, "nsgs", NSGS_POLISH_SWEEPS,
+                                           opts["law"])
+                if ok and r_ns is not None:
+                    info["nsgs_polish_sweeps"] = info.get("nsgs_polish_sweeps", 0) + sweeps
+                    e_ns = ws.error(r_ns)
+                    if e_ns < e_pol:
+                        r_pol, e_pol = r_ns, e_ns
+            return r_pol, e_pol
         if problem.is_global and "local" not in cache:
             cache["local"] = problem.to_local()   # the polish works on W (formed once)
         r_pol, its, _ = _polish(cache.get("local", problem), r_start, tol, opts["polish"], budget,
@@ -222,7 +324,7 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
         info["polish_calls"] += 1
         if r_pol is None:
             return None
-        return r_pol, err_fn(problem, r_pol)
+        return r_pol, ws.error(r_pol)
 
     k = 0
     for k in range(1, max_iter + 1):
@@ -241,8 +343,7 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
         if not np.all(np.isfinite(r)):
             status, message = "numerical_error", f"inner solver returned non-finite r ({last_inner.get('status')})"
             break
-        u = problem.velocity(r)
-        err = err_fn(problem, r, u)
+        err, u = ws.evaluate(r)
         if hist is not None:
             hist.append(err)
         if err < best_err:
@@ -250,8 +351,8 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
         if err <= tol:
             status = "converged"
             break
-        if opts["polish"] and err <= min(opts["polish_switch"], 0.1 * polish_at):
-            polish_at = err  # retry only after the outer loop gained a factor 10
+        if opts["polish"] and err <= min(switch, retry_factor * polish_at):
+            polish_at = err  # retry after a 10x gain (every iterate for cheap dense polish)
             out = try_polish(r, opts["polish_max_iter"])
             if out is not None and out[1] < best_err:
                 best_r, best_err = out
@@ -293,7 +394,8 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
                  "outer_error": best_err,
                  "anderson_restarts": aa.restarts if aa is not None else 0})
     r_out = best_r if best_r is not None else np.zeros(problem.m)
-    v = getattr(inner, "last_v", None) if problem.is_global else None
+    # the inner v belongs to the last SOCP iterate only (a polished r gets v from solve())
+    v = getattr(inner, "last_v", None) if (problem.is_global and best_r is r) else None
     return SolverResult(r=r_out, v=v, status=status, iterations=k, history=hist, info=info,
                         message=message, error=best_err)
 

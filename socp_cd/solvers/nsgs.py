@@ -133,6 +133,8 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     message = ""
     if status == STATUS_NUMERICAL:
         message = "non-finite value in a local solve; r is the last finite iterate"
+    elif status_name == "stalled" and light == 0.0:
+        message = f"a sweep left r unchanged but the error is {err:.3e} > tol"
     elif status_name == "stalled":
         message = f"no progress of the error over {stall_window} sweeps (error {err:.3e})"
     return SolverResult(r=r, status=status_name, iterations=int(iters),

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .local_solvers import LAW_COULOMB, LAW_TRESCA, law_velocity, local_solve, project_law
+from .local_solvers import law_velocity, local_solve, project_law
 
 STATUS_CONVERGED = 0
 STATUS_MAX_ITER = 1
