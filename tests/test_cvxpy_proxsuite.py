@@ -103,11 +103,23 @@ def test_cvxpy_matches_direct_clarabel_coulomb(dim, tol):
 @pytest.mark.parametrize("formulation", ["associated", "coulomb", "frictionless"])
 def test_cvxpy_matches_direct_clarabel_real(name, formulation):
     P = real_problem(name)
-    a = solve(P, "cvxpy", formulation, tol=1e-7)
-    b = solve(P, "clarabel", formulation, tol=1e-7, polish=None)   # same algorithm, no polish
+    same = {"polish": None} if formulation == "coulomb" else {}     # same algorithm, no polish
+    a = solve(P, "cvxpy", formulation, tol=1e-7, **same)
+    b = solve(P, "clarabel", formulation, tol=1e-7, polish=None)
     assert rel(a.u, b.u) <= 1e-5
     assert abs(objective(P, a.r) - objective(P, b.r)) <= 1e-7 * max(1.0, abs(objective(P, b.r)))
     assert a.error <= 1e-5
+
+
+@needs_clarabel
+@pytest.mark.parametrize("dim", [2, 3])
+def test_cvxpy_coulomb_default_reaches_tolerance(dim):
+    # with its default Newton polish the cvxpy path reaches the exact law, as the direct path does
+    P = synthetic(12, dim, seed=3)
+    a = solve(P, "cvxpy", "coulomb", tol=1e-8)
+    b = solve(P, "clarabel", "coulomb", tol=1e-8)
+    assert a.converged and a.error <= 1e-8
+    assert rel(a.u, b.u) <= 1e-6
 
 
 def test_cvxpy_hand_solution_single_contact():
