@@ -16,7 +16,7 @@ heap is left to settle.  Measured on the settled heap:
 Outputs: validation/results/talus.png, talus_cuts.csv, granular_talus.json,
 and (re)writes validation/results/granular.md.
 
-Usage: python validation/talus.py [--n 160] [--slope 10] [--quick]
+Usage: python validation/talus.py [--n 200] [--slope 10] [--quick]
 """
 from __future__ import annotations
 
@@ -27,7 +27,6 @@ from pathlib import Path
 
 import numpy as np
 
-from socp_cd.dynamics.stepper import Simulation
 from socp_cd.granular import coordination_number, cut_traction, from_simulation, stress_report
 from socp_cd.granular.plot import draw_force_network, draw_grains
 from socp_cd.granular.samples import pour_talus, relax, talus_bed
@@ -59,16 +58,46 @@ def run(n, slope, seed, h, max_steps, batch=8, steps_per_batch=150, tol=1e-6):
             print(f"  settle step {k + 1}: contacts={st.n_active} it={st.iterations} "
                   f"vmax={v.max():.3g} wall={time.perf_counter() - t0:.0f}s", flush=True)
 
-    # grains that ran past 3/4 of the bed are leaving: not waited for, not analysed
-    on_bed = np.flatnonzero(sim.sys.pos[:, 0] < 0.75 * BED_LENGTH)
-    steps, prev, vmax = relax(sim, max_steps, v_tol=2e-3, bodies=on_bed, min_steps=200,
-                              check_every=20, callback=progress)
+    # grains rolling away beyond the toe of the heap are not waited for
+    d = 1.0
+    steps, prev, vmax = relax(sim, max_steps, v_tol=2e-3, min_steps=200, check_every=20,
+                              bodies=lambda s: heap_grains(s.sys.pos[:, 0], d),
+                              callback=progress)
     state = from_simulation(sim, prev_vel=prev)
     info = dict(steps=pour_steps + steps, settle_steps=steps, sim_time=pour_steps * h + sim.t,
                 wall_time=time.perf_counter() - t0, max_speed=vmax,
                 n_contacts=int(state.n_contacts),
                 unconverged_steps_settling=int(sum(not s.converged for s in sim.stats)))
     return state, tal, sim, info
+
+
+def save_state(path, state, info, n, slope):
+    """Store the settled heap (grain polygons in world coordinates, contacts, info)."""
+    shapes = np.full((state.n_bodies, 8, 2), np.nan)
+    for b, V in enumerate(state.shapes):
+        shapes[b, :len(V)] = V
+    np.savez_compressed(path, centers=state.centers, masses=state.masses, volumes=state.volumes,
+                        pairs=state.pairs, points=state.points, forces=state.forces,
+                        normals=state.normals, gravity=state.gravity,
+                        accelerations=state.accelerations, radii=state.radii, shapes=shapes,
+                        n=n, slope=slope, info=json.dumps(info))
+
+
+def load_state(path):
+    from socp_cd.granular import GranularState
+    z = np.load(path)
+    shapes = [V[~np.isnan(V[:, 0])] for V in z["shapes"]]
+    state = GranularState(shapes=shapes, **{k: z[k] for k in (
+        "centers", "masses", "volumes", "pairs", "points", "forces", "normals", "gravity",
+        "accelerations", "radii")})
+    return state, json.loads(str(z["info"])), int(z["n"]), float(z["slope"])
+
+
+def heap_grains(x, d):
+    """Grains of the contiguous heap: centres before the first gap wider than 2 d."""
+    order = np.argsort(x)
+    gaps = np.flatnonzero(np.diff(x[order]) > 2 * d)
+    return order[:gaps[0] + 1] if gaps.size else order
 
 
 def free_surface(state, d, x_min, x_max):
@@ -105,9 +134,7 @@ def line_angle(u, v):
 
 def measure(state, tal, d, depth_d=(2.0, 3.0), cut_len_d=4.0):
     grains = np.arange(tal.n_grains)
-    cx = np.sort(state.centers[:, 0])
-    gaps = np.flatnonzero(np.diff(cx) > 2 * d)          # end of the contiguous heap
-    toe = float(cx[gaps[0]] if gaps.size else cx[-1])
+    toe = float(state.centers[heap_grains(state.centers[:, 0], d), 0].max())
     x0, x1 = 2 * d, toe - 2 * d
     a0, b1, bx, by = free_surface(state, d, x0, x1)
     alpha = float(np.degrees(-np.arctan(b1)))            # surface descends to the right
@@ -197,15 +224,27 @@ def figure(state, tal, rows, fit, res, path):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=160)
+    ap.add_argument("--n", type=int, default=200)
     ap.add_argument("--slope", type=float, default=10.0)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--h", type=float, default=4e-3)
-    ap.add_argument("--max-steps", type=int, default=4000, help="settling steps")
+    ap.add_argument("--max-steps", type=int, default=3000, help="settling steps")
     ap.add_argument("--quick", action="store_true", help="48 grains (smoke run)")
+    ap.add_argument("--reanalyse", action="store_true",
+                    help="reuse validation/results/talus_state.npz instead of simulating")
     args = ap.parse_args(argv)
     n = 48 if args.quick else args.n
-    state, tal, sim, info = run(n, args.slope, args.seed, args.h, args.max_steps)
+    npz = RESULTS / "talus_state.npz"
+    if args.reanalyse:
+        state, info, n, slope = load_state(npz)
+        tal = talus_bed(slope_deg=slope, length=BED_LENGTH, mu=0.3)
+        tal.n_grains = n
+        args.slope = slope
+    else:
+        state, tal, sim, info = run(n, args.slope, args.seed, args.h, args.max_steps)
+        if not args.quick:
+            RESULTS.mkdir(parents=True, exist_ok=True)
+            save_state(npz, state, info, n, args.slope)
     d = float(2 * np.mean([np.sqrt(v / np.pi) for v in state.volumes]))  # area-equivalent diameter
     res, rows, fit = measure(state, tal, d)
     res.update(info, n=n, h=args.h)

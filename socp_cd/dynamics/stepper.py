@@ -148,14 +148,15 @@ class Simulation:
             raise InvalidProblemError("h", f"must be a positive time step, got {h!r}")
         if not (0.0 < theta <= 1.0):
             raise InvalidProblemError("theta", f"must lie in (0, 1], got {theta!r}")
+        sys_ = compile_scene(scene)
         if margin is None:
-            margin = 1e-3 * float(min(b.bounding_radius for b in scene.bodies)) if scene.bodies else 0.0
+            margin = 1e-3 * float(sys_.radius.min())
         if not (np.isfinite(margin) and margin >= 0):
             raise InvalidProblemError("margin", f"must be >= 0, got {margin!r}")
         if form not in ("local", "global"):
             raise InvalidProblemError("form", f"must be 'local' or 'global', got {form!r}")
         self.scene = scene
-        self.sys = compile_scene(scene)
+        self.sys = sys_
         self.h, self.theta, self.t = float(h), float(theta), float(t0)
         self.solver, self.formulation, self.tol, self.max_iter = solver, formulation, tol, max_iter
         self.margin, self.warm_start, self.form = float(margin), bool(warm_start), form

@@ -4,7 +4,11 @@ Moreau's average stress from the internal moment and its decomposition into
 an external-action term plus the Love–Weber tensor (:mod:`.stress`), tractions
 across cuts compared with the continuum ``σ n`` (:mod:`.cuts`), contact
 statistics (:mod:`.stats`), all on a plain :class:`GranularState`
-(:mod:`.state`) that adapters build from simulator frames.
+(:mod:`.state`) that adapters build from simulator frames
+(:func:`from_simulation`, :func:`from_trajectory`, :func:`from_hdf5`,
+:func:`from_frame`).  Scene builders for the experiments (biaxial box,
+talus poured in batches) are in :mod:`.samples`, drawing helpers in
+:mod:`.plot`; both import the simulator / matplotlib lazily.
 """
 from .cuts import CutSweep, cauchy_deviation, continuum_traction, cut_sweep, cut_traction
 from .state import GranularState, from_frame, from_hdf5, from_simulation, from_trajectory

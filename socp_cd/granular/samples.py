@@ -206,8 +206,10 @@ def relax(sim, max_steps: int, v_tol: float, bodies=None, min_steps: int = 0,
     max_steps : int
     v_tol : float
         Threshold on ``max |v|`` (translational speed) of the selected bodies.
-    bodies : index array, optional
-        Default: all bodies.
+    bodies : index array or callable, optional
+        Bodies to watch (default all); a callable ``bodies(sim) -> indices``
+        is re-evaluated at every check (e.g. to ignore grains leaving the
+        sample or contact-free rattlers).
     min_steps : int
         Never stop before that many steps.
     callback : callable, optional
@@ -223,7 +225,13 @@ def relax(sim, max_steps: int, v_tol: float, bodies=None, min_steps: int = 0,
         Final ``max |v|``.
     """
     d = sim.sys.dim
-    sel = slice(None) if bodies is None else np.asarray(bodies)
+
+    def speed():
+        sel = (slice(None) if bodies is None else
+               np.asarray(bodies(sim) if callable(bodies) else bodies, dtype=np.int64))
+        v = np.linalg.norm(sim.sys.vel[sel, :d], axis=1)
+        return float(v.max()) if v.size else 0.0
+
     prev = sim.sys.vel.copy()
     vmax = np.inf
     for k in range(int(max_steps)):
@@ -232,8 +240,7 @@ def relax(sim, max_steps: int, v_tol: float, bodies=None, min_steps: int = 0,
         if callback is not None:
             callback(sim, k)
         if (k + 1) % check_every == 0 and k + 1 >= min_steps:
-            vmax = float(np.linalg.norm(sim.sys.vel[sel, :d], axis=1).max())
+            vmax = speed()
             if vmax < v_tol:
                 return k + 1, prev, vmax
-    vmax = float(np.linalg.norm(sim.sys.vel[sel, :d], axis=1).max())
-    return int(max_steps), prev, vmax
+    return int(max_steps), prev, speed()

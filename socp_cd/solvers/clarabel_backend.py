@@ -15,6 +15,9 @@ Registered as solver ``"clarabel"`` with formulations
 Global problems are solved natively (for ``associated`` and ``coulomb``) in
 the velocities ``v``: ``min ½ vᵀMv − fᵀv s.t. Hᵀv + w + shift ∈ K*_mu``; the
 constraint multipliers are the impulses ``r`` and ``W`` is never formed.
+Small ones (at most ``DENSE_CONDENSE_MAX`` dofs) are condensed instead by one
+dense LU of ``M`` (:func:`condense_dense`, ``info["condensed_dense"]``): the
+local path then runs the compiled residuals and Newton polish.
 
 Options (all keyword arguments of :func:`socp_cd.solve`)
 ---------------------------------------------------------
@@ -88,9 +91,32 @@ def map_status(clarabel_status) -> str:
     return STATUS_MAP.get(str(clarabel_status), "numerical_error")
 
 
+_SETTINGS_CACHE: dict = {}
+
+
 def make_settings(tol: float | None = None, settings: dict | None = None, *,
                   time_limit=None, verbose=False, max_iter=None):
-    """Clarabel settings: socp_cd defaults, ``tol`` on gap/feasibility, user overrides."""
+    """Clarabel settings: socp_cd defaults, ``tol`` on gap/feasibility, user overrides.
+
+    Settings objects are cached per argument set (Clarabel copies them into
+    each solver, so sharing one is safe); user ``settings`` with unhashable
+    values bypass the cache.
+    """
+    try:
+        key = (tol, time_limit, bool(verbose), max_iter,
+               tuple(sorted(settings.items())) if settings else ())
+        hit = _SETTINGS_CACHE.get(key)
+    except TypeError:
+        key, hit = None, None
+    if hit is not None:
+        return hit
+    s = _build_settings(tol, settings, time_limit=time_limit, verbose=verbose, max_iter=max_iter)
+    if key is not None and len(_SETTINGS_CACHE) < 256:
+        _SETTINGS_CACHE[key] = s
+    return s
+
+
+def _build_settings(tol, settings, *, time_limit, verbose, max_iter):
     s = clarabel.DefaultSettings()
     vals = dict(DEFAULT_SETTINGS)
     vals["verbose"] = bool(verbose)
@@ -224,6 +250,9 @@ _OUTER_KEYS = tuple(OUTER_DEFAULTS)
           description="Clarabel interior point: SOCP relaxations; Coulomb by the De Saxcé fixed point")
 def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **options):
     """Backend entry point (see the module docstring for options and statuses)."""
+    condensed = False
+    if problem.is_global and problem.n_dofs <= DENSE_CONDENSE_MAX:
+        problem, condensed = condense_dense(problem), True
     if problem.is_global and not problem.is_symmetric:
         problem = problem.to_local()  # the SOCP needs a symmetric M; the local path handles skew W
     skew_assoc = formulation == "associated" and not problem.is_global and not problem.is_symmetric
@@ -256,8 +285,33 @@ def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **option
     res = desaxce_fixed_point(problem, factory, tol=tol, max_iter=max_iter or 100, r0=r0,
                               history=history, **outer)
     res.info["clarabel_status"] = res.info.get("inner_status")
+    if condensed:
+        res.info["condensed_dense"] = True
     return res
 
 
-__all__ = ["clarabel_solve", "ClarabelInner", "STATUS_MAP", "map_status", "make_settings",
+#: global problems with at most this many dofs are condensed densely (``W = Hᵀ M⁻¹ H``)
+DENSE_CONDENSE_MAX = 200
+
+
+def condense_dense(problem):
+    """Local form of a small global problem by one dense LU of ``M`` (compiled).
+
+    Same result as :meth:`~socp_cd.problem.GlobalFrictionContactProblem.to_local`
+    (``W = Hᵀ M⁻¹ H``, ``q = Hᵀ M⁻¹ f + w``) without the sparse factorization
+    and conversion overhead, which dominates a one-contact solve.  A singular ``M`` falls back
+    to ``to_local()`` (which raises :class:`~socp_cd.errors.InvalidProblemError`).
+    """
+    from ..problem import FrictionContactProblem
+    from .desaxce_kernels import dense_condense
+    W, q, ok = dense_condense(np.ascontiguousarray(problem.M.toarray()),
+                              np.ascontiguousarray(problem.H.toarray()),
+                              np.ascontiguousarray(problem.f), np.ascontiguousarray(problem.w))
+    if not ok:
+        return problem.to_local()
+    return FrictionContactProblem(W, q, problem.mu, problem.dim, source=problem.source,
+                                  name=problem.name, info=problem.info)
+
+
+__all__ = ["clarabel_solve", "ClarabelInner", "condense_dense", "DENSE_CONDENSE_MAX", "STATUS_MAP", "map_status", "make_settings",
            "DEFAULT_SETTINGS"]

@@ -46,30 +46,84 @@ except ModuleNotFoundError:  # pragma: no cover
     clarabel = None
 
 
-@dataclass
+class CscArrays:
+    """A sparse matrix as the compressed-column arrays Clarabel's Python interface reads.
+
+    Clarabel only reads ``data``, ``indices``, ``indptr``, ``shape`` and
+    ``has_canonical_format`` from the matrices it is given.  Building a scipy
+    matrix validates the arrays (tens of microseconds: as much as a whole
+    one-contact SOCP solve), so the small-problem path hands Clarabel these
+    arrays directly.  They must be canonical (sorted row indices per column,
+    no duplicates).  :meth:`tocsc` gives the scipy matrix.
+    """
+
+    __slots__ = ("data", "indices", "indptr", "shape")
+    has_canonical_format = True
+
+    def __init__(self, data, indices, indptr, shape):
+        self.data = data
+        self.indices = indices
+        self.indptr = indptr
+        self.shape = (int(shape[0]), int(shape[1]))
+
+    @classmethod
+    def of(cls, M) -> "CscArrays":
+        """Arrays of a scipy CSC matrix (or pass a :class:`CscArrays` through)."""
+        if isinstance(M, CscArrays):
+            return M
+        M = M.tocsc()
+        M.sort_indices()
+        return cls(M.data, M.indices, M.indptr, M.shape)
+
+    @property
+    def nnz(self) -> int:
+        return int(self.indptr[-1])
+
+    def tocsc(self) -> sp.csc_matrix:
+        """The scipy ``csc_matrix`` (shares the arrays)."""
+        return sp.csc_matrix((self.data, self.indices, self.indptr), shape=self.shape)
+
+    def toarray(self) -> np.ndarray:
+        return self.tocsc().toarray()
+
+    def __neg__(self) -> "CscArrays":
+        return CscArrays(-self.data, self.indices, self.indptr, self.shape)
+
+
 class ConeMap:
     """``s = G y + g ∈ C`` for a stacked contact vector ``y``.
 
     Attributes
     ----------
     G : scipy.sparse.csc_matrix, shape (k, m)
+        (built on first access when the map was given as :class:`CscArrays`)
+    csc : CscArrays
+        The same matrix as bare arrays (what Clarabel reads).
     g : ndarray, shape (k,)
     n_zero, n_nonneg, n_soc, soc_dim : int
         Row counts of the zero cone, the nonnegative cone and the number and
         size of the second-order cones (rows in that order).
     """
 
-    G: sp.csc_matrix
-    g: np.ndarray
-    n_zero: int
-    n_nonneg: int
-    n_soc: int
-    soc_dim: int = 3
+    def __init__(self, G, g, n_zero: int, n_nonneg: int, n_soc: int, soc_dim: int = 3):
+        self._G = G if sp.issparse(G) else None
+        self.csc = CscArrays.of(G)
+        self.g = g
+        self.n_zero = n_zero
+        self.n_nonneg = n_nonneg
+        self.n_soc = n_soc
+        self.soc_dim = soc_dim
+
+    @property
+    def G(self) -> sp.csc_matrix:
+        if self._G is None:
+            self._G = self.csc.tocsc()
+        return self._G
 
     @property
     def n_rows(self) -> int:
         """Number of constraint rows ``k``."""
-        return self.G.shape[0]
+        return self.csc.shape[0]
 
     def cones(self) -> list:
         """Clarabel cone list matching the row order of ``G``."""
@@ -143,9 +197,16 @@ def _diagonal_soc_map(n_scale, t_scale, nc: int) -> ConeMap:
     vals = np.empty((nc, 3))
     vals[:, 0] = n_scale
     vals[:, 1:] = np.asarray(t_scale, dtype=np.float64)[:, None]
-    idx = np.arange(m, dtype=np.int32)
-    G = sp.csc_matrix((vals.reshape(-1), idx, np.arange(m + 1, dtype=np.int32)), shape=(m, m))
+    G = CscArrays(vals.reshape(-1), _arange32(m), _arange32(m + 1), (m, m))
     return ConeMap(G, np.zeros(m), 0, 0, nc, 3)
+
+
+@lru_cache(maxsize=64)
+def _arange32(n: int) -> np.ndarray:
+    """Cached ``arange(n)`` index array (read-only: shared between maps)."""
+    a = np.arange(n, dtype=np.int32)
+    a.setflags(write=False)
+    return a
 
 
 def coulomb_cone_map(mu, dim: int) -> ConeMap:
@@ -233,7 +294,11 @@ def law_cone_map(problem, formulation: str, threshold=None) -> ConeMap:
 
 @dataclass
 class ConicData:
-    """Clarabel standard-form data ``(P, q, A, b, cones)`` plus the cone map used."""
+    """Clarabel standard-form data ``(P, q, A, b, cones)`` plus the cone map used.
+
+    ``P`` and ``A`` are scipy CSC matrices, or :class:`CscArrays` for problems
+    with at most :data:`DENSE_P_MAX` unknowns.
+    """
 
     P: sp.csc_matrix
     q: np.ndarray
@@ -256,7 +321,20 @@ def _dense_upper_pattern(n: int):
     cols, rows = np.tril_indices(n)            # (col >= row), ordered by column then row
     indptr = np.zeros(n + 1, dtype=np.int32)
     indptr[1:] = np.cumsum(np.arange(1, n + 1))
-    return rows.astype(np.int32), indptr, rows * n + cols
+    rows = rows.astype(np.int32)
+    for a in (rows, indptr):
+        a.setflags(write=False)
+    return rows, indptr, rows * n + cols
+
+
+def clarabel_upper(S):
+    """``P`` for Clarabel: :func:`upper_csc`, as bare :class:`CscArrays` for small matrices."""
+    n = S.shape[0]
+    if n <= DENSE_P_MAX:
+        D = S.toarray() if sp.issparse(S) else np.asarray(S, dtype=np.float64)
+        rows, indptr, flat = _dense_upper_pattern(n)
+        return CscArrays(D.reshape(-1)[flat], rows, indptr, (n, n))
+    return upper_csc(S)
 
 
 def upper_csc(S) -> sp.csc_matrix:
@@ -268,13 +346,10 @@ def upper_csc(S) -> sp.csc_matrix:
     zero costs nothing at that size and the index arrays are cached).
     """
     n = S.shape[0]
-    if n <= DENSE_P_MAX or not sp.issparse(S):
-        D = S.toarray() if sp.issparse(S) else np.asarray(S, dtype=np.float64)
-        if n <= DENSE_P_MAX:
-            rows, indptr, flat = _dense_upper_pattern(n)
-            return sp.csc_matrix((D.reshape(-1)[flat], rows, indptr), shape=(n, n))
-        S = sp.coo_matrix(D)
-    C = S.tocoo()
+    if n <= DENSE_P_MAX:
+        U = clarabel_upper(S)
+        return sp.csc_matrix((U.data, U.indices.copy(), U.indptr.copy()), shape=U.shape)
+    C = S.tocoo() if sp.issparse(S) else sp.coo_matrix(np.asarray(S, dtype=np.float64))
     keep = (C.row <= C.col) & (C.data != 0.0)
     U = sp.csc_matrix((C.data[keep], (C.row[keep], C.col[keep])), shape=S.shape)
     U.sort_indices()
@@ -303,8 +378,8 @@ def local_conic_data(problem, formulation: str = "associated", *, threshold=None
     cm = law_cone_map(problem, formulation, threshold)
     Ws = problem.symmetric_part() if W_sym is None else W_sym
     q = problem.q if q_shift is None else np.asarray(q_shift, dtype=np.float64)
-    A = -cm.G
-    return ConicData(upper_csc(Ws), np.array(q, dtype=np.float64), A, cm.g.copy(), cm)
+    A = -cm.csc if Ws.shape[0] <= DENSE_P_MAX else -cm.G
+    return ConicData(clarabel_upper(Ws), np.array(q, dtype=np.float64), A, cm.g.copy(), cm)
 
 
 def global_conic_data(problem, *, w_shift=None) -> ConicData:
@@ -331,5 +406,5 @@ def global_conic_data(problem, *, w_shift=None) -> ConicData:
     return ConicData(upper_csc(Ms), -np.array(problem.f, dtype=np.float64), A, b, cm)
 
 
-__all__ = ["ConeMap", "ConicData", "coulomb_cone_map", "dual_cone_map", "frictionless_map",
+__all__ = ["CscArrays", "clarabel_upper", "DENSE_P_MAX", "ConeMap", "ConicData", "coulomb_cone_map", "dual_cone_map", "frictionless_map",
            "tresca_map", "law_cone_map", "local_conic_data", "global_conic_data", "upper_csc"]

@@ -86,7 +86,7 @@ OUTER_DEFAULTS = dict(
 
 
 #: largest ``m`` for which ``W`` is formed densely (compiled residuals and polish)
-DENSE_MAX = 600
+DENSE_MAX = 200
 #: up to this ``m`` the dense polish is retried after every outer iteration
 CHEAP_POLISH_MAX = 60
 #: sweeps of the NSGS polish that follows a stalled dense Newton polish
@@ -118,17 +118,17 @@ class _Workspace:
             self.norm_q = float(np.sqrt(np.dot(self.q, self.q)))
             self.law = LAW_COULOMB if friction else LAW_ASSOCIATED
             skew = Wd - Wd.T
-            asym = float(np.max(np.abs(skew))) if skew.size else 0.0
+            asym = float(np.abs(skew).max())
             if asym == 0.0:
                 self.W_sym = problem.W
             else:
                 self.W_sym = sp.csr_matrix(0.5 * (Wd + Wd.T))
-                scale = float(np.max(np.abs(Wd)))
+                scale = float(np.abs(Wd).max())
                 if asym > SYMMETRY_RTOL * max(scale, np.finfo(float).tiny):
-                    self.W_a = 0.5 * skew
-            dg = np.abs(np.diag(Wd))
-            rho = 1.0 / float(np.mean(dg)) if np.any(dg > 0) else 1.0
-            self.rho = np.full(problem.n_contacts, rho)
+                    self.W_a = sp.csr_matrix(0.5 * skew)
+            dsum = float(np.abs(Wd.diagonal()).sum())
+            # scale-free map: rho ~ 1 / (mean |diagonal of W|), as natural_map_newton
+            self.rho = np.full(problem.n_contacts, problem.m / dsum if dsum > 0.0 else 1.0)
         elif not problem.is_global:
             self.W_sym = problem.symmetric_part()
             if not problem.is_symmetric:

@@ -12,8 +12,14 @@ both in compiled code:
   ``F(r) = r - P_K(r - rho û(r))`` of :func:`socp_cd.solvers.desaxce.natural_map_newton`
   (same generalized Jacobian ``J = I - J_P (I - rho D_S W)``, same
   Levenberg–Marquardt fallback and backtracking line search on Siconos'
-  error), with LAPACK dense solves and no Python in the loop.
+  error), with no Python in the loop.
 
+The linear algebra is written out (matrix-vector products, LU with partial
+pivoting) instead of calling BLAS/LAPACK: at these sizes it costs about the
+same, and it cannot fall into multithreaded-OpenBLAS oversubscription, which
+on a loaded machine turns a 0.2 ms ``162 x 162`` solve into 50-100 ms.
+
+:func:`dense_condense` forms the local problem of a small global one.
 Per-contact projections reuse :mod:`socp_cd.solvers.local_solvers`.
 """
 from __future__ import annotations
@@ -27,11 +33,88 @@ _EPS = 2.220446049250313e-16
 
 
 @njit(cache=True)
+def _matvec(A, x, b, out):
+    """``out = A x + b`` (no BLAS)."""
+    n, k = A.shape
+    for i in range(n):
+        s = b[i]
+        for j in range(k):
+            s += A[i, j] * x[j]
+        out[i] = s
+
+
+@njit(cache=True)
+def _lu_solve(A, b):
+    """Solve ``A x = b`` by LU with partial pivoting, in place (``A``, ``b`` destroyed).
+
+    Returns ``(x, ok)``; ``ok`` is False on a zero (or non-finite) pivot.
+    """
+    n = A.shape[0]
+    x = np.zeros(n)
+    scale = 0.0
+    for i in range(n):
+        for j in range(n):
+            a = abs(A[i, j])
+            if a > scale:
+                scale = a
+    tiny = 1e-300 + 1e-15 * scale
+    for k in range(n):
+        p = k
+        amax = abs(A[k, k])
+        for i in range(k + 1, n):
+            a = abs(A[i, k])
+            if a > amax:
+                amax = a
+                p = i
+        if not (amax > tiny):          # also catches NaN
+            return x, False
+        if p != k:
+            for j in range(k, n):
+                t = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = t
+            t = b[k]
+            b[k] = b[p]
+            b[p] = t
+        inv = 1.0 / A[k, k]
+        for i in range(k + 1, n):
+            f = A[i, k] * inv
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= f * A[k, j]
+                b[i] -= f * b[k]
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, n):
+            s -= A[i, j] * x[j]
+        x[i] = s / A[i, i]
+    for i in range(n):
+        if not np.isfinite(x[i]):
+            return x, False
+    return x, True
+
+
+@njit(cache=True)
+def _normal_matrix(J, F, A, g):
+    """``A = JᵀJ`` and ``g = -JᵀF`` (zero entries of ``J`` skipped)."""
+    m = J.shape[0]
+    A[:, :] = 0.0
+    g[:] = 0.0
+    for k in range(m):
+        for i in range(m):
+            a = J[k, i]
+            if a != 0.0:
+                g[i] -= a * F[k]
+                for j in range(m):
+                    A[i, j] += a * J[k, j]
+
+
+@njit(cache=True)
 def dense_error(W, q, r, mu, dim, law, norm_q, u):
     """Relative natural-map error of ``r`` (``u = W r + q`` written into ``u``)."""
     m = r.shape[0]
     nc = m // dim
-    u[:] = W @ r + q
+    _matvec(W, r, q, u)
     x = np.empty(dim)
     p = np.empty(dim)
     s = 0.0
@@ -167,25 +250,22 @@ def dense_newton(W, q, mu, dim, law, r0, tol, max_iter, rho, norm_q):
     J = np.empty((m, m))
     err = dense_error(W, q, r, mu, dim, law, norm_q, u)
     its = 0
+    Jw = np.empty((m, m))
+    JtJ = np.empty((m, m))
+    g = np.empty(m)
+    res = np.empty(m)
     while its < max_iter and err > tol:
         its += 1
         _residual_and_jacobian(W, r, u, mu, dim, law, rho, F, J)
         nF = np.sqrt(np.dot(F, F))
         improved = False
         # 1) plain Newton step (kept when the linear solve is accurate)
-        ok = True
-        d = np.zeros(m)
-        try:
-            d = np.linalg.solve(J, -F)
-        except Exception:  # noqa: BLE001 - singular J
-            ok = False
+        Jw[:, :] = J
+        for k in range(m):
+            res[k] = -F[k]
+        d, ok = _lu_solve(Jw, res)
         if ok:
-            for k in range(m):
-                if not np.isfinite(d[k]):
-                    ok = False
-                    break
-        if ok:
-            res = J @ d + F
+            _matvec(J, d, F, res)
             ok = np.sqrt(np.dot(res, res)) <= 1e-6 * nF
         if ok:
             e = _line_search(W, q, mu, dim, law, norm_q, r, d, err, r_try, ut)
@@ -195,18 +275,14 @@ def dense_newton(W, q, mu, dim, law, r0, tol, max_iter, rho, norm_q):
                 improved = True
         # 2) Levenberg–Marquardt steps of growing damping
         if not improved:
-            JtJ = J.T @ J
-            g = -(J.T @ F)
+            _normal_matrix(J, F, JtJ, g)
             scale = max(np.max(np.abs(JtJ)), 1e-300)
             for lam in (1e-12, 1e-9, 1e-6, 1e-3):
-                A = JtJ.copy()
+                Jw[:, :] = JtJ
                 for k in range(m):
-                    A[k, k] += lam * scale
-                ok = True
-                try:
-                    d = np.linalg.solve(A, g)
-                except Exception:  # noqa: BLE001
-                    ok = False
+                    Jw[k, k] += lam * scale
+                    res[k] = g[k]
+                d, ok = _lu_solve(Jw, res)
                 if not ok:
                     continue
                 e = _line_search(W, q, mu, dim, law, norm_q, r, d, err, r_try, ut)
@@ -221,4 +297,78 @@ def dense_newton(W, q, mu, dim, law, r0, tol, max_iter, rho, norm_q):
     return r, its, err
 
 
-__all__ = ["dense_error", "dense_newton", "LAW_COULOMB", "LAW_ASSOCIATED"]
+@njit(cache=True)
+def dense_condense(M, H, f, w):
+    """Local form of a small global problem: ``W = Hᵀ M⁻¹ H``, ``q = Hᵀ M⁻¹ f + w``.
+
+    One LU of ``M`` with partial pivoting (no LAPACK), ``M``, ``H`` dense.
+    Returns ``(W, q, ok)``; ``ok`` is False when ``M`` is numerically singular.
+    """
+    n, m = H.shape
+    A = M.copy()
+    B = np.empty((n, m + 1))
+    for i in range(n):
+        for j in range(m):
+            B[i, j] = H[i, j]
+        B[i, m] = f[i]
+    scale = 0.0
+    for i in range(n):
+        for j in range(n):
+            a = abs(A[i, j])
+            if a > scale:
+                scale = a
+    tiny = 1e-300 + 1e-15 * scale
+    W = np.zeros((m, m))
+    q = np.zeros(m)
+    for k in range(n):
+        p = k
+        amax = abs(A[k, k])
+        for i in range(k + 1, n):
+            a = abs(A[i, k])
+            if a > amax:
+                amax = a
+                p = i
+        if not (amax > tiny):
+            return W, q, False
+        if p != k:
+            for j in range(k, n):
+                t = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = t
+            for j in range(m + 1):
+                t = B[k, j]
+                B[k, j] = B[p, j]
+                B[p, j] = t
+        inv = 1.0 / A[k, k]
+        for i in range(k + 1, n):
+            fac = A[i, k] * inv
+            if fac != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= fac * A[k, j]
+                for j in range(m + 1):
+                    B[i, j] -= fac * B[k, j]
+    X = np.zeros((n, m + 1))
+    for i in range(n - 1, -1, -1):
+        for j in range(m + 1):
+            s = B[i, j]
+            for l in range(i + 1, n):
+                s -= A[i, l] * X[l, j]
+            X[i, j] = s / A[i, i]
+    for a in range(m):
+        for i in range(n):
+            h = H[i, a]
+            if h != 0.0:
+                for b in range(m):
+                    W[a, b] += h * X[i, b]
+                q[a] += h * X[i, m]
+        q[a] += w[a]
+    for a in range(m):
+        if not np.isfinite(q[a]):
+            return W, q, False
+        for b in range(m):
+            if not np.isfinite(W[a, b]):
+                return W, q, False
+    return W, q, True
+
+
+__all__ = ["dense_error", "dense_newton", "dense_condense", "LAW_COULOMB", "LAW_ASSOCIATED"]
