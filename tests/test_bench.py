@@ -278,3 +278,14 @@ def test_siconos_peer_in_campaign():
     nsgs = next(r for r in recs if r["solver"] == "siconos:nsgs")
     assert nsgs["success"] and nsgs["u_error"] < 1e-3   # SPD W: u* is recovered
     assert p.n_contacts == 10
+
+
+def test_resume_skips_recorded_runs(tmp_path):
+    csv_path = tmp_path / "r.csv"
+    refs = [_ref(2), _ref(3)]
+    first = C.run_campaign(refs, ["t_exact"], [1e-4, 1e-6], 20.0, csv_path=csv_path)
+    assert len(first) == 4
+    again = C.run_campaign(refs + [_ref(4)], ["t_exact"], [1e-4, 1e-6], 20.0, csv_path=csv_path,
+                           resume=True)
+    assert {r["problem"] for r in again} == {"manufactured-3d-4-s0"} and len(again) == 2
+    assert len(R.read_records(csv_path)) == 6

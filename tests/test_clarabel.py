@@ -4,15 +4,20 @@ Expected solutions are derived by hand (single contacts with W = I) or built
 backwards: pick ``(r*, u*)`` obeying the law contact by contact, then set
 ``q = u* - W r*``.
 """
+import clarabel
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
+from socp_cd.errors import InvalidProblemError
 from socp_cd.cones import in_cone_violation, project_cone, project_dual_cone
 from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem
 from socp_cd.residuals import error
 from socp_cd.solvers import solve
 from socp_cd.solvers import clarabel_backend as cb
 from socp_cd.solvers.conic_data import coulomb_cone_map, dual_cone_map, tresca_map
+from socp_cd.solvers import conic_data as cd
+from socp_cd.solvers import desaxce_kernels as dk
 from socp_cd.solvers.desaxce import desaxce_fixed_point
 
 TOL = 1e-8
@@ -200,14 +205,18 @@ def small_global(rng, mu=0.4):
     return GlobalFrictionContactProblem(M, H, f, w, mu, 3)
 
 
+@pytest.mark.parametrize("native", [True, False])
 @pytest.mark.parametrize("form", ["coulomb", "associated"])
-def test_global_form_equals_condensed(form):
+def test_global_form_equals_condensed(form, native, monkeypatch):
+    # native: the SOCP in v (W never formed); else the small-problem dense condensation
+    monkeypatch.setattr(cb, "DENSE_CONDENSE_MAX", 0 if native else 10_000)
     g = small_global(np.random.default_rng(5))
     loc = g.to_local()
     rg = solve(g, "clarabel", form, tol=TOL)
     rl = solve(loc, "clarabel", form, tol=TOL)
     assert rg.converged and rl.converged
     assert "condensed_to_local" not in rg.info
+    assert rg.info.get("condensed_dense", False) is (not native)
     assert np.allclose(rg.u, rl.u, atol=1e-6)
     assert np.allclose(rg.v, g.global_velocity(rl.r), atol=1e-6)
     if form == "associated":   # same convex program: same optimal value
@@ -320,3 +329,128 @@ def test_real_problem_reaches_siconos_tolerance():
     res = solve(p, "clarabel", "coulomb", tol=1e-8)
     assert res.converged and error(p, res.r) <= 1e-8
     assert in_cone_violation(res.r, p.mu, 3).max() <= 1e-8 * max(1.0, np.abs(res.r).max())
+
+
+# ------------------------------------------------- small-problem fast path
+def test_clarabel_upper_is_the_upper_triangle():
+    rng = np.random.default_rng(11)
+    for n in (4, cd.DENSE_P_MAX + 5):
+        S = rng.normal(size=(n, n))
+        S = S + S.T
+        S[0, 2] = S[2, 0] = 0.0
+        for M in (S, sp.csr_matrix(S)):
+            U = cd.upper_csc(M)
+            assert U.has_sorted_indices
+            assert np.array_equal(U.toarray(), np.triu(S))
+            assert np.array_equal(cd.CscArrays.of(cd.clarabel_upper(M)).toarray(), np.triu(S))
+
+
+def test_clarabel_reads_csc_arrays():
+    # min 2 x0^2 + x1^2 + x0 - x1  s.t. x >= 0  ->  x = (0, 1/2) (by hand)
+    P = cd.CscArrays(np.array([4.0, 2.0]), np.array([0, 1], dtype=np.int32),
+                     np.array([0, 1, 2], dtype=np.int32), (2, 2))
+    A = -cd.CscArrays(np.ones(2), np.array([0, 1], dtype=np.int32),
+                      np.array([0, 1, 2], dtype=np.int32), (2, 2))
+    sol = clarabel.DefaultSolver(P, np.array([1.0, -1.0]), A, np.zeros(2),
+                                 [clarabel.NonnegativeConeT(2)], cb.make_settings(1e-10)).solve()
+    assert np.allclose(sol.x, [0.0, 0.5], atol=1e-8)
+    assert np.array_equal(A.tocsc().toarray(), -np.eye(2))
+
+
+@pytest.mark.parametrize("law", ["coulomb", "associated"])
+def test_dense_error_matches_residuals(law):
+    from socp_cd.laws import associated_error
+    rng = np.random.default_rng(12)
+    mu = np.array([0.0, 0.4, 1.1, 0.3])
+    S = rng.normal(size=(12, 12))
+    p = FrictionContactProblem(spd(12, rng) + 0.1 * (S - S.T), rng.normal(size=12), mu, 3)
+    code = dk.LAW_COULOMB if law == "coulomb" else dk.LAW_ASSOCIATED
+    ref = error if law == "coulomb" else associated_error
+    for r in (rng.normal(size=12), np.zeros(12), project_cone(rng.normal(size=12), mu, 3)):
+        u = np.empty(12)
+        e = dk.dense_error(p.W.toarray(), p.q, r, mu, 3, code, np.linalg.norm(p.q), u)
+        assert np.isclose(e, ref(p, r), rtol=1e-12, atol=1e-15)
+        assert np.allclose(u, p.velocity(r))
+
+
+def test_dense_split_and_matvec():
+    rng = np.random.default_rng(13)
+    W = rng.normal(size=(6, 6))
+    Wc = sp.csr_matrix(W)
+    Wd, Ws, Wa, asym, scale, dsum = dk.dense_split(Wc.indptr, Wc.indices, Wc.data, 6)
+    assert np.array_equal(Wd, W) and np.allclose(Ws + Wa, W) and np.allclose(Ws, Ws.T)
+    assert np.isclose(asym, np.abs(W - W.T).max()) and np.isclose(scale, np.abs(W).max())
+    assert np.isclose(dsum, np.abs(np.diag(W)).sum())
+    x = rng.normal(size=6)
+    assert np.allclose(dk.matvec(W, x), W @ x)
+
+
+def test_dense_condense_matches_to_local():
+    g = small_global(np.random.default_rng(14))
+    loc = cb.condense_dense(g)
+    ref = g.to_local()
+    assert np.allclose(loc.W.toarray(), ref.W.toarray(), atol=1e-12)
+    assert np.allclose(loc.q, ref.q, atol=1e-12)
+    # a singular M is not condensed densely: the sparse path reports it
+    bad = GlobalFrictionContactProblem(np.zeros((8, 8)), g.H, g.f, g.w, g.mu, 3)
+    with pytest.raises(InvalidProblemError):
+        cb.condense_dense(bad)
+
+
+def test_dense_newton_converges_from_perturbed_solution():
+    rng = np.random.default_rng(15)
+    mu = np.array([0.3, 0.5, 0.2, 0.4])
+    r_s, u_s = law_pair(["slide", "stick", "sep", "slide"], mu, 3, rng)
+    W = spd(12, rng, 5.0)
+    p = FrictionContactProblem(W, u_s - W @ r_s, mu, 3)
+    r0 = r_s + 1e-3 * rng.normal(size=12)
+    rho = np.full(4, 12 / np.abs(np.diag(W)).sum())
+    r, its, e = dk.dense_newton(W, p.q, mu, 3, dk.LAW_COULOMB, r0, 1e-12, 30, rho, np.linalg.norm(p.q))
+    assert e <= 1e-12 and np.isclose(e, error(p, r), atol=1e-15)
+    assert np.allclose(r, r_s, atol=1e-9) and 1 <= its <= 30
+
+
+def test_small_problem_polish_from_first_iterate():
+    # W = I: the first associated SOCP dilates (r_N too small); the compiled polish
+    # reaches the Coulomb solution (by hand: slide, r = (1, -0.5, 0)) without a 2nd SOCP
+    res = solve(one_contact((-1.0, 2.0, 0.0)), "clarabel", "coulomb", tol=1e-10)
+    assert res.converged and res.iterations == 1 and res.info["polish_iterations"] >= 1
+    assert np.allclose(res.r, [1.0, -0.5, 0.0], atol=1e-8)
+
+
+def test_tiny_first_iteration_agrees_with_generic_loop():
+    rng = np.random.default_rng(16)
+    mu = np.array([0.3, 0.5, 0.2, 0.4])
+    r_s, u_s = law_pair(["slide", "stick", "sep", "slide"], mu, 3, rng)
+    W = spd(12, rng, 5.0)
+    p = FrictionContactProblem(W, u_s - W @ r_s, mu, 3)
+    fast = solve(p, "clarabel", "coulomb", tol=1e-10, history=True)
+    generic = solve(p, "clarabel", "coulomb", tol=1e-10, patience=8)   # an outer option: generic loop
+    for res in (fast, generic):
+        assert res.converged and np.allclose(res.r, r_s, atol=1e-8)
+    assert fast.iterations == 1 and np.isclose(fast.history[-1], fast.error, rtol=1e-6)
+
+
+def test_tiny_first_iteration_continues_when_polish_fails(monkeypatch):
+    # the short path's polishes are disabled: the generic loop must continue from its iterate
+    def no_polish(W, q, mu, dim, law, r, tol, max_iter, rho):
+        e = dk.dense_error(W, q, r, mu, dim, law, np.linalg.norm(q), np.empty(r.shape[0]))
+        return r.copy(), 0, e, e
+
+    monkeypatch.setattr(dk, "error_then_newton", no_polish)
+    monkeypatch.setattr(cb, "_polish", lambda *a, **k: (None, 0, False))   # no NSGS either
+    p = one_contact((-1.0, 2.0, 0.0))
+    res = solve(p, "clarabel", "coulomb", tol=1e-10, history=True)
+    assert res.converged and res.iterations >= 2
+    assert np.allclose(res.r, [1.0, -0.5, 0.0], atol=1e-8)
+    assert res.history[0] > 1e-3              # the first (associated) iterate dilates
+    assert res.info["inner_iterations"] > 0 and res.info["polish_iterations"] >= 1
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_coulomb_constraint_is_minus_cone_map(dim):
+    for mu in (np.array([0.3, 1.2]), np.array([0.0, 0.7])):
+        A, b, cones = cd.coulomb_constraint(mu, dim)
+        cm = coulomb_cone_map(mu, dim)
+        assert np.array_equal(cd.CscArrays.of(A).toarray(), -cm.G.toarray())
+        assert np.array_equal(b, cm.g) and len(cones) == len(cm.cones())

@@ -64,7 +64,14 @@ def run(n, slope, seed, h, max_steps, batch=8, steps_per_batch=150, tol=1e-6):
                               bodies=lambda s: heap_grains(s.sys.pos[:, 0], d),
                               callback=progress)
     state = from_simulation(sim, prev_vel=prev)
-    info = dict(steps=pour_steps + steps, settle_steps=steps, sim_time=pour_steps * h + sim.t,
+    speed = np.linalg.norm(sim.sys.vel[:, :2], axis=1)
+    heap = heap_grains(sim.sys.pos[:, 0], d)
+    info = dict(speed_p99=float(np.percentile(speed[heap], 99)),
+                n_moving=int(np.sum(speed[heap] > 2e-3)), x_fastest=float(sim.sys.pos[heap[
+                    np.argmax(speed[heap])], 0]), last_iterations=int(sim.stats[-1].iterations))
+    # each rebuilt Simulation restarts at t = 0: sim.t = last batch + settling
+    info.update(steps=pour_steps + steps, settle_steps=steps,
+                sim_time=(pour_steps - steps_per_batch) * h + sim.t,
                 wall_time=time.perf_counter() - t0, max_speed=vmax,
                 n_contacts=int(state.n_contacts),
                 unconverged_steps_settling=int(sum(not s.converged for s in sim.stats)))
@@ -117,6 +124,8 @@ def free_surface(state, d, x_min, x_max):
             bx.append(top_x[k])
             by.append(top_y[k])
     bx, by = np.array(bx), np.array(by)
+    if bx.size < 2:
+        return np.nan, np.nan, bx, by
     b1, a0 = np.polyfit(bx, by, 1)
     return a0, b1, bx, by
 
@@ -133,9 +142,11 @@ def line_angle(u, v):
 
 
 def measure(state, tal, d, depth_d=(2.0, 3.0), cut_len_d=4.0):
-    grains = np.arange(tal.n_grains)
     toe = float(state.centers[heap_grains(state.centers[:, 0], d), 0].max())
-    x0, x1 = 2 * d, toe - 2 * d
+    # the measuring zone: from 2 d off the wall to where the heap is still >= 3 d thick
+    _, _, tx, ty = free_surface(state, d, 0.0, toe)
+    thick = tx[ty - (tal.bed_y(tx) + tal.bed_radius) >= 3 * d]
+    x0, x1 = 2 * d, float(thick.max()) if thick.size else toe - 2 * d
     a0, b1, bx, by = free_surface(state, d, x0, x1)
     alpha = float(np.degrees(-np.arctan(b1)))            # surface descends to the right
     s = np.array([1.0, b1]) / np.hypot(1.0, b1)          # along the surface, downslope
@@ -164,7 +175,8 @@ def measure(state, tal, d, depth_d=(2.0, 3.0), cut_len_d=4.0):
     vert = [r for r in rows if r[0] == "vertical"]
     ts = np.sum([[r[4], r[5]] for r in surf], axis=0) if surf else np.full(2, np.nan)
     tv = np.sum([[r[4], r[5]] for r in vert], axis=0) if vert else np.full(2, np.nan)
-    rep = stress_report(state, 1.0, sample=grains)      # volume irrelevant for the ratios
+    heap = heap_grains(state.centers[:, 0], d)          # without grains rolling away
+    rep = stress_report(state, 1.0, sample=heap)        # volume irrelevant for the ratios
     res = dict(
         repose_angle_deg=alpha, slope_deg=float(np.degrees(tal.slope_angle)),
         surface_cut_angle_deg=signed_angle(ts, np.array([0.0, -1.0])),
@@ -178,7 +190,7 @@ def measure(state, tal, d, depth_d=(2.0, 3.0), cut_len_d=4.0):
         heap_x_range=[x0, x1], toe=toe, mean_diameter=d, cut_length=L,
         moreau_asymmetry=rep.moreau_asymmetry, weber_difference_pct=100 * rep.weber_difference,
         equilibrium_residual=rep.equilibrium_residual,
-        coordination=coordination_number(state, sample=grains))
+        coordination=coordination_number(state, sample=heap), n_heap=int(heap.size))
     return res, rows, (a0, b1, bx, by)
 
 
@@ -228,7 +240,7 @@ def main(argv=None):
     ap.add_argument("--slope", type=float, default=10.0)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--h", type=float, default=4e-3)
-    ap.add_argument("--max-steps", type=int, default=3000, help="settling steps")
+    ap.add_argument("--max-steps", type=int, default=5000, help="settling steps")
     ap.add_argument("--quick", action="store_true", help="48 grains (smoke run)")
     ap.add_argument("--reanalyse", action="store_true",
                     help="reuse validation/results/talus_state.npz instead of simulating")
@@ -255,10 +267,13 @@ def main(argv=None):
         f"poured in batches of 8 dropped 1 d above the heap within 4 d of the wall, "
         f"150 steps per batch, then settled: {info['steps']} steps in all "
         f"(t = {info['sim_time']:.2f}, {info['wall_time']:.0f} s wall), final max speed "
-        f"{info['max_speed']:.2e}, {info['n_contacts']} contacts, unconverged steps while "
-        f"settling {info['unconverged_steps_settling']}.",
+        f"{info['max_speed']:.2e} (grain at x = {info.get('x_fastest', np.nan):.1f}; "
+        f"{info.get('n_moving', -1)} heap grains faster than 2e-3, 99th percentile speed "
+        f"{info.get('speed_p99', np.nan):.1e}), {info['n_contacts']} contacts, "
+        f"unconverged steps while settling {info['unconverged_steps_settling']}.",
         f"free surface fitted on x ∈ [{res['heap_x_range'][0]:.1f}, {res['heap_x_range'][1]:.1f}] "
-        f"(area-equivalent diameter d = {d:.2f}): α = {res['repose_angle_deg']:.1f}°.",
+        f"(2 d from the wall to where the heap is 3 d thick; toe at x = {res['toe']:.1f}; "
+        f"area-equivalent diameter d = {d:.2f}): α = {res['repose_angle_deg']:.1f}°.",
         f"{res['n_surface_cuts']} surface-parallel cuts ({res['cut_length'] / d:.0f} d long, 2–3 d "
         f"deep): resultant traction {res['surface_cut_angle_deg']:.1f}° from the vertical "
         f"(per cut: mean {res['surface_cut_angle_mean_deg']:.1f}°, std "
@@ -266,8 +281,9 @@ def main(argv=None):
         f"{res['n_vertical_cuts']} vertical cuts (bed + 1 d to surface − 1 d): resultant traction "
         f"{res['vertical_cut_angle_deg']:.1f}° from the free-surface direction (per cut: mean "
         f"{res['vertical_cut_angle_mean_deg']:.1f}°, std {res['vertical_cut_angle_std_deg']:.1f}°).",
-        f"whole-heap Moreau moment asymmetry {res['moreau_asymmetry']:.1e}, grain equilibrium "
-        f"residual {res['equilibrium_residual']:.1e}, z = {res['coordination']:.2f}.",
+        f"heap ({res['n_heap']} grains, without those rolling away): Moreau moment asymmetry "
+        f"{res['moreau_asymmetry']:.1e}, grain equilibrium residual "
+        f"{res['equilibrium_residual']:.1e}, z = {res['coordination']:.2f}.",
         "Figure: `talus.png` (grains, force network, fitted surface, traction arrows); "
         "data `talus_cuts.csv`."]
     for k in ("repose_angle_deg", "surface_cut_angle_deg", "surface_cut_angle_std_deg",

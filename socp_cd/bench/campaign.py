@@ -19,7 +19,7 @@ import re
 import subprocess
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from functools import lru_cache
 from pathlib import Path
@@ -595,7 +595,7 @@ def resolve_tolerances(tolerances) -> list[float]:
 
 def run_campaign(problems, solvers=None, tolerances=None, time_limit: float = 30.0, *,
                  max_iter=None, suite: str = "bench", csv_path=None, resume: bool = False,
-                 dask=None, isolation=None, verbose: bool = False) -> list[dict]:
+                 dask=None, n_workers: int = 2, isolation=None, verbose: bool = False) -> list[dict]:
     """Run a benchmark campaign and return its records.
 
     Parameters
@@ -624,6 +624,8 @@ def run_campaign(problems, solvers=None, tolerances=None, time_limit: float = 30
     dask : None, True, str or distributed.Client
         Run the tasks on dask: ``True`` starts a LocalCluster, a string is a
         scheduler address, a Client is used as is.
+    n_workers : int
+        Worker processes of the LocalCluster started for ``dask=True``.
     isolation : {"fork", "subprocess", "none"}, optional
     verbose : bool
         Print one line per run.
@@ -649,7 +651,7 @@ def run_campaign(problems, solvers=None, tolerances=None, time_limit: float = 30
         tasks = [t for t in tasks if key_of(_base_record(t)) not in done]
     if dask is not None and dask is not False:
         from .distributed import run_tasks_dask
-        records = run_tasks_dask(tasks, dask, verbose=verbose)
+        records = run_tasks_dask(tasks, dask, n_workers=n_workers, verbose=verbose)
     else:
         records = run_tasks(tasks, isolation=isolation, verbose=verbose)
     if csv_path is not None:

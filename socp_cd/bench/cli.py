@@ -127,7 +127,7 @@ def main(argv=None) -> int:
         tols = list(args.tol) + ([args.preset] if args.preset else [])
         recs = C.run_campaign(refs, _solvers(args), tols or None, args.time_limit,
                               max_iter=args.max_iter, csv_path=csv_path, resume=args.resume,
-                              dask=dask, verbose=verbose)
+                              dask=dask, n_workers=args.n_workers, verbose=verbose)
         print(f"{len(recs)} runs appended to {csv_path}")
     if not args.no_report:
         from .reports import summary_markdown, write_report

@@ -11,18 +11,21 @@ from .campaign import run_one
 
 
 def _client(spec, n_workers: int = 2, threads: bool = False):
-    """A dask Client from ``True`` (LocalCluster), an address, or a Client."""
+    """``(client, cluster, owned)`` from ``True`` (LocalCluster), an address, or a Client.
+
+    ``owned``: the client (and cluster, if any) was created here and must be closed.
+    """
     import dask
     from dask.distributed import Client, LocalCluster
     if isinstance(spec, Client):
-        return spec, None
+        return spec, None, False
     if isinstance(spec, str):
-        return Client(spec), None
+        return Client(spec), None, True
     # non-daemonic worker processes may fork the per-run child that enforces the time limit
     with dask.config.set({"distributed.worker.daemon": False}):
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=not threads,
                                dashboard_address=None)
-    return Client(cluster), cluster
+    return Client(cluster), cluster, True
 
 
 def run_tasks_dask(tasks, dask=True, *, n_workers: int = 2, threads: bool = False,
@@ -40,13 +43,14 @@ def run_tasks_dask(tasks, dask=True, *, n_workers: int = 2, threads: bool = Fals
         Thread-based LocalCluster (solves are still isolated per run).
     verbose : bool
     """
-    client, cluster = _client(dask, n_workers, threads)
+    client, cluster, owned = _client(dask, n_workers, threads)
     try:
         futures = client.map(run_one, list(tasks), pure=False)
         records = client.gather(futures)
     finally:
-        if cluster is not None:
+        if owned:
             client.close()
+        if cluster is not None:
             cluster.close()
     if verbose:
         for i, rec in enumerate(records, 1):

@@ -17,13 +17,19 @@ the velocities ``v``: ``min ½ vᵀMv − fᵀv s.t. Hᵀv + w + shift ∈ K*_mu
 constraint multipliers are the impulses ``r`` and ``W`` is never formed.
 Small ones (at most ``DENSE_CONDENSE_MAX`` dofs) are condensed instead by one
 dense LU of ``M`` (:func:`condense_dense`, ``info["condensed_dense"]``): the
-local path then runs the compiled residuals and Newton polish.
+local path then runs the compiled residuals and Newton polish.  Local problems
+with at most ``TINY_MAX`` unknowns and default outer options take the first
+outer iteration on a short path (:func:`_tiny_first_iteration`: one SOCP, one
+compiled error + Newton call) and continue in the generic loop only if that
+did not converge.
 
 Options (all keyword arguments of :func:`socp_cd.solve`)
 ---------------------------------------------------------
 settings : dict
     Clarabel settings passed through (e.g. ``{"static_regularization_constant":
-    1e-7, "direct_solve_method": "qdldl"}``), applied after socp_cd's defaults.
+    1e-7, "direct_solve_method": "qdldl"}``), applied after socp_cd's defaults
+    (``DEFAULT_SETTINGS``, plus ``SMALL_PROBLEM_SETTINGS`` in the De Saxcé
+    loop of small local problems).
 time_limit : float
     Seconds (passed to Clarabel; for ``coulomb`` also bounds the outer loop).
 verbose : bool
@@ -54,8 +60,10 @@ import numpy as np
 
 import clarabel
 
-from .conic_data import global_conic_data, local_conic_data
-from .desaxce import OUTER_DEFAULTS, desaxce_fixed_point, natural_map_newton
+from .conic_data import (clarabel_upper, coulomb_constraint, dense_to_csr, global_conic_data,
+                         local_conic_data)
+from .desaxce import (DENSE_MAX, NSGS_POLISH_SWEEPS, OUTER_DEFAULTS, _polish,
+                      desaxce_fixed_point, natural_map_newton)
 from .registry import register
 from .result import SolverResult
 
@@ -84,6 +92,13 @@ DEFAULT_SETTINGS = dict(
     max_iter=200,
     presolve_enable=False,   # keeps the data layout fixed for solver.update(q=..., b=...)
 )
+
+
+#: added for the De Saxcé loop on small local problems (``m <= desaxce.DENSE_MAX``): the
+#: compiled Newton polish finishes from the interior-point iterate, so Clarabel's
+#: iterative refinement buys nothing there (measured: 5-30 % faster, same outcome on the
+#: shared data; see validation/conic_vs_siconos.py)
+SMALL_PROBLEM_SETTINGS = dict(iterative_refinement_enable=False)
 
 
 def map_status(clarabel_status) -> str:
@@ -155,6 +170,7 @@ class ClarabelInner:
             self.data = global_conic_data(problem)
         else:
             self.data = local_conic_data(problem, "associated", W_sym=W_sym)
+        self.cones = self.data.cones
         self.solver = None
         self.tol = None
         self.last_v = None
@@ -175,7 +191,7 @@ class ClarabelInner:
             qv, b = q_shift, d.b
         if self.solver is None:
             self.tol = tol
-            self.solver = clarabel.DefaultSolver(d.P, qv, d.A, b, d.cones, self._settings(tol))
+            self.solver = clarabel.DefaultSolver(d.P, qv, d.A, b, self.cones, self._settings(tol))
         else:
             kw = {"q": qv} if not p.is_global else {"b": b}
             if tol != self.tol:
@@ -264,7 +280,10 @@ def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **option
             raise TypeError(f"unknown Clarabel options {sorted(extra)}")
         if max_iter is not None:  # one SOCP: max_iter caps Clarabel's interior-point iterations
             options.setdefault("clarabel_max_iter", max_iter)
-        return _single_socp(problem, formulation, tol, options)
+        res = _single_socp(problem, formulation, tol, options)
+        if condensed:
+            res.info["condensed_dense"] = True
+        return res
     outer = {k: options.pop(k) for k in list(options) if k in _OUTER_KEYS}
     if skew_assoc:  # asymmetric W: the skew part goes to an outer fixed point, no friction shift
         outer["law"] = "associated"
@@ -277,17 +296,111 @@ def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **option
         outer.setdefault("time_limit", options["time_limit"])
 
     def factory(prob, W_sym):
-        return ClarabelInner(prob, W_sym, settings=options.get("settings"),
+        settings = options.get("settings")
+        if not prob.is_global and prob.m <= DENSE_MAX:   # the compiled polish finishes the job
+            settings = {**SMALL_PROBLEM_SETTINGS, **(settings or {})}
+        return ClarabelInner(prob, W_sym, settings=settings,
                              time_limit=options.get("time_limit"),
                              verbose=options.get("verbose", False),
                              clarabel_max_iter=options.get("clarabel_max_iter"))
 
-    res = desaxce_fixed_point(problem, factory, tol=tol, max_iter=max_iter or 100, r0=r0,
-                              history=history, **outer)
+    factory.accepts_dense = True   # ClarabelInner takes a dense W_sym for small problems
+    max_iter = max_iter or 100
+    first = None
+    if (not skew_assoc and r0 is None and not problem.is_global and problem.m <= TINY_MAX
+            and not outer and max_iter > 1):
+        first = _tiny_first_iteration(problem, tol, options)
+        if first is not None and first.status == "converged":
+            res = first
+        elif first is not None:   # continue the fixed point from the first iterate
+            r0 = first.r
+            max_iter -= 1
+    if first is None or first.status != "converged":
+        res = desaxce_fixed_point(problem, factory, tol=tol, max_iter=max_iter, r0=r0,
+                                  history=history, **outer)
+        if first is not None:
+            _merge_first(res, first)
+    elif history:
+        res.history = list(res.info.pop("errors"))
+    res.info.pop("errors", None)
     res.info["clarabel_status"] = res.info.get("inner_status")
     if condensed:
         res.info["condensed_dense"] = True
     return res
+
+
+#: local problems with at most this many unknowns take the first outer iteration on a
+#: short path (:func:`_tiny_first_iteration`)
+TINY_MAX = 30
+
+
+def _tiny_first_iteration(problem, tol, options):
+    """First De Saxcé iteration of a tiny local problem, without the generic loop's overhead.
+
+    Exactly what :func:`~socp_cd.solvers.desaxce.desaxce_fixed_point` does first
+    with default outer options (SOCP with zero shift, inner tolerance
+    ``min(1e-10, tol/100)``, compiled error, compiled Newton polish, NSGS sweeps
+    when Newton stalls), with the Python bookkeeping cut to a few calls: on a
+    one-contact problem the generic loop's glue costs more than Clarabel's own solve.  Returns a
+    :class:`SolverResult` (status ``converged`` when the recomputed error is
+    below ``tol``, else ``max_iter`` with the best iterate, to be continued by the
+    generic loop with ``r0``), or None when Clarabel did not return a usable point.
+    """
+    from .desaxce_kernels import LAW_COULOMB, dense_error, dense_split, error_then_newton
+    W = problem.W
+    m, dim = problem.m, problem.dim
+    Wd, Ws, _, _, _, dsum = dense_split(W.indptr, W.indices, W.data, m)
+    A, b, cones = coulomb_constraint(problem.mu, dim)
+    itol = min(1e-10, tol * 1e-2)
+    settings = make_settings(itol, {**SMALL_PROBLEM_SETTINGS, **(options.get("settings") or {})},
+                             time_limit=options.get("time_limit"),
+                             verbose=options.get("verbose", False),
+                             max_iter=options.get("clarabel_max_iter"))
+    q = problem.q
+    sol = clarabel.DefaultSolver(clarabel_upper(Ws), q, A, b, cones, settings).solve()
+    status = str(sol.status)
+    if status not in USABLE:
+        return None
+    mu = problem.mu
+    r = np.asarray(sol.x, dtype=np.float64)
+    r_pol, its, err, e_pol = error_then_newton(Wd, q, mu, dim, LAW_COULOMB, r, tol,
+                                                OUTER_DEFAULTS["polish_max_iter"],
+                                                m / dsum if dsum > 0.0 else 1.0)
+    if err != err:        # NaN: non-finite interior-point iterate
+        return None
+    err, e_pol = float(err), float(e_pol)
+    errors, nsgs_sweeps = [err], None
+    if err > tol:
+        if e_pol > tol:   # stalled Newton: warm-started NSGS sweeps, as the generic loop
+            r_ns, sweeps, ok = _polish(problem, r_pol, tol, "nsgs", NSGS_POLISH_SWEEPS, "coulomb")
+            if ok and r_ns is not None:
+                nsgs_sweeps = sweeps
+                e_ns = float(dense_error(Wd, q, r_ns, mu, dim, LAW_COULOMB,
+                                         float(np.sqrt(q @ q)), np.empty(m)))
+                if e_ns < e_pol:
+                    r_pol, e_pol = r_ns, e_ns
+        if e_pol < err:
+            r, err = r_pol, e_pol
+            errors.append(err)
+    info = {"polish_iterations": int(its), "polish_calls": int(errors[0] > tol),
+            "inner_iterations": int(sol.iterations), "inner_status": status,
+            "outer_error": err, "anderson_restarts": 0, "errors": errors}
+    if nsgs_sweeps is not None:
+        info["nsgs_polish_sweeps"] = int(nsgs_sweeps)
+    return SolverResult(r=r, status="converged" if err <= tol else "max_iter", iterations=1,
+                        info=info, error=err,
+                        message="converged after polish" if len(errors) > 1 else "")
+
+
+def _merge_first(res, first):
+    """Fold the short-path first iteration into the generic loop's result."""
+    fi = first.info
+    res.iterations += 1
+    for key in ("polish_iterations", "polish_calls", "inner_iterations", "nsgs_polish_sweeps"):
+        if key in fi:
+            res.info[key] = res.info.get(key, 0) + fi[key]
+    if res.history is not None:
+        res.history = fi["errors"] + res.history
 
 
 #: global problems with at most this many dofs are condensed densely (``W = Hᵀ M⁻¹ H``)
@@ -309,9 +422,10 @@ def condense_dense(problem):
                               np.ascontiguousarray(problem.f), np.ascontiguousarray(problem.w))
     if not ok:
         return problem.to_local()
-    return FrictionContactProblem(W, q, problem.mu, problem.dim, source=problem.source,
+    return FrictionContactProblem(dense_to_csr(W), q, problem.mu, problem.dim, source=problem.source,
                                   name=problem.name, info=problem.info)
 
 
-__all__ = ["clarabel_solve", "ClarabelInner", "condense_dense", "DENSE_CONDENSE_MAX", "STATUS_MAP", "map_status", "make_settings",
+__all__ = ["clarabel_solve", "ClarabelInner", "condense_dense", "DENSE_CONDENSE_MAX",
+           "SMALL_PROBLEM_SETTINGS", "STATUS_MAP", "map_status", "make_settings",
            "DEFAULT_SETTINGS"]

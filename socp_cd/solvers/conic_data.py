@@ -106,8 +106,10 @@ class ConeMap:
     """
 
     def __init__(self, G, g, n_zero: int, n_nonneg: int, n_soc: int, soc_dim: int = 3):
-        self._G = G if sp.issparse(G) else None
-        self.csc = CscArrays.of(G)
+        if isinstance(G, CscArrays):
+            self._G, self.csc = None, G
+        else:
+            self._G, self.csc = G, CscArrays.of(G)
         self.g = g
         self.n_zero = n_zero
         self.n_nonneg = n_nonneg
@@ -194,10 +196,11 @@ def _diagonal_soc_map(n_scale, t_scale, nc: int) -> ConeMap:
     stacks instead of the generic triplet assembly.
     """
     m = 3 * nc
-    vals = np.empty((nc, 3))
-    vals[:, 0] = n_scale
-    vals[:, 1:] = np.asarray(t_scale, dtype=np.float64)[:, None]
-    G = CscArrays(vals.reshape(-1), _arange32(m), _arange32(m + 1), (m, m))
+    vals = np.empty(m)
+    vals[0::3] = n_scale
+    vals[1::3] = t_scale
+    vals[2::3] = t_scale
+    G = CscArrays(vals, _arange32(m), _arange32(m + 1), (m, m))
     return ConeMap(G, np.zeros(m), 0, 0, nc, 3)
 
 
@@ -214,7 +217,7 @@ def coulomb_cone_map(mu, dim: int) -> ConeMap:
     mu = np.asarray(mu, dtype=np.float64).reshape(-1)
     nc = mu.shape[0]
     if dim == 3 and nc and mu.min() > 0.0:
-        return _diagonal_soc_map(mu, np.ones(nc), nc)
+        return _diagonal_soc_map(mu, 1.0, nc)
     rows = _Rows(dim * nc)
     zero = np.flatnonzero(mu == 0.0)
     fric = np.flatnonzero(mu > 0.0)
@@ -234,12 +237,30 @@ def coulomb_cone_map(mu, dim: int) -> ConeMap:
     return rows.build(0, 3)
 
 
+def coulomb_constraint(mu, dim: int):
+    """Clarabel ``(A, b, cones)`` of ``r ∈ K_mu``: ``A = -G``, ``b = g`` of :func:`coulomb_cone_map`.
+
+    The common case (3D, every ``mu > 0``: ``A = -diag(mu, 1, 1, ...)``, one SOC
+    per contact) is built directly as :class:`CscArrays`.
+    """
+    mu = np.asarray(mu, dtype=np.float64).reshape(-1)
+    nc = mu.shape[0]
+    if dim == 3 and nc and mu.min() > 0.0:
+        m = 3 * nc
+        vals = np.full(m, -1.0)
+        vals[0::3] = -mu
+        return (CscArrays(vals, _arange32(m), _arange32(m + 1), (m, m)), np.zeros(m),
+                [clarabel.SecondOrderConeT(3)] * nc)
+    cm = coulomb_cone_map(mu, dim)
+    return -cm.csc, cm.g, cm.cones()
+
+
 def dual_cone_map(mu, dim: int) -> ConeMap:
     """Cone map of ``u ∈ K*_mu = {mu ||u_T|| <= u_N}`` (``mu = 0``: ``u_N >= 0``)."""
     mu = np.asarray(mu, dtype=np.float64).reshape(-1)
     nc = mu.shape[0]
     if dim == 3 and nc and mu.min() > 0.0:
-        return _diagonal_soc_map(np.ones(nc), mu, nc)
+        return _diagonal_soc_map(1.0, mu, nc)
     rows = _Rows(dim * nc)
     zero = np.flatnonzero(mu == 0.0)
     fric = np.flatnonzero(mu > 0.0)
@@ -327,6 +348,34 @@ def _dense_upper_pattern(n: int):
     return rows, indptr, rows * n + cols
 
 
+@lru_cache(maxsize=64)
+def _dense_csr_pattern(n_rows: int, n_cols: int):
+    """Column indices and row pointers of a full ``n_rows x n_cols`` CSR pattern."""
+    indices = np.tile(np.arange(n_cols, dtype=np.int32), n_rows)
+    indptr = np.arange(0, n_rows * n_cols + 1, n_cols, dtype=np.int32)
+    for a in (indices, indptr):
+        a.setflags(write=False)
+    return indices, indptr
+
+
+def dense_to_csr(D) -> sp.csr_matrix:
+    """CSR matrix of a dense array without scipy's dense-input conversion.
+
+    Up to :data:`DENSE_P_MAX` rows the full pattern is kept (cached index
+    arrays, explicit zeros harmless at that size); above, the nonzeros only.
+    """
+    D = np.asarray(D, dtype=np.float64)
+    n, k = D.shape
+    if n <= DENSE_P_MAX:
+        indices, indptr = _dense_csr_pattern(n, k)
+        return sp.csr_matrix((D.reshape(-1).copy(), indices.copy(), indptr.copy()), shape=(n, k))
+    nz = D != 0.0
+    rows, cols = np.nonzero(nz)                 # row-major: already in CSR order
+    indptr = np.zeros(n + 1, dtype=np.int32)
+    np.cumsum(nz.sum(axis=1), out=indptr[1:])
+    return sp.csr_matrix((D[rows, cols], cols.astype(np.int32), indptr), shape=(n, k))
+
+
 def clarabel_upper(S):
     """``P`` for Clarabel: :func:`upper_csc`, as bare :class:`CscArrays` for small matrices."""
     n = S.shape[0]
@@ -406,5 +455,5 @@ def global_conic_data(problem, *, w_shift=None) -> ConicData:
     return ConicData(upper_csc(Ms), -np.array(problem.f, dtype=np.float64), A, b, cm)
 
 
-__all__ = ["CscArrays", "clarabel_upper", "DENSE_P_MAX", "ConeMap", "ConicData", "coulomb_cone_map", "dual_cone_map", "frictionless_map",
+__all__ = ["CscArrays", "clarabel_upper", "dense_to_csr", "coulomb_constraint", "DENSE_P_MAX", "ConeMap", "ConicData", "coulomb_cone_map", "dual_cone_map", "frictionless_map",
            "tresca_map", "law_cone_map", "local_conic_data", "global_conic_data", "upper_csc"]

@@ -63,9 +63,12 @@ import scipy.sparse.linalg as spla
 from ..cones import tangential_norm
 from ..residuals import error as coulomb_error
 from ..problem import SYMMETRY_RTOL
+from .conic_data import dense_to_csr
 from .desaxce_kernels import LAW_ASSOCIATED, LAW_COULOMB
 from .desaxce_kernels import dense_error as _dense_error
 from .desaxce_kernels import dense_newton as _dense_newton
+from .desaxce_kernels import dense_split as _dense_split
+from .desaxce_kernels import matvec as _matvec
 from .result import SolverResult
 
 #: Default outer options (see :func:`desaxce_fixed_point`).
@@ -105,28 +108,25 @@ class _Workspace:
     sparse ``problem.symmetric_part()`` / :func:`socp_cd.error` path is used.
     """
 
-    def __init__(self, problem, friction: bool):
+    def __init__(self, problem, friction: bool, dense_ok: bool = False):
         self.problem = problem
         self.friction = friction
         self.dense = (not problem.is_global) and problem.m <= DENSE_MAX
         self.W_sym = self.W_a = None
         if self.dense:
-            Wd = np.ascontiguousarray(problem.W.toarray())
+            W = problem.W
+            Wd, Ws, Wa, asym, scale, dsum = _dense_split(W.indptr, W.indices, W.data, problem.m)
             self.Wd = Wd
             self.q = np.ascontiguousarray(problem.q, dtype=np.float64)
             self.mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
             self.norm_q = float(np.sqrt(np.dot(self.q, self.q)))
             self.law = LAW_COULOMB if friction else LAW_ASSOCIATED
-            skew = Wd - Wd.T
-            asym = float(np.abs(skew).max())
-            if asym == 0.0:
-                self.W_sym = problem.W
+            if dense_ok:
+                self.W_sym = Ws
             else:
-                self.W_sym = sp.csr_matrix(0.5 * (Wd + Wd.T))
-                scale = float(np.abs(Wd).max())
-                if asym > SYMMETRY_RTOL * max(scale, np.finfo(float).tiny):
-                    self.W_a = sp.csr_matrix(0.5 * skew)
-            dsum = float(np.abs(Wd.diagonal()).sum())
+                self.W_sym = problem.W if asym == 0.0 else dense_to_csr(Ws)
+            if asym > SYMMETRY_RTOL * max(scale, np.finfo(float).tiny):
+                self.W_a = Wa        # same rule as FrictionContactProblem.is_symmetric
             # scale-free map: rho ~ 1 / (mean |diagonal of W|), as natural_map_newton
             self.rho = np.full(problem.n_contacts, problem.m / dsum if dsum > 0.0 else 1.0)
         elif not problem.is_global:
@@ -134,6 +134,10 @@ class _Workspace:
             if not problem.is_symmetric:
                 self.W_a = problem.skew_part()
         self._err = coulomb_error if friction else _associated_error
+
+    def skew_product(self, r):
+        """``W_a r`` (dense: compiled, no BLAS thread pool)."""
+        return _matvec(self.W_a, r) if self.dense else self.W_a @ r
 
     def evaluate(self, r):
         """``(error, u)`` of ``r`` (``u = W r + q`` recomputed)."""
@@ -231,7 +235,9 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
         ``iterations`` int, ``status`` str, ``ok`` bool).  ``W_sym`` is the
         symmetric part of ``W`` for local problems and None for global ones
         (the inner object then works on ``M, H`` itself; ``q_shift`` still is
-        the *local* linear term ``q_local + c``).
+        the *local* linear term ``q_local + c``).  ``W_sym`` is a scipy sparse
+        matrix, or a dense ndarray for small problems when the factory has an
+        attribute ``accepts_dense = True``.
     tol : float
         Target on Siconos' relative error (recomputed every outer iteration).
     max_iter : int
@@ -269,8 +275,7 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
     t_start = _time.perf_counter()
     friction = opts["law"] == "coulomb"
 
-    ws = _Workspace(problem, friction)
-    W_a = ws.W_a
+    ws = _Workspace(problem, friction, dense_ok=getattr(inner_factory, "accepts_dense", False))
     inner = inner_factory(problem, ws.W_sym)
     q = np.asarray(problem.q_local, dtype=np.float64)
     switch = opts["polish_switch"]
@@ -279,7 +284,10 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
     retry_factor = 1.0 if (ws.dense and problem.m <= CHEAP_POLISH_MAX) else 0.1
 
     def shift(r, u):
-        return desaxce_shift(problem, r, u, W_a, friction=friction)
+        c = desaxce_shift(problem, r, u, None, friction=friction)
+        if ws.W_a is not None:
+            c += ws.skew_product(r)
+        return c
 
     if r0 is not None:
         r0 = np.asarray(r0, dtype=np.float64)
@@ -340,7 +348,7 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
         r, last_inner = inner.solve(q + c, itol)
         inner_its += int(last_inner.get("iterations", 0))
         r = np.asarray(r, dtype=np.float64)
-        if not np.all(np.isfinite(r)):
+        if not np.isfinite(r).all():
             status, message = "numerical_error", f"inner solver returned non-finite r ({last_inner.get('status')})"
             break
         err, u = ws.evaluate(r)

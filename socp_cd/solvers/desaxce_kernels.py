@@ -371,4 +371,63 @@ def dense_condense(M, H, f, w):
     return W, q, True
 
 
-__all__ = ["dense_error", "dense_newton", "dense_condense", "LAW_COULOMB", "LAW_ASSOCIATED"]
+@njit(cache=True)
+def dense_split(indptr, indices, data, m):
+    """Dense ``W`` (from CSR arrays) and its symmetric and skew parts.
+
+    Returns ``(W, W_s, W_a, max|W_a|·2, max|W|, sum|diag W|)``; the second
+    value is ``max|W - Wᵀ|`` as :attr:`FrictionContactProblem.asymmetry`.
+    """
+    W = np.zeros((m, m))
+    for i in range(m):
+        for p in range(indptr[i], indptr[i + 1]):
+            W[i, indices[p]] += data[p]
+    Ws = np.empty((m, m))
+    Wa = np.empty((m, m))
+    asym = 0.0
+    scale = 0.0
+    dsum = 0.0
+    for i in range(m):
+        dsum += abs(W[i, i])
+        for j in range(m):
+            a = W[i, j]
+            b = W[j, i]
+            Ws[i, j] = 0.5 * (a + b)
+            Wa[i, j] = 0.5 * (a - b)
+            if abs(a - b) > asym:
+                asym = abs(a - b)
+            if abs(a) > scale:
+                scale = abs(a)
+    return W, Ws, Wa, asym, scale, dsum
+
+
+@njit(cache=True)
+def matvec(A, x):
+    """``A x`` without BLAS (no thread pool involved)."""
+    out = np.zeros(A.shape[0])
+    _matvec(A, x, out, out)
+    return out
+
+
+@njit(cache=True)
+def error_then_newton(W, q, mu, dim, law, r, tol, max_iter, rho):
+    """:func:`dense_error` of ``r`` then, above ``tol``, :func:`dense_newton` (one call).
+
+    ``rho`` is a scalar here.  Returns ``(r_best, newton_steps, error_of_r, error_of_r_best)``
+    (``error_of_r`` is NaN when ``r`` is not finite; ``r_best`` is then ``r``).
+    """
+    m = r.shape[0]
+    norm_q = np.sqrt(np.dot(q, q))
+    u = np.empty(m)
+    for k in range(m):
+        if not np.isfinite(r[k]):
+            return r, 0, np.nan, np.nan
+    e0 = dense_error(W, q, r, mu, dim, law, norm_q, u)
+    if e0 <= tol or max_iter <= 0:
+        return r, 0, e0, e0
+    rho_v = np.full(mu.shape[0], rho)
+    r_pol, its, e = dense_newton(W, q, mu, dim, law, r, tol, max_iter, rho_v, norm_q)
+    return r_pol, its, e0, e
+
+
+__all__ = ["dense_error", "dense_newton", "error_then_newton", "dense_condense", "dense_split", "matvec", "LAW_COULOMB", "LAW_ASSOCIATED"]
