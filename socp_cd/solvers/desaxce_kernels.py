@@ -44,13 +44,14 @@ def _matvec(A, x, b, out):
 
 
 @njit(cache=True)
-def _lu_solve(A, b):
-    """Solve ``A x = b`` by LU with partial pivoting, in place (``A``, ``b`` destroyed).
+def _lu_solve_many(A, B):
+    """Solve ``A X = B`` (``B`` of shape ``(n, k)``) by LU with partial pivoting.
 
-    Returns ``(x, ok)``; ``ok`` is False on a zero (or non-finite) pivot.
+    In place: ``A`` and ``B`` are destroyed.  Returns ``(X, ok)``; ``ok`` is
+    False on a zero (or non-finite) pivot or a non-finite solution.
     """
-    n = A.shape[0]
-    x = np.zeros(n)
+    n, k = B.shape
+    X = np.zeros((n, k))
     scale = 0.0
     for i in range(n):
         for j in range(n):
@@ -58,40 +59,49 @@ def _lu_solve(A, b):
             if a > scale:
                 scale = a
     tiny = 1e-300 + 1e-15 * scale
-    for k in range(n):
-        p = k
-        amax = abs(A[k, k])
-        for i in range(k + 1, n):
-            a = abs(A[i, k])
+    for c in range(n):
+        p = c
+        amax = abs(A[c, c])
+        for i in range(c + 1, n):
+            a = abs(A[i, c])
             if a > amax:
                 amax = a
                 p = i
         if not (amax > tiny):          # also catches NaN
-            return x, False
-        if p != k:
-            for j in range(k, n):
-                t = A[k, j]
-                A[k, j] = A[p, j]
+            return X, False
+        if p != c:
+            for j in range(c, n):
+                t = A[c, j]
+                A[c, j] = A[p, j]
                 A[p, j] = t
-            t = b[k]
-            b[k] = b[p]
-            b[p] = t
-        inv = 1.0 / A[k, k]
-        for i in range(k + 1, n):
-            f = A[i, k] * inv
+            for j in range(k):
+                t = B[c, j]
+                B[c, j] = B[p, j]
+                B[p, j] = t
+        inv = 1.0 / A[c, c]
+        for i in range(c + 1, n):
+            f = A[i, c] * inv
             if f != 0.0:
-                for j in range(k + 1, n):
-                    A[i, j] -= f * A[k, j]
-                b[i] -= f * b[k]
+                for j in range(c + 1, n):
+                    A[i, j] -= f * A[c, j]
+                for j in range(k):
+                    B[i, j] -= f * B[c, j]
     for i in range(n - 1, -1, -1):
-        s = b[i]
-        for j in range(i + 1, n):
-            s -= A[i, j] * x[j]
-        x[i] = s / A[i, i]
-    for i in range(n):
-        if not np.isfinite(x[i]):
-            return x, False
-    return x, True
+        for j in range(k):
+            s = B[i, j]
+            for l in range(i + 1, n):
+                s -= A[i, l] * X[l, j]
+            X[i, j] = s / A[i, i]
+            if not np.isfinite(X[i, j]):
+                return X, False
+    return X, True
+
+
+@njit(cache=True)
+def _lu_solve(A, b):
+    """Solve ``A x = b`` (in place, ``A`` destroyed); returns ``(x, ok)``."""
+    X, ok = _lu_solve_many(A, b.reshape(b.shape[0], 1).copy())
+    return X[:, 0].copy(), ok
 
 
 @njit(cache=True)
@@ -311,49 +321,11 @@ def dense_condense(M, H, f, w):
         for j in range(m):
             B[i, j] = H[i, j]
         B[i, m] = f[i]
-    scale = 0.0
-    for i in range(n):
-        for j in range(n):
-            a = abs(A[i, j])
-            if a > scale:
-                scale = a
-    tiny = 1e-300 + 1e-15 * scale
     W = np.zeros((m, m))
     q = np.zeros(m)
-    for k in range(n):
-        p = k
-        amax = abs(A[k, k])
-        for i in range(k + 1, n):
-            a = abs(A[i, k])
-            if a > amax:
-                amax = a
-                p = i
-        if not (amax > tiny):
-            return W, q, False
-        if p != k:
-            for j in range(k, n):
-                t = A[k, j]
-                A[k, j] = A[p, j]
-                A[p, j] = t
-            for j in range(m + 1):
-                t = B[k, j]
-                B[k, j] = B[p, j]
-                B[p, j] = t
-        inv = 1.0 / A[k, k]
-        for i in range(k + 1, n):
-            fac = A[i, k] * inv
-            if fac != 0.0:
-                for j in range(k + 1, n):
-                    A[i, j] -= fac * A[k, j]
-                for j in range(m + 1):
-                    B[i, j] -= fac * B[k, j]
-    X = np.zeros((n, m + 1))
-    for i in range(n - 1, -1, -1):
-        for j in range(m + 1):
-            s = B[i, j]
-            for l in range(i + 1, n):
-                s -= A[i, l] * X[l, j]
-            X[i, j] = s / A[i, i]
+    X, ok = _lu_solve_many(A, B)
+    if not ok:
+        return W, q, False
     for a in range(m):
         for i in range(n):
             h = H[i, a]
