@@ -454,3 +454,45 @@ def test_coulomb_constraint_is_minus_cone_map(dim):
         cm = coulomb_cone_map(mu, dim)
         assert np.array_equal(cd.CscArrays.of(A).toarray(), -cm.G.toarray())
         assert np.array_equal(b, cm.g) and len(cones) == len(cm.cones())
+
+
+# ------------------------------------------- regressions found by the extremes suite
+def _extreme(case, dim):
+    from socp_cd.bench.extremes import build
+    return build(case, 50, dim)
+
+
+def test_high_friction_does_not_stall():
+    """mu = 10 (3D, 50 contacts): the outer loop stalls near 7e-4 and the final
+    (dense) polish must finish; it used to stop at 9.5e-5 ("stalled")."""
+    p = _extreme("mu=10", 3)
+    res = solve(p, "clarabel", tol=1e-6)
+    assert res.status == "converged" and error(p, res.r) <= 1e-6
+    assert in_cone_violation(res.r, p.mu, 3).max() <= 1e-8 * max(1.0, np.abs(res.r).max())
+
+
+def test_rank_deficient_w_unbounded_relaxation():
+    """Redundant contacts (2D, rank(W) = 26 of 100): the first associated SOCP is
+    unbounded (DualInfeasible); it used to end in numerical_error at 8e-6.  The
+    velocities are unique, so they must match the manufactured ones."""
+    p = _extreme("redundant", 2)
+    assert p.is_rank_deficient
+    res = solve(p, "clarabel", tol=1e-6)
+    assert res.status == "converged" and error(p, res.r) <= 1e-6
+    u_exact = p.solution.u
+    assert np.linalg.norm(p.velocity(res.r) - u_exact) <= 1e-4 * max(1.0, np.linalg.norm(u_exact))
+
+
+def test_inner_turns_refinement_back_on_after_a_failed_solve():
+    """Iterative refinement (off on small problems for speed) comes back when a
+    solve does not end "Solved", and stays on."""
+    p = _extreme("redundant", 2)
+    inner = cb.ClarabelInner(p, settings=dict(cb.SMALL_PROBLEM_SETTINGS), refine_on_failure=True)
+    inner.solve(p.q, 1e-10)
+    assert inner.statuses[0] != "Solved"          # the unrefined solve fails on this data
+    assert len(inner.statuses) == 2               # ... and was redone once
+    assert inner.user_settings["iterative_refinement_enable"] is True
+    assert inner.refine_on_failure is False
+    keep = cb.ClarabelInner(p, settings=dict(cb.SMALL_PROBLEM_SETTINGS))   # user choice kept
+    keep.solve(p.q, 1e-10)
+    assert len(keep.statuses) == 1

@@ -97,7 +97,10 @@ DEFAULT_SETTINGS = dict(
 #: added for the De Saxcé loop on small local problems (``m <= desaxce.DENSE_MAX``): the
 #: compiled Newton polish finishes from the interior-point iterate, so Clarabel's
 #: iterative refinement buys nothing there (measured: 5-30 % faster, same outcome on the
-#: shared data; see validation/conic_vs_siconos.py)
+#: shared data; see validation/conic_vs_siconos.py).  A solve that does not end "Solved"
+#: (rank-deficient ``W``: unbounded relaxation; large ``mu``) is redone with refinement,
+#: which then stays on (:class:`ClarabelInner`, ``refine_on_failure``); the short path
+#: hands such a problem to the generic loop.
 SMALL_PROBLEM_SETTINGS = dict(iterative_refinement_enable=False)
 
 
@@ -157,12 +160,19 @@ class ClarabelInner:
     -> (r, info)``.  The Clarabel solver is built once; later calls update
     ``q`` (local form) or ``b`` (global form) with ``solver.update`` and reuse
     the KKT structure (Clarabel has no iterate warm start).
+
+    ``refine_on_failure=True`` (set by the backend when it switched iterative
+    refinement off, ``SMALL_PROBLEM_SETTINGS``): the first solve that does not
+    end "Solved" is redone with refinement, kept on for later solves.
     """
 
     def __init__(self, problem, W_sym=None, *, settings=None, time_limit=None, verbose=False,
-                 clarabel_max_iter=None):
+                 clarabel_max_iter=None, refine_on_failure=False):
         self.problem = problem
         self.user_settings = dict(settings or {})
+        # iterative refinement was switched off for speed (SMALL_PROBLEM_SETTINGS): turn it
+        # back on, for this and every later solve, when a solve does not end "Solved"
+        self.refine_on_failure = refine_on_failure
         self.time_limit = time_limit
         self.verbose = verbose
         self.clarabel_max_iter = clarabel_max_iter
@@ -200,13 +210,27 @@ class ClarabelInner:
             self.solver.update(**kw)
         sol = self.solver.solve()
         status = str(sol.status)
+        if self.refine_on_failure and status != "Solved":
+            # without refinement an ill-conditioned KKT system (rank-deficient W, large mu)
+            # gives inaccurate or unbounded iterates: re-solve with Clarabel's default
+            self.refine_on_failure = False
+            self.user_settings["iterative_refinement_enable"] = True
+            self.solver.update(settings=self._settings(tol))
+            first = sol
+            sol = self.solver.solve()
+            status = str(sol.status)
+            self.statuses.append(str(first.status))
+            sol_its = int(first.iterations)
+        else:
+            sol_its = 0
         self.statuses.append(status)
         if p.is_global:
             self.last_v = np.asarray(sol.x, dtype=np.float64)
             r = d.cone_map.multiplier(sol.z)
         else:
             r = np.asarray(sol.x, dtype=np.float64)
-        return r, {"iterations": int(sol.iterations), "status": status, "ok": status in USABLE[:2]}
+        return r, {"iterations": int(sol.iterations) + sol_its, "status": status,
+                   "ok": status in USABLE[:2]}
 
 
 def _single_socp(problem, formulation, tol, options):
@@ -297,12 +321,15 @@ def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **option
 
     def factory(prob, W_sym):
         settings = options.get("settings")
+        refine = False
         if not prob.is_global and prob.m <= DENSE_MAX:   # the compiled polish finishes the job
+            refine = "iterative_refinement_enable" not in (settings or {})
             settings = {**SMALL_PROBLEM_SETTINGS, **(settings or {})}
         return ClarabelInner(prob, W_sym, settings=settings,
                              time_limit=options.get("time_limit"),
                              verbose=options.get("verbose", False),
-                             clarabel_max_iter=options.get("clarabel_max_iter"))
+                             clarabel_max_iter=options.get("clarabel_max_iter"),
+                             refine_on_failure=refine)
 
     factory.accepts_dense = True   # ClarabelInner takes a dense W_sym for small problems
     max_iter = max_iter or 100
@@ -344,7 +371,8 @@ def _tiny_first_iteration(problem, tol, options):
     one-contact problem the generic loop's glue costs more than Clarabel's own solve.  Returns a
     :class:`SolverResult` (status ``converged`` when the recomputed error is
     below ``tol``, else ``max_iter`` with the best iterate, to be continued by the
-    generic loop with ``r0``), or None when Clarabel did not return a usable point.
+    generic loop with ``r0``), or None when Clarabel's unrefined solve did not end
+    "Solved" (the generic loop then starts afresh, with iterative refinement).
     """
     from .desaxce_kernels import LAW_COULOMB, dense_error, dense_split, error_then_newton
     W = problem.W
@@ -359,6 +387,8 @@ def _tiny_first_iteration(problem, tol, options):
     q = problem.q
     sol = clarabel.DefaultSolver(clarabel_upper(Ws), q, A, b, cones, settings).solve()
     status = str(sol.status)
+    if status != "Solved" and "iterative_refinement_enable" not in (options.get("settings") or {}):
+        return None   # unrefined solve in trouble: the generic loop re-solves with refinement
     if status not in USABLE:
         return None
     mu = problem.mu

@@ -48,7 +48,10 @@ compiled code (:mod:`socp_cd.solvers.desaxce_kernels`).  A polish then costs
 less than one SOCP, so by default (``polish_switch=None``) it is tried from the
 first outer iterate on (every iterate for ``m <= CHEAP_POLISH_MAX``, otherwise
 after each 10x gain); when Newton stalls (degenerate problems) a bounded,
-warm-started NSGS polish (``nsgs_polish_sweeps`` sweeps) follows.  Larger
+warm-started NSGS polish (``nsgs_polish_sweeps`` sweeps) follows.  When the
+outer loop stops unconverged, the last polish from the best iterate gets
+``FINAL_POLISH_FACTOR * polish_max_iter`` Newton steps (high friction: the
+loop stalls near 1e-3 and Newton needs ~100 steps from there).  Larger
 problems keep ``polish_switch = 1e-5`` and the sparse Newton polish.
 """
 from __future__ import annotations
@@ -94,6 +97,8 @@ DENSE_MAX = 200
 CHEAP_POLISH_MAX = 60
 #: sweeps of the NSGS polish that follows a stalled dense Newton polish
 NSGS_POLISH_SWEEPS = 200
+#: budget of the final dense polish, in units of ``polish_max_iter``
+FINAL_POLISH_FACTOR = 10
 #: ``polish_switch`` of the sparse path (used when ``polish_switch`` is None)
 SPARSE_POLISH_SWITCH = 1e-5
 
@@ -391,7 +396,11 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
         message = f"{max_iter} outer iterations reached"
 
     if status != "converged" and opts["polish"] and best_r is not None and status != "time_limit":
-        out = try_polish(best_r, 3 * opts["polish_max_iter"])
+        # last chance from the best iterate: a longer budget (the dense Newton steps are
+        # cheap and stop by themselves when the line search fails; on hard-friction
+        # problems, e.g. mu = 10, the outer loop stalls and Newton needs ~100 steps)
+        out = try_polish(best_r, FINAL_POLISH_FACTOR * opts["polish_max_iter"]
+                         if ws.dense else 3 * opts["polish_max_iter"])
         if out is not None and out[1] < best_err:
             best_r, best_err = out
             if hist is not None:
