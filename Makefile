@@ -23,7 +23,7 @@ test: $(STAMP)
 	$(VPY) -m pytest $(PYTEST_ARGS) tests
 
 bench: $(STAMP)
-	$(VENV)/bin/socp-cd bench --preset all --data $(SHARED)
+	$(VENV)/bin/socp-cd bench --preset all --data $(SHARED) --readme README.md
 
 validate: $(STAMP)
 	$(VENV)/bin/socp-cd validate

@@ -136,6 +136,23 @@ def test_summary_table_charges_failures_the_time_limit():
     assert rows["B"]["sgm_time"] == pytest.approx(0.0, abs=1e-15)
 
 
+def test_readme_section_is_rewritten_between_markers(tmp_path):
+    recs = [_rec(problem="p1", solver="A", time=0.09),
+            _rec(problem="p2", solver="A", status="time_limit", success=False, time=math.nan,
+                 time_limit=0.99)]
+    readme = tmp_path / "README.md"
+    readme.write_text(f"intro\n{P.README_BEGIN}\nold table\n{P.README_END}\noutro\n")
+    assert P.update_readme(readme, recs, {"low": 1e-4})
+    text = readme.read_text()
+    assert "old table" not in text and text.startswith("intro\n") and text.endswith(f"{P.README_END}\noutro\n")
+    # A solved 1 of 2; SGM = sqrt(0.1) - 0.01 = 0.306 (see the test above)
+    assert "| A | 1/2, 0.31 |" in text
+    plain = tmp_path / "NOMARKERS.md"
+    plain.write_text("no markers here\n")
+    assert not P.update_readme(plain, recs, {"low": 1e-4})
+    assert plain.read_text() == "no markers here\n"
+
+
 def test_performance_profile_by_hand():
     inf = math.inf
     table = {"p1": {"A": 1.0, "B": 2.0}, "p2": {"A": 4.0, "B": 2.0},

@@ -67,6 +67,8 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--large", type=int, default=10_000, help="extremes: contacts of the large case (0 skips)")
     ap.add_argument("--large-time-limit", type=float, default=60.0)
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument("--readme", default=None, metavar="PATH",
+                    help="rewrite the comparison table between <!-- bench:begin/end --> markers in PATH")
     return ap
 
 
@@ -137,6 +139,10 @@ def main(argv=None) -> int:
             return 1
         files = write_report(table, out)
         print(summary_markdown(table))
+        if args.readme:
+            from .reports import update_readme
+            done = update_readme(args.readme, table)
+            print(f"README section {'updated' if done else 'NOT updated (markers missing)'}: {args.readme}")
         for k, v in files.items():
             print(f"{k}: {v}")
     return 0
