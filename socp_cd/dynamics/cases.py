@@ -199,44 +199,36 @@ def case_sliding_disk(solver="nsgs", quick=False):
     is met to solver tolerance, 1e-6); t* is detected to within a step: tol ``2h/t*``.
     """
     mu, v0, R, h = 0.2, 2.0, 0.1, 1e-3
-    t_star = v0 / (3 * mu * G)
-    T = t_star * 1.5 if not quick else t_star * 1.2
-    n = int(round(T / h))
-    sc = Scene([Disk(R, (0.0, R), velocity=(v0, 0.0))], [Line()], mu=mu)
-    sim = _sim(sc, h, solver)
-    slips, ts = [], []
-    sim.run(n, progress=False, callback=lambda s, st: (slips.append(s.sys.vel[0, 0] + s.sys.vel[0, 2] * R),
-                                                        ts.append(s.t)))
-    slips = np.abs(np.array(slips))
-    rolled = np.flatnonzero(slips <= 1e-6 * v0)
-    t_comp = ts[rolled[0]] if rolled.size else np.inf
-    return [
-        Row(f"disk sliding→rolling mu={mu}", "rolling onset t*", t_star, t_comp, 2 * h / t_star, solver,
-            why="tol = 2h/t*: stick–slip transition resolved to within a step, O(h)"),
-        Row(f"disk sliding→rolling mu={mu}", "final speed", 2 * v0 / 3, sim.sys.vel[0, 0], 1e-6, solver,
-            why="tol 1e-6 = solver level: angular momentum about the contact point is conserved exactly by the scheme"),
-    ]
+    return _sliding_to_rolling(
+        f"disk sliding→rolling mu={mu}", Scene([Disk(R, (0.0, R), velocity=(v0, 0.0))], [Line()], mu=mu),
+        t_star=v0 / (3 * mu * G), v_final=2 * v0 / 3, v0=v0, h=h, solver=solver, quick=quick,
+        slip=lambda vel: vel[0, 0] + vel[0, 2] * R)
 
 
 def case_sliding_sphere(solver="nsgs", quick=False):
     """3D: a sphere launched sliding: ``t* = 2 v0/(7 mu g)``, final speed ``5 v0/7``."""
     mu, v0, R, h = 0.2, 2.0, 0.1, 1e-3
-    t_star = 2 * v0 / (7 * mu * G)
-    T = t_star * (1.2 if quick else 1.5)
-    n = int(round(T / h))
-    sc = Scene([Sphere(R, (0.0, 0.0, R), velocity=(v0, 0.0, 0.0))], [Plane()], mu=mu)
-    sim = _sim(sc, h, solver)
-    slips, ts = [], []
     # contact point velocity x-component: v_x + (omega x (-R e_z))_x = v_x - omega_y R
-    sim.run(n, progress=False, callback=lambda s, st: (slips.append(s.sys.vel[0, 0] - s.sys.vel[0, 4] * R),
-                                                        ts.append(s.t)))
-    slips = np.abs(np.array(slips))
-    rolled = np.flatnonzero(slips <= 1e-6 * v0)
+    return _sliding_to_rolling(
+        f"sphere sliding→rolling mu={mu} (3D)",
+        Scene([Sphere(R, (0.0, 0.0, R), velocity=(v0, 0.0, 0.0))], [Plane()], mu=mu),
+        t_star=2 * v0 / (7 * mu * G), v_final=5 * v0 / 7, v0=v0, h=h, solver=solver, quick=quick,
+        slip=lambda vel: vel[0, 0] - vel[0, 4] * R)
+
+
+def _sliding_to_rolling(case, scene, *, t_star, v_final, v0, h, solver, quick, slip):
+    """Run a body launched sliding until it rolls; compare onset time and final speed."""
+    T = t_star * (1.2 if quick else 1.5)
+    sim = _sim(scene, h, solver)
+    slips, ts = [], []
+    sim.run(int(round(T / h)), progress=False,
+            callback=lambda s, st: (slips.append(slip(s.sys.vel)), ts.append(s.t)))
+    rolled = np.flatnonzero(np.abs(np.array(slips)) <= 1e-6 * v0)
     t_comp = ts[rolled[0]] if rolled.size else np.inf
     return [
-        Row(f"sphere sliding→rolling mu={mu} (3D)", "rolling onset t*", t_star, t_comp, 2 * h / t_star, solver,
+        Row(case, "rolling onset t*", t_star, t_comp, 2 * h / t_star, solver,
             why="tol = 2h/t*: stick–slip transition resolved to within a step, O(h)"),
-        Row(f"sphere sliding→rolling mu={mu} (3D)", "final speed", 5 * v0 / 7, sim.sys.vel[0, 0], 1e-6, solver,
+        Row(case, "final speed", v_final, sim.sys.vel[0, 0], 1e-6, solver,
             why="tol 1e-6 = solver level: angular momentum about the contact point is conserved exactly by the scheme"),
     ]
 

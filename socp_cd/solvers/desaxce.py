@@ -339,6 +339,14 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
             return None
         return r_pol, ws.error(r_pol)
 
+    def keep_better(out, r_best, e_best):
+        """The polished point when it beats the best iterate (recorded in the history)."""
+        if out is None or out[1] >= e_best:
+            return r_best, e_best
+        if hist is not None:
+            hist.append(out[1])
+        return out
+
     k = 0
     for k in range(1, max_iter + 1):
         if opts["adaptive_tol"]:
@@ -366,14 +374,10 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
             break
         if opts["polish"] and err <= min(switch, retry_factor * polish_at):
             polish_at = err  # retry after a 10x gain (every iterate for cheap dense polish)
-            out = try_polish(r, opts["polish_max_iter"])
-            if out is not None and out[1] < best_err:
-                best_r, best_err = out
-                if hist is not None:
-                    hist.append(best_err)
-                if best_err <= tol:
-                    status, message = "converged", "converged after polish"
-                    break
+            best_r, best_err = keep_better(try_polish(r, opts["polish_max_iter"]), best_r, best_err)
+            if best_err <= tol:
+                status, message = "converged", "converged after polish"
+                break
         if not last_inner.get("ok", True) and itol <= tmin and err >= err_prev:
             status = "numerical_error"
             message = f"inner solver failed ({last_inner.get('status')}) and the error stopped decreasing"
@@ -399,14 +403,11 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
         # last chance from the best iterate: a longer budget (the dense Newton steps are
         # cheap and stop by themselves when the line search fails; on hard-friction
         # problems, e.g. mu = 10, the outer loop stalls and Newton needs ~100 steps)
-        out = try_polish(best_r, FINAL_POLISH_FACTOR * opts["polish_max_iter"]
-                         if ws.dense else 3 * opts["polish_max_iter"])
-        if out is not None and out[1] < best_err:
-            best_r, best_err = out
-            if hist is not None:
-                hist.append(best_err)
-            if best_err <= tol:
-                status, message = "converged", "converged after polish"
+        best_r, best_err = keep_better(
+            try_polish(best_r, FINAL_POLISH_FACTOR * opts["polish_max_iter"]
+                       if ws.dense else 3 * opts["polish_max_iter"]), best_r, best_err)
+        if best_err <= tol:
+            status, message = "converged", "converged after polish"
     info.update({"inner_iterations": inner_its, "inner_status": last_inner.get("status"),
                  "outer_error": best_err,
                  "anderson_restarts": aa.restarts if aa is not None else 0})
