@@ -93,8 +93,8 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) 
     res.coulomb_error = coulomb_error(problem, r, res.u)
     if formulation == "faceted":
         law = float(res.info.get("law_residual", np.inf))
-    elif formulation == "coulomb" and LAW_RESIDUALS["coulomb"] is coulomb_error:
-        law = res.coulomb_error          # the same measure: computed once
+    elif formulation == "coulomb":
+        law = res.coulomb_error          # the law's residual is Siconos' error itself
     else:
         law = law_residual(problem, formulation, r, res.u, **params)
     res.error = law
