@@ -9,9 +9,6 @@ import argparse
 import sys
 from pathlib import Path
 
-DEFAULT_DATA = Path("../shared/data/problems")
-
-
 def _fmt(v) -> str:
     if isinstance(v, float):
         return f"{v:.6g}"
@@ -49,8 +46,13 @@ def cmd_solve(args) -> int:
 
 def cmd_demo(args) -> int:
     """Load a bundled problem, show its properties, solve it with Clarabel and NSGS."""
+    from .data import shared_problems_dir
     from .demo import run_demo
-    return run_demo(Path(args.data))
+    data = args.data or shared_problems_dir()
+    if data is None:
+        print("demo: shared problems not found (pass --data DIR or set SOCP_CD_DATA)")
+        return 2
+    return run_demo(Path(data))
 
 
 def main(argv=None) -> int:
@@ -68,7 +70,7 @@ def main(argv=None) -> int:
     p.add_argument("files", nargs="+")
     p.set_defaults(func=cmd_info)
     p = sp.add_parser("demo", help="load, inspect and solve a bundled problem")
-    p.add_argument("--data", default=str(DEFAULT_DATA))
+    p.add_argument("--data", default=None, help="problem directory (default: the shared set)")
     p.set_defaults(func=cmd_demo)
     p = sp.add_parser("solve", help="solve one problem file")
     p.add_argument("file")

@@ -7,13 +7,13 @@ direct Clarabel path — never from the code under test.
 from __future__ import annotations
 
 import itertools
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.optimize as so
 
+from socp_cd import read_problem
+from socp_cd.data import shared_problems_dir
 from socp_cd.errors import InvalidProblemError, UnsupportedError
 from socp_cd.problem import FrictionContactProblem
 from socp_cd.solvers.faceted import (cone_matrix, faceted_error, project_faceted_cone)
@@ -50,24 +50,11 @@ def rel(a, b):
     return np.linalg.norm(a - b) / max(np.linalg.norm(b), 1e-300)
 
 
-def data_dir():
-    try:
-        from socp_cd.data import shared_problems_dir
-        return Path(shared_problems_dir())
-    except Exception:
-        env = os.environ.get("SOCP_CD_DATA")
-        return Path(env) if env else Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "problems"
-
-
 def real_problem(name):
-    path = data_dir() / name
-    if not path.exists():
-        pytest.skip(f"shared data not found: {path}")
-    try:
-        from socp_cd import read_problem
-        return read_problem(path)
-    except (ImportError, AttributeError, NotImplementedError) as exc:
-        pytest.skip(f"socp_cd.read_problem unavailable: {exc}")
+    d = shared_problems_dir()
+    if d is None or not (d / name).exists():
+        pytest.skip(f"shared data not found: {name}")
+    return read_problem(d / name)
 
 
 # ------------------------------------------- cvxpy == direct Clarabel path

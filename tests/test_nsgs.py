@@ -5,7 +5,6 @@ Single-contact problems are built backwards from a hand-chosen solution
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +13,7 @@ import scipy.linalg as sla
 
 import socp_cd
 from socp_cd import FrictionContactProblem, fenchel_young_gap, solve
+from socp_cd.data import shared_problems_dir
 from socp_cd.residuals import feasibility
 
 TOL = 1e-10
@@ -228,10 +228,7 @@ def test_bad_options():
 
 # ----------------------------------------------------------------------------- real data
 def _data_dir() -> Path:
-    env = os.environ.get("SOCP_CD_DATA")
-    if env:
-        return Path(env)
-    return Path(__file__).resolve().parents[1].parent / "shared" / "data" / "problems"
+    return shared_problems_dir() or Path("/nonexistent-shared-data")
 
 
 @pytest.mark.parametrize("name", ["Rover1039.dat", "FC3D_Example1_SBM.dat",
@@ -242,10 +239,7 @@ def test_real_problems_converge(name):
     path = _data_dir() / name
     if not path.exists():
         pytest.skip(f"shared data absent: {path}")
-    try:
-        p = socp_cd.read_problem(path)
-    except ImportError:
-        pytest.skip("socp_cd.io.read_problem not available")
+    p = socp_cd.read_problem(path)
     res = solve(p, "nsgs", tol=1e-8, max_iter=100000)
     assert res.converged and socp_cd.error(p, res.r) <= 1e-8, res
 

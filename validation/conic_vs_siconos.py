@@ -107,10 +107,7 @@ def peer_tasks(path, p, tol):
 
 
 def run_siconos(tasks):
-    try:
-        from socp_cd.bench.siconos_peer import siconos_available, siconos_batch
-    except ImportError as exc:  # bridge not installed
-        return None, f"socp_cd.bench.siconos_peer unavailable ({exc})"
+    from socp_cd.bench.siconos_peer import siconos_available, siconos_batch
     if not siconos_available():
         return None, "Siconos numerics not importable by the peer interpreter"
     return siconos_batch(tasks), ""

@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 import math
 import multiprocessing as mp
-import os
 import pickle
 import re
 import subprocess
@@ -26,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..data import shared_problems_dir
 from ..errors import InvalidProblemError, UnsupportedError
 from .records import append_records, new_record, settings_string
 
@@ -129,18 +129,6 @@ def shared_problems() -> list[ProblemRef]:
     return file_problems([d]) if d is not None and d.is_dir() else []
 
 
-def shared_problems_dir() -> Path | None:
-    """Directory of the shared problems (the I/O module's helper when available)."""
-    try:
-        from ..data import shared_problems_dir as _d
-        d = _d()
-        return None if d is None else Path(d)
-    except ImportError:
-        env = os.environ.get("SOCP_CD_DATA")
-        d = Path(env) if env else Path(__file__).resolve().parents[3] / "shared" / "data" / "problems"
-        return d if d.is_dir() else None
-
-
 # ---------------------------------------------------------------------- solvers
 @dataclass(frozen=True)
 class SolverChoice:
@@ -200,15 +188,9 @@ def default_solvers(formulation: str = "coulomb", siconos: bool | None = None) -
 
 
 def siconos_ready() -> bool:
-    """True when the Siconos bridge exists and Siconos numerics can be imported."""
-    try:
-        from .siconos_peer import siconos_available
-    except ImportError:
-        return False
-    try:
-        return bool(siconos_available())
-    except Exception:  # the bridge must never break a campaign
-        return False
+    """True when Siconos numerics can be imported by the peer interpreter."""
+    from .siconos_peer import siconos_available
+    return siconos_available()
 
 
 # ------------------------------------------------------------------------ tasks

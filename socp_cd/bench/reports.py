@@ -210,10 +210,16 @@ def plot_work_precision(records, path, title="Work–precision (tolerance sweep)
         ax.grid(True, which="major", alpha=0.3)
     for ax in list(axes.flat)[len(fams):]:
         ax.axis("off")
+    return _finish(fig, axes, path, title + " — filled: all runs reached the tolerance, hollow: "
+                   "some failed (charged the time limit)", rect=(0, 0.06, 1, 0.96))
+
+
+def _finish(fig, axes, path, suptitle, rect) -> Path:
+    """Shared legend, title and layout; save ``fig`` as PNG at ``path`` and close it."""
+    import matplotlib.pyplot as plt
     _figure_legend(fig, axes)
-    fig.suptitle(title + " — filled: all runs reached the tolerance, hollow: some failed "
-                 "(charged the time limit)", fontsize=10)
-    fig.tight_layout(rect=(0, 0.06, 1, 0.96))
+    fig.suptitle(suptitle, fontsize=10)
+    fig.tight_layout(rect=rect)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -265,15 +271,8 @@ def plot_performance_profiles(records, path, presets=None, title="Performance pr
         ax.set_ylabel(r"$\rho_s(\tau)$")
         ax.set_title(f"{preset}: tol {tol:.0e}, {len(table)} problems", fontsize=10)
         ax.grid(True, alpha=0.3)
-    _figure_legend(fig, axes)
-    fig.suptitle(title + " — fraction of problems solved within a factor tau of the fastest solver",
-                 fontsize=10)
-    fig.tight_layout(rect=(0, 0.1, 1, 0.95))
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _finish(fig, axes, path, title + " — fraction of problems solved within a factor tau "
+                   "of the fastest solver", rect=(0, 0.1, 1, 0.95))
 
 
 def _g(x, fmt=".3g"):

@@ -40,10 +40,7 @@ from functools import lru_cache
 import numpy as np
 import scipy.sparse as sp
 
-try:  # clarabel is a hard dependency of the package, but keep import errors clear
-    import clarabel
-except ModuleNotFoundError:  # pragma: no cover
-    clarabel = None
+import clarabel
 
 
 class CscArrays:
