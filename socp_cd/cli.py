@@ -1,7 +1,7 @@
-"""Command-line interface: ``socp-cd {info,demo,solve,validate,bench}``.
+"""Command-line interface: ``socp-cd {info,demo,solve,validate,bench,simulate}``.
 
-``validate`` and ``bench`` forward their arguments to
-:mod:`socp_cd.dynamics.validate` and :mod:`socp_cd.bench.cli`.
+``validate``, ``bench`` and ``simulate`` forward their arguments to
+:mod:`socp_cd.dynamics.validate`, :mod:`socp_cd.bench.cli` and :mod:`socp_cd.scenes.simulate`.
 """
 from __future__ import annotations
 
@@ -58,9 +58,11 @@ def cmd_demo(args) -> int:
 def main(argv=None) -> int:
     """Entry point of the ``socp-cd`` console script."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    if argv and argv[0] in ("validate", "bench"):
+    if argv and argv[0] in ("validate", "bench", "simulate"):
         if argv[0] == "validate":
             from .dynamics.validate import main as sub
+        elif argv[0] == "simulate":
+            from .scenes.simulate import main as sub
         else:
             from .bench.cli import main as sub
         return int(sub(argv[1:]) or 0)
@@ -82,6 +84,7 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_solve)
     sp.add_parser("validate", help="exact-solution validation table (dynamics)")
     sp.add_parser("bench", help="solver comparison campaigns")
+    sp.add_parser("simulate", help="run a TOML scene file (docs/scenes.md)")
     args = ap.parse_args(argv)
     return int(args.func(args) or 0)
 

@@ -1,0 +1,293 @@
+"""Generators of common setups in scene files (``[[generate]]`` tables).
+
+Each generator copies a *template* body (``body = {shape = ..., ...}``, a body
+table without ``position``) to many positions:
+
+* ``random_packing`` — ``count`` non-overlapping bodies at uniform random
+  positions in the box ``lo``–``hi`` (``seed``; ``radius_range = [rmin, rmax]``
+  draws a radius per body for disks/spheres/regular polygons);
+* ``hopper`` — a pile to be deposited: ``count`` bodies on a lattice inside a
+  funnel above the outlet ``outlet`` of width ``opening``, whose walls make
+  ``wall_angle`` degrees with the vertical (2D: two thin fixed boxes; 3D: four,
+  which need fixed 3D boxes); ``jitter`` randomises the lattice (``seed``);
+* ``stack`` — ``count`` bodies in a vertical column resting on ``base`` (the
+  bottom point of the lowest body), ``gap`` between neighbours;
+* ``wall`` — ``rows × columns`` blocks in running bond (every other row shifted
+  by half a block) from ``origin`` (bottom-left corner; 3D: the wall runs along x);
+* ``kapla_tower`` — ``levels`` of ``per_level`` planks (3D boxes ``size = [L, W, H]``)
+  centred on ``center``, alternately along x and y.
+
+All positions are body centres; generated entries keep the template's other
+keys (velocity, density, material, ...).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+_KINDS = {
+    "random_packing": {"lo", "hi", "count", "seed", "radius_range"},
+    "hopper": {"outlet", "opening", "wall_angle", "count", "seed", "jitter", "walls", "wall_thickness",
+               "wall_height"},
+    "stack": {"base", "count", "gap"},
+    "wall": {"origin", "rows", "columns", "gap"},
+    "kapla_tower": {"center", "levels", "per_level", "gap"},
+}
+
+
+def expand_generator(ck, t, path: str, dim: int) -> tuple[list, list]:
+    """Validate a ``[[generate]]`` table and return ``(bodies, obstacles)`` entries.
+
+    Parameters
+    ----------
+    ck : socp_cd.scenes.schema.Checker
+    t : dict
+        The parsed table.
+    path : str
+        Its key path (``generate[k]``), used in error messages and as the
+        generated entries' ``path``.
+    dim : int
+    """
+    from .schema import body_entry
+
+    if not isinstance(t, dict) or "kind" not in t:
+        ck.table(t, path, {"kind", "body"}, required=("kind",))
+    kind = ck.string(t["kind"], f"{path}.kind", tuple(_KINDS))
+    ck.table(t, path, {"kind", "body"} | _KINDS[kind], required=("body",))
+    tmpl = body_entry(ck, t["body"], f"{path}.body", dim, require_position=False)
+    if "position" in t["body"]:
+        ck.fail(f"{path}.body.position", "a generator's template has no position")
+    fn = {"random_packing": _random_packing, "hopper": _hopper, "stack": _stack, "wall": _wall,
+          "kapla_tower": _kapla}[kind]
+    bodies, obstacles = fn(ck, t, path, dim, tmpl)
+    for k, b in enumerate(bodies):
+        b["path"] = f"{path}#{k}"
+    return bodies, obstacles
+
+
+def _count(ck, t, path, key="count", lo=1):
+    if key not in t:
+        ck.fail(f"{path}.{key}", "missing required key")
+    n = ck.number(t[key], f"{path}.{key}", integer=True, lo=lo)
+    if n > 1_000_000:
+        ck.fail(f"{path}.{key}", f"at most 1000000 bodies per generator, got {n}")
+    return n
+
+
+def _need(ck, t, path, key):
+    if key not in t:
+        ck.fail(f"{path}.{key}", "missing required key")
+    return t[key]
+
+
+def half_extent(b: dict, dim: int) -> np.ndarray:
+    """Half extent of a (non-rotated) template along each axis."""
+    if "size" in b:
+        return 0.5 * np.asarray(b["size"], dtype=np.float64)
+    if "vertices" in b:
+        V = np.asarray(b["vertices"], dtype=np.float64)
+        return 0.5 * (V.max(0) - V.min(0))
+    return np.full(dim, b["radius"])
+
+
+def bounding_radius(b: dict, dim: int) -> float:
+    if "radius" in b:
+        return float(b["radius"])
+    if "size" in b:
+        return float(0.5 * np.linalg.norm(b["size"]))
+    V = np.asarray(b["vertices"], dtype=np.float64)
+    return float(np.max(np.linalg.norm(V - V.mean(0), axis=1)))
+
+
+def _place(tmpl: dict, position, **over) -> dict:
+    b = {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in tmpl.items()}
+    b["position"] = np.asarray(position, dtype=np.float64)
+    b.update(over)
+    return b
+
+
+def _scaled(tmpl: dict, r: float) -> dict:
+    """Template rescaled to bounding radius ``r`` (disk/sphere radius, polygon vertices)."""
+    if "radius" in tmpl:
+        return {**tmpl, "radius": r}
+    s = r / bounding_radius(tmpl, 0)
+    out = dict(tmpl)
+    for k in ("vertices", "size"):
+        if k in tmpl:
+            out[k] = np.asarray(tmpl[k]) * s
+    return out
+
+
+def _random_packing(ck, t, path, dim, tmpl):
+    lo = ck.vector(_need(ck, t, path, "lo"), f"{path}.lo", dim)
+    hi = ck.vector(_need(ck, t, path, "hi"), f"{path}.hi", dim)
+    if np.any(hi <= lo):
+        ck.fail(f"{path}.hi", "must exceed lo in every coordinate")
+    n = _count(ck, t, path)
+    rng = np.random.default_rng(ck.number(t.get("seed", 0), f"{path}.seed", integer=True, nonneg=True))
+    radii = None
+    if "radius_range" in t:
+        rr = ck.vector(t["radius_range"], f"{path}.radius_range", 2, positive=True)
+        if rr[1] < rr[0]:
+            ck.fail(f"{path}.radius_range", "must be [rmin, rmax] with rmin <= rmax")
+        if tmpl["shape"] in ("box", "polyhedron"):
+            ck.fail(f"{path}.radius_range", "applies to disks, spheres and polygons only")
+        radii = rng.uniform(rr[0], rr[1], n)
+    R = radii if radii is not None else np.full(n, bounding_radius(tmpl, dim))
+    if np.any(2 * R[:, None] > (hi - lo)[None]):
+        ck.fail(f"{path}.hi", "the region is smaller than a body")
+    # rejection sampling on a uniform grid of cells of size 2 r_max (neighbour search)
+    cell = 2 * float(R.max())
+    grid: dict = {}
+    pos = np.zeros((n, dim))
+    attempts = 0
+    for k in range(n):
+        while True:
+            attempts += 1
+            if attempts > 200 * n + 1000:
+                ck.fail(f"{path}.count", f"could place only {k} of {n} bodies in the region "
+                        "(too dense for random sequential placement; enlarge lo–hi)")
+            p = rng.uniform(lo + R[k], hi - R[k])
+            c = tuple(np.floor(p / cell).astype(int))
+            ok = True
+            for off in np.ndindex(*(3,) * dim):
+                for j in grid.get(tuple(ci + oi - 1 for ci, oi in zip(c, off)), ()):
+                    if np.linalg.norm(pos[j] - p) < R[j] + R[k]:
+                        ok = False
+                        break
+                if not ok:
+                    break
+            if ok:
+                pos[k] = p
+                grid.setdefault(c, []).append(k)
+                break
+    if radii is None:
+        return [_place(tmpl, p) for p in pos], []
+    return [_place(_scaled(tmpl, r), p) for p, r in zip(pos, radii)], []
+
+
+def _hopper(ck, t, path, dim, tmpl):
+    outlet = ck.vector(_need(ck, t, path, "outlet"), f"{path}.outlet", dim)
+    opening = ck.number(_need(ck, t, path, "opening"), f"{path}.opening", positive=True)
+    ang = math.radians(ck.number(t.get("wall_angle", 30.0), f"{path}.wall_angle", lo=0.0, hi=80.0))
+    n = _count(ck, t, path)
+    rng = np.random.default_rng(ck.number(t.get("seed", 0), f"{path}.seed", integer=True, nonneg=True))
+    rb = bounding_radius(tmpl, dim)
+    jitter = ck.number(t.get("jitter", 0.05), f"{path}.jitter", lo=0.0, hi=0.5)
+    walls = ck.boolean(t.get("walls", True), f"{path}.walls")
+    thick = ck.number(t.get("wall_thickness", rb), f"{path}.wall_thickness", positive=True)
+    sp = 2.2 * rb
+    pos = []
+    z = 2 * rb
+    while len(pos) < n:
+        half = opening / 2 + z * math.tan(ang) - 1.1 * rb
+        m = max(1, int(2 * half // sp) + 1)
+        xs = (np.arange(m) - (m - 1) / 2) * sp
+        for x in xs:
+            for y in (xs if dim == 3 else [None]):
+                if len(pos) == n:
+                    break
+                p = outlet.copy()
+                p[0] += x
+                if dim == 3:
+                    p[1] += y
+                p[-1] += z
+                p += jitter * rb * rng.uniform(-1, 1, dim)
+                pos.append(p)
+        z += sp
+    bodies = [_place(tmpl, p) for p in pos]
+    obstacles = []
+    if walls:
+        height = ck.number(t.get("wall_height", z + rb), f"{path}.wall_height", positive=True)
+        L = height / math.cos(ang)
+        for side in (-1.0, 1.0):
+            for ax in ((0,) if dim == 2 else (0, 1)):
+                # slab centre: from the outlet edge, up and outwards along the wall
+                c = outlet.copy()
+                c[ax] += side * (opening / 2 + 0.5 * height * math.tan(ang) + 0.5 * thick / math.cos(ang))
+                c[-1] += 0.5 * height
+                if dim == 2:
+                    size = np.array([thick, L])
+                    obstacles.append({"shape": "box", "size": size, "position": c, "angle": -side * ang,
+                                      "path": f"{path}.walls", "material": tmpl["material"], "mu": None,
+                                      "restitution": None})
+                else:
+                    size = np.array([thick, opening + 2 * height * math.tan(ang) + 2 * thick, L])
+                    axis = np.array([0.0, 1.0, 0.0]) if ax == 0 else np.array([-1.0, 0.0, 0.0])
+                    if ax == 1:
+                        size = size[[1, 0, 2]]
+                    from .schema import quat_from_axis_angle
+                    obstacles.append({"shape": "box", "size": size, "position": c,
+                                      "orientation": quat_from_axis_angle(axis, side * ang),
+                                      "path": f"{path}.walls", "material": tmpl["material"], "mu": None,
+                                      "restitution": None})
+    return bodies, obstacles
+
+
+def _stack(ck, t, path, dim, tmpl):
+    base = ck.vector(_need(ck, t, path, "base"), f"{path}.base", dim)
+    n = _count(ck, t, path)
+    gap = ck.number(t.get("gap", 0.0), f"{path}.gap", nonneg=True)
+    hz = half_extent(tmpl, dim)[-1]
+    out = []
+    for k in range(n):
+        p = base.copy()
+        p[-1] += hz + k * (2 * hz + gap)
+        out.append(_place(tmpl, p))
+    return out, []
+
+
+def _wall(ck, t, path, dim, tmpl):
+    if tmpl["shape"] != "box":
+        ck.fail(f"{path}.body.shape", "a wall is made of boxes")
+    origin = ck.vector(_need(ck, t, path, "origin"), f"{path}.origin", dim)
+    rows = _count(ck, t, path, "rows")
+    cols = _count(ck, t, path, "columns")
+    gap = ck.number(t.get("gap", 0.0), f"{path}.gap", nonneg=True)
+    size = np.asarray(tmpl["size"])
+    out = []
+    for i in range(rows):
+        shift = 0.5 * size[0] if i % 2 else 0.0
+        for j in range(cols - (1 if i % 2 else 0)):
+            p = origin.copy()
+            p[0] += shift + (j + 0.5) * size[0] + j * gap
+            p[-1] += (i + 0.5) * size[-1] + i * gap
+            if dim == 3:
+                p[1] += 0.5 * size[1]
+            out.append(_place(tmpl, p))
+    return out, []
+
+
+def _kapla(ck, t, path, dim, tmpl):
+    from .schema import quat_from_axis_angle
+
+    if dim != 3 or tmpl["shape"] != "box":
+        ck.fail(f"{path}.body.shape", "a Kapla tower is made of 3D boxes (size = [L, W, H])")
+    center = ck.vector(_need(ck, t, path, "center"), f"{path}.center", 3)
+    levels = _count(ck, t, path, "levels")
+    per = ck.number(t.get("per_level", 2), f"{path}.per_level", integer=True, lo=1)
+    gap = ck.number(t.get("gap", 0.0), f"{path}.gap", nonneg=True)
+    L, W, H = np.asarray(tmpl["size"])
+    if per * W > L:
+        ck.fail(f"{path}.per_level", f"{per} planks of width {W} do not fit under a plank of length {L}")
+    offsets = (np.arange(per) - (per - 1) / 2) * ((L - W) / max(per - 1, 1)) if per > 1 else np.zeros(1)
+    rot = quat_from_axis_angle([0.0, 0.0, 1.0], math.pi / 2)
+    out = []
+    for lev in range(levels):
+        along_x = lev % 2 == 0
+        for o in offsets:
+            p = center.copy()
+            p[2] += (lev + 0.5) * H + lev * gap
+            p[1 if along_x else 0] += o
+            out.append(_place(tmpl, p, orientation=(tmpl["orientation"] if along_x else
+                                                    _compose(rot, tmpl["orientation"]))))
+    return out, []
+
+
+def _compose(p, q):
+    from .schema import quat_mul
+    return quat_mul(p, q)
+
+
+__all__ = ["expand_generator", "half_extent", "bounding_radius"]
