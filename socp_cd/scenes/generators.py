@@ -11,14 +11,20 @@ table without ``position``) to many positions:
   ``wall_angle`` degrees with the vertical (2D: two thin fixed boxes; 3D: four,
   which need fixed 3D boxes); ``jitter`` randomises the lattice (``seed``);
 * ``stack`` — ``count`` bodies in a vertical column resting on ``base`` (the
-  bottom point of the lowest body), ``gap`` between neighbours;
+  bottom point of the lowest body), ``gap`` between neighbours; ``tilt`` (degrees)
+  rotates the whole column about ``base`` (2D: counter-clockwise; 3D: about the
+  y axis, so ``tilt = a`` stands it on a plane of normal ``(sin a, 0, cos a)``);
 * ``wall`` — ``rows × columns`` blocks in running bond (every other row shifted
   by half a block) from ``origin`` (bottom-left corner; 3D: the wall runs along x);
 * ``kapla_tower`` — ``levels`` of ``per_level`` planks (3D boxes ``size = [L, W, H]``)
-  centred on ``center``, alternately along x and y.
+  centred on ``center``, alternately along x and y;
+* ``row`` — ``count`` bodies equally spaced from centre ``start`` to centre ``end``
+  (e.g. with ``fixed = true``, the rough bed of a talus).
 
 All positions are body centres; generated entries keep the template's other
-keys (velocity, density, material, ...).
+keys (velocity, density, material, ...).  ``fixed = true`` (any kind) makes
+the generated bodies fixed obstacles instead (disks, spheres, polygons, boxes,
+polyhedra; velocities and densities are then ignored).
 """
 from __future__ import annotations
 
@@ -30,9 +36,10 @@ _KINDS = {
     "random_packing": {"lo", "hi", "count", "seed", "radius_range"},
     "hopper": {"outlet", "opening", "wall_angle", "count", "seed", "jitter", "walls", "wall_thickness",
                "wall_height"},
-    "stack": {"base", "count", "gap"},
+    "stack": {"base", "count", "gap", "tilt"},
     "wall": {"origin", "rows", "columns", "gap"},
     "kapla_tower": {"center", "levels", "per_level", "gap"},
+    "row": {"start", "end", "count"},
 }
 
 
@@ -54,15 +61,20 @@ def expand_generator(ck, t, path: str, dim: int) -> tuple[list, list]:
     if not isinstance(t, dict) or "kind" not in t:
         ck.table(t, path, {"kind", "body"}, required=("kind",))
     kind = ck.string(t["kind"], f"{path}.kind", tuple(_KINDS))
-    ck.table(t, path, {"kind", "body"} | _KINDS[kind], required=("body",))
+    ck.table(t, path, {"kind", "body", "fixed"} | _KINDS[kind], required=("body",))
+    fixed = ck.boolean(t.get("fixed", False), f"{path}.fixed")
     tmpl = body_entry(ck, t["body"], f"{path}.body", dim, require_position=False)
     if "position" in t["body"]:
         ck.fail(f"{path}.body.position", "a generator's template has no position")
     fn = {"random_packing": _random_packing, "hopper": _hopper, "stack": _stack, "wall": _wall,
-          "kapla_tower": _kapla}[kind]
+          "kapla_tower": _kapla, "row": _row}[kind]
     bodies, obstacles = fn(ck, t, path, dim, tmpl)
     for k, b in enumerate(bodies):
         b["path"] = f"{path}#{k}"
+    if fixed:
+        if tmpl["fixed_rotation"]:
+            ck.fail(f"{path}.body.fixed_rotation", "fixed obstacles do not move at all")
+        return [], obstacles + bodies
     return bodies, obstacles
 
 
@@ -229,12 +241,19 @@ def _stack(ck, t, path, dim, tmpl):
     base = ck.vector(_need(ck, t, path, "base"), f"{path}.base", dim)
     n = _count(ck, t, path)
     gap = ck.number(t.get("gap", 0.0), f"{path}.gap", nonneg=True)
+    tilt = math.radians(ck.number(t.get("tilt", 0.0), f"{path}.tilt", lo=-90.0, hi=90.0))
     hz = half_extent(tmpl, dim)[-1]
+    c, s = math.cos(tilt), math.sin(tilt)
+    up = np.array([-s, c]) if dim == 2 else np.array([s, 0.0, c])
     out = []
     for k in range(n):
-        p = base.copy()
-        p[-1] += hz + k * (2 * hz + gap)
-        out.append(_place(tmpl, p))
+        p = base + (hz + k * (2 * hz + gap)) * up
+        if dim == 2:
+            out.append(_place(tmpl, p, angle=tmpl["angle"] + tilt))
+        else:
+            from .schema import quat_from_axis_angle
+            out.append(_place(tmpl, p, orientation=_compose(quat_from_axis_angle([0.0, 1.0, 0.0], tilt),
+                                                           tmpl["orientation"])))
     return out, []
 
 
@@ -283,6 +302,13 @@ def _kapla(ck, t, path, dim, tmpl):
             out.append(_place(tmpl, p, orientation=(tmpl["orientation"] if along_x else
                                                     _compose(rot, tmpl["orientation"]))))
     return out, []
+
+
+def _row(ck, t, path, dim, tmpl):
+    a = ck.vector(_need(ck, t, path, "start"), f"{path}.start", dim)
+    b = ck.vector(_need(ck, t, path, "end"), f"{path}.end", dim)
+    n = _count(ck, t, path)
+    return [_place(tmpl, a + (b - a) * (k / max(n - 1, 1))) for k in range(n)], []
 
 
 def _compose(p, q):

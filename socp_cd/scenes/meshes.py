@@ -56,6 +56,31 @@ def hull_triangles(V) -> np.ndarray:
     return F
 
 
+def hull_faces(V) -> list:
+    """Planar faces of the convex hull of ``V`` (k, 3): one index array per face, in order
+    around it (coplanar hull triangles merged; used to draw boxes without diagonals)."""
+    from scipy.spatial import ConvexHull
+
+    V = np.asarray(V, dtype=np.float64)
+    hull = ConvexHull(V)
+    scale = float(np.max(np.abs(V))) or 1.0
+    faces: dict = {}
+    for simplex, eq in zip(hull.simplices, hull.equations):
+        key = tuple(np.round(np.r_[eq[:3], eq[3] / scale], 6))
+        faces.setdefault(key, set()).update(simplex.tolist())
+    out = []
+    for key, idx in faces.items():
+        idx = np.array(sorted(idx))
+        n = np.array(key[:3])
+        P = V[idx] - V[idx].mean(0)
+        a = np.eye(3)[np.argmin(np.abs(n))]
+        e1 = np.cross(n, a)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        out.append(idx[np.argsort(np.arctan2(P @ e2, P @ e1))])
+    return out
+
+
 def box_corners(size) -> np.ndarray:
     """The 8 corners of a box of edge lengths ``size`` centred at the origin."""
     h = 0.5 * np.asarray(size, dtype=np.float64)
@@ -148,5 +173,5 @@ def obstacle_meshes(obstacles, dim: int, extent: float) -> list:
     return out
 
 
-__all__ = ["BodyMeshes", "obstacle_meshes", "local_mesh", "place", "icosphere", "hull_triangles",
+__all__ = ["BodyMeshes", "obstacle_meshes", "local_mesh", "place", "icosphere", "hull_triangles", "hull_faces",
            "box_corners"]

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .meshes import BodyMeshes, obstacle_meshes
+from .meshes import BodyMeshes, hull_faces, obstacle_meshes
 
 
 class Renderer3D:
@@ -28,6 +28,9 @@ class Renderer3D:
 
     def __init__(self, bodies, obstacles, first_frame, *, elev: float = 22.0, azim: float = -58.0):
         self.meshes = BodyMeshes.of(bodies, 3)
+        # draw polyhedral bodies by their planar faces (quads for boxes): mplot3d sorts whole
+        # polygons by depth, and long thin triangles sort badly
+        self.polys = [None if len(F) > 40 else hull_faces(V) for V, F in zip(self.meshes.local, self.meshes.faces)]
         W = self.meshes.world(first_frame)
         P = np.vstack(W)
         lo, hi = P.min(0), P.max(0)
@@ -51,8 +54,10 @@ class Renderer3D:
         for V, F, _ in self.obstacles:
             V = np.clip(V, self.lo, self.hi)
             ax.add_collection3d(Poly3DCollection(V[F], facecolor="#c8c8c8", edgecolor="none", alpha=0.5))
-        tris = np.concatenate([V[F] for V, F in zip(self.meshes.world(frame), self.meshes.faces)])
-        ax.add_collection3d(Poly3DCollection(tris, facecolor="#d9a066", edgecolor="#5a3d1e", linewidth=0.15,
+        faces = []
+        for V, F, P in zip(self.meshes.world(frame), self.meshes.faces, self.polys):
+            faces += list(V[F]) if P is None else [V[f] for f in P]
+        ax.add_collection3d(Poly3DCollection(faces, facecolors="#d9a066", edgecolors="#5a3d1e", linewidths=0.15,
                                              shade=True, lightsource=ls))
         c = frame.contacts
         if c.n:

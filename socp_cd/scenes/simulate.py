@@ -177,6 +177,43 @@ def simulate(path, *, steps: int | None = None, out=None, vtk=None, fclib=None, 
     return summary
 
 
+def _spec_object(entry: dict):
+    """A light stand-in of a 3D body/obstacle entry for the mesh functions (no dynamics needed)."""
+    from types import SimpleNamespace
+
+    keys = ("radius", "size", "vertices", "position", "orientation", "point", "normal")
+    return SimpleNamespace(**{k: entry[k] for k in keys if k in entry})
+
+
+def preview(path, png) -> Path:
+    """Render the initial configuration of a scene file to ``png``.
+
+    3D scenes are drawn from the file alone (also boxes and polyhedra, whatever
+    ``socp_cd.dynamics`` provides); 2D scenes through the dynamics' renderer.
+    """
+    from .schema import load_scene_file
+
+    spec = load_scene_file(path)
+    png = Path(png)
+    png.parent.mkdir(parents=True, exist_ok=True)
+    if spec.dim == 2:
+        from .builder import load_simulation
+        _, sim = load_simulation(path)
+        _FrameRenderer(sim, sim.scene.bodies, sim.scene.obstacles, 2).draw(sim, None, png)
+        return png
+    from types import SimpleNamespace
+
+    from ..dynamics import ContactFrame
+    from .render3d import Renderer3D
+    bodies = [_spec_object(b) for b in spec.bodies]
+    frame = SimpleNamespace(t=0.0, pos=np.array([b["position"] for b in spec.bodies]),
+                            orientation=np.array([b["orientation"] for b in spec.bodies]),
+                            contacts=ContactFrame.empty(3))
+    r = Renderer3D(bodies, [_spec_object(o) for o in spec.obstacles], frame)
+    r.render(frame, png, title=f"{spec.name}: initial state, {len(bodies)} bodies")
+    return png
+
+
 class _FrameRenderer:
     """2D frames through :func:`socp_cd.dynamics.render_frame` with fixed bounds; 3D through mplot3d."""
 
@@ -213,6 +250,8 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
     ap.add_argument("--vtk", default=None, metavar="DIR", help="ParaView time series (.pvd + .vtu)")
     ap.add_argument("--fclib", default=None, metavar="DIR", help="every step's problem as an FCLib HDF5 file")
     ap.add_argument("--render", default=None, metavar="DIR", help="PNG frames")
+    ap.add_argument("--preview", default=None, metavar="PNG",
+                    help="only draw the initial configuration to PNG (no simulation)")
     ap.add_argument("--every", type=int, default=None, help="record one frame every N steps")
     ap.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
     return ap
@@ -221,6 +260,9 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
 def main(argv=None) -> int:
     """Entry point of ``socp-cd simulate``; returns 0 (1 when some step did not converge)."""
     args = build_parser().parse_args(argv)
+    if args.preview is not None:
+        print(f"wrote {preview(args.scene, args.preview)}")
+        return 0
     s = simulate(args.scene, steps=args.steps, out=args.out, vtk=args.vtk, fclib=args.fclib,
                  render=args.render, every=args.every, quiet=args.quiet)
     if not args.quiet:
