@@ -149,6 +149,13 @@ def _random_packing(ck, t, path, dim, tmpl):
     R = radii if radii is not None else np.full(n, bounding_radius(tmpl, dim))
     if np.any(2 * R[:, None] > (hi - lo)[None]):
         ck.fail(f"{path}.hi", "the region is smaller than a body")
+    # random sequential placement jams near these fractions of bounding disks/spheres
+    region = np.prod(hi - lo - 2 * R.min())
+    unit = math.pi if dim == 2 else 4 * math.pi / 3
+    fraction = unit * float(np.sum(R ** dim)) / region
+    if fraction > (0.54 if dim == 2 else 0.38):
+        ck.fail(f"{path}.count", f"{n} bodies would fill {fraction:.0%} of the region; random sequential "
+                f"placement jams near {'54' if dim == 2 else '38'}% (enlarge lo–hi or lower count)")
     # rejection sampling on a uniform grid of cells of size 2 r_max (neighbour search)
     cell = 2 * float(R.max())
     grid: dict = {}
@@ -157,7 +164,7 @@ def _random_packing(ck, t, path, dim, tmpl):
     for k in range(n):
         while True:
             attempts += 1
-            if attempts > 200 * n + 1000:
+            if attempts > 50 * n + 1000:
                 ck.fail(f"{path}.count", f"could place only {k} of {n} bodies in the region "
                         "(too dense for random sequential placement; enlarge lo–hi)")
             p = rng.uniform(lo + R[k], hi - R[k])

@@ -1,0 +1,336 @@
+"""Scene files: schema validation errors, generators, builder (socp_cd.scenes)."""
+import math
+import textwrap
+
+import numpy as np
+import pytest
+
+from socp_cd.dynamics import compile_scene, detect
+from socp_cd.errors import SocpCdError
+from socp_cd.scenes import SceneFileError, build_scene, has_boxes, load_scene_file
+from socp_cd.scenes.schema import quat_to_matrix
+
+needs_boxes = pytest.mark.skipif(not has_boxes(), reason="socp_cd.dynamics has no Box yet (blocks merge)")
+
+BASE2 = """
+[scene]
+dim = 2
+mu = 0.3
+[[obstacles]]
+shape = "line"
+"""
+
+
+def _write(tmp_path, text, name="scene.toml"):
+    p = tmp_path / name
+    p.write_text(textwrap.dedent(text))
+    return p
+
+
+def _error(tmp_path, text) -> SceneFileError:
+    p = _write(tmp_path, text)
+    with pytest.raises(SceneFileError) as info:
+        load_scene_file(p)
+    err = info.value
+    assert isinstance(err, SocpCdError) and str(p) in str(err)
+    return err
+
+
+# ----------------------------------------------------------------------------- errors
+@pytest.mark.parametrize("body, key, reason", [
+    ('shape = "disk"\nradius = 0.1\nposition = [0, 1]\ncolour = "red"', "bodies[1].colour", "unknown key"),
+    ('shape = "disk"\nradius = "big"\nposition = [0, 1]', "bodies[1].radius", "must be a number"),
+    ('shape = "disk"\nradius = 0.1', "bodies[1].position", "missing required key"),
+    ('shape = "box"\nsize = [0.1, -2]\nposition = [0, 1]', "bodies[1].size[1]", "must be positive"),
+    ('shape = "box"\nsize = [0.1, 0]\nposition = [0, 1]', "bodies[1].size[1]", "must be positive"),
+    ('shape = "disk"\nradius = 0.1\nposition = [nan, 1]', "bodies[1].position[0]", "must be finite"),
+    ('shape = "disk"\nradius = inf\nposition = [0, 1]', "bodies[1].radius", "must be finite"),
+    ('shape = "disk"\nradius = 0.1\nposition = [0, 1, 2]', "bodies[1].position", "list of 2 numbers"),
+    ('shape = "sphere"\nradius = 0.1\nposition = [0, 1]', "bodies[1].shape", "must be one of disk, polygon, box"),
+    ('shape = "disk"\nradius = 0.1\nposition = [0, 1]\nquaternion = [1, 0, 0, 0]', "bodies[1].quaternion",
+     "2D orientations"),
+    ('shape = "disk"\nsize = [1, 1]\nposition = [0, 1]', "bodies[1].size", "not a key of shape 'disk'"),
+    ('shape = "polygon"\nvertices = [[0, 0], [1, 0]]\nposition = [0, 1]', "bodies[1].vertices",
+     "at least 3 points"),
+    ('shape = "polygon"\nvertices = [[0, 0], [1, 0], [1, 1], [0.9, 0.2]]\nposition = [0, 1]', "bodies[1]",
+     "not convex"),
+    ('shape = "disk"\nradius = 0.1\nposition = [0, 1]\nfixed_rotation = 1', "bodies[1].fixed_rotation",
+     "true or false"),
+    ('shape = "disk"\nradius = 0.1\nposition = [0, 1]\nrestitution = 1.5', "bodies[1].restitution", "<= 1.0"),
+])
+def test_bad_body_names_file_key_path_and_reason(tmp_path, body, key, reason):
+    text = BASE2 + '[[bodies]]\nshape = "disk"\nradius = 0.1\nposition = [0, 0.1]\n[[bodies]]\n' + body + "\n"
+    if "not convex" in reason:   # caught by socp_cd.dynamics at build time, re-raised with the key path
+        with pytest.raises(SceneFileError) as info:
+            build_scene(load_scene_file(_write(tmp_path, text)))
+        err = info.value
+    else:
+        err = _error(tmp_path, text)
+    assert err.field.startswith(key), (err.field, str(err))
+    assert reason in str(err), str(err)
+
+
+@pytest.mark.parametrize("text, key, reason", [
+    ("[scene]\nmu = 0.3\n", "scene.dim", "missing required key"),
+    ("[scene]\ndim = 4\n", "scene.dim", "must be 2 or 3"),
+    ("[scene]\ndim = 2\n", "bodies", "no bodies"),
+    ("[scene]\ndim = 2\n[simulaton]\nh = 1e-3\n", "simulaton", "unknown key"),
+    (BASE2 + "[simulation]\nh = -1e-3\n", "simulation.h", "must be positive"),
+    (BASE2 + "[simulation]\ntheta = 1.5\n", "simulation.theta", "<= 1.0"),
+    (BASE2 + "[simulation]\nsteps = 2.5\n", "simulation.steps", "must be an integer"),
+    (BASE2 + '[simulation]\nform = "mixed"\n', "simulation.form", "must be one of local, global"),
+    (BASE2 + "[scene_extra]\n", "scene_extra", "unknown key"),
+    ("[scene]\ndim = 2\ngravity = [0, nan]\n", "scene.gravity[1]", "must be finite"),
+    (BASE2.replace('shape = "line"', 'shape = "line"\nnormal = [0, 0]'), "obstacles[0].normal", "nonzero"),
+    (BASE2 + '[[materials]]\npair = ["wood"]\nmu = 0.3\n', "materials[0].pair", "two material names"),
+    (BASE2 + '[[materials]]\npair = ["a", "b"]\n', "materials[0]", "give mu and/or restitution"),
+    (BASE2 + '[[materials]]\npair = ["a", "b"]\nmu = 0.1\n[[materials]]\npair = ["b", "a"]\nmu = 0.2\n',
+     "materials[1].pair", "defined twice"),
+    (BASE2 + '[[materials]]\npair = ["a", "b"]\nmu = 0.1\n[[bodies]]\nshape = "disk"\nradius = 1\n'
+     'position = [0, 1]\nmaterial = "c"\n', "bodies[0].material", "appears in no [[materials]] pair"),
+    (BASE2 + '[[generate]]\nkind = "pile"\n', "generate[0].kind", "must be one of"),
+    (BASE2 + '[[generate]]\nkind = "stack"\nbase = [0, 0]\ncount = 3\n', "generate[0].body", "missing required"),
+    (BASE2 + '[[generate]]\nkind = "stack"\nbase = [0, 0]\ncount = 0\nbody = {shape = "disk", radius = 1}\n',
+     "generate[0].count", "must be >= 1"),
+    (BASE2 + '[[generate]]\nkind = "stack"\nbase = [0, 0]\ncount = 2\nbody = {shape = "disk", radius = 1, '
+     'position = [0, 0]}\n', "generate[0].body.position", "template has no position"),
+    (BASE2 + '[[generate]]\nkind = "random_packing"\nlo = [0, 0]\nhi = [1, 1]\ncount = 500\n'
+     'body = {shape = "disk", radius = 0.1}\n', "generate[0].count", "random sequential placement jams"),
+    (BASE2 + '[[generate]]\nkind = "wall"\norigin = [0, 0]\nrows = 2\ncolumns = 2\n'
+     'body = {shape = "disk", radius = 0.1}\n', "generate[0].body.shape", "made of boxes"),
+])
+def test_bad_scene_tables(tmp_path, text, key, reason):
+    err = _error(tmp_path, text)
+    assert err.field == key, (err.field, str(err))
+    assert reason in err.reason, str(err)
+
+
+@pytest.mark.parametrize("text, line", [
+    ("[scene]\ndim = 2\nmu = \n", 3),
+    ("[scene]\ndim = 2\n\n[[bodies]\nshape = 'disk'\n", 4),
+    ('[scene]\ndim = 2\nname = "unterminated\n', 3),
+])
+def test_toml_syntax_error_gives_line(tmp_path, text, line):
+    err = _error(tmp_path, text)
+    assert err.line == line and f"line {line}" in str(err) and "TOML syntax error" in str(err)
+
+
+def test_3d_orientation_keys(tmp_path):
+    text = """
+    [scene]
+    dim = 3
+    [[bodies]]
+    shape = "sphere"
+    radius = 0.1
+    position = [0, 0, 1]
+    euler = [0, 0, 90]
+    [[bodies]]
+    shape = "sphere"
+    radius = 0.1
+    position = [1, 0, 1]
+    axis_angle = [0, 0, 2, 90]
+    [[bodies]]
+    shape = "sphere"
+    radius = 0.1
+    position = [2, 0, 1]
+    quaternion = [0.7071067811865476, 0, 0, 0.7071067811865476]
+    [[bodies]]
+    shape = "sphere"
+    radius = 0.1
+    position = [3, 0, 1]
+    euler = [90, 90, 0]
+    """
+    spec = load_scene_file(_write(tmp_path, text))
+    q = [b["orientation"] for b in spec.bodies]
+    for k in (1, 2):
+        np.testing.assert_allclose(q[k], q[0], atol=1e-15)
+    np.testing.assert_allclose(quat_to_matrix(q[0]) @ [1, 0, 0], [0, 1, 0], atol=1e-15)
+    # extrinsic x then y: R = Ry(90) Rx(90) sends y to x
+    np.testing.assert_allclose(quat_to_matrix(q[3]) @ [0, 1, 0], [1, 0, 0], atol=1e-15)
+    bad = text.replace("euler = [0, 0, 90]", "euler = [0, 0, 90]\nquaternion = [1, 0, 0, 0]")
+    err = _error(tmp_path, bad)
+    assert err.field == "bodies[0].euler" and "only one of" in err.reason and "quaternion" in err.reason
+    err = _error(tmp_path, text.replace("0.7071067811865476, 0, 0, 0.7071067811865476", "1, 0, 0, 1"))
+    assert err.field == "bodies[2].quaternion" and "unit quaternion" in err.reason
+
+
+def test_unknown_solver_is_reported_with_its_key(tmp_path):
+    from socp_cd.scenes import load_simulation
+    p = _write(tmp_path, BASE2 + '[simulation]\nsolver = "magic"\n[[bodies]]\nshape = "disk"\nradius = 0.1\n'
+                                 'position = [0, 0.1]\n')
+    with pytest.raises(SceneFileError, match="simulation.solver: unknown solver 'magic'"):
+        load_simulation(p)
+
+
+# ----------------------------------------------------------------------------- generators
+def _min_gap(scene) -> float:
+    sys_ = compile_scene(scene)
+    C = detect(sys_, 1.0)
+    return float(C.gap.min()) if C.n else np.inf
+
+
+def test_random_packing_places_disjoint_bodies_inside_the_region(tmp_path):
+    text = BASE2 + """
+    [[generate]]
+    kind = "random_packing"
+    lo = [0, 0.5]
+    hi = [1, 1.5]
+    count = 40
+    seed = 7
+    radius_range = [0.03, 0.06]
+    body = {shape = "polygon", sides = 5, radius = 0.05}
+    """
+    spec = load_scene_file(_write(tmp_path, text))
+    assert len(spec.bodies) == 40
+    P = np.array([b["position"] for b in spec.bodies])
+    R = np.array([np.linalg.norm(b["vertices"], axis=1).max() for b in spec.bodies])
+    assert np.all(P - R[:, None] >= [0, 0.5]) and np.all(P + R[:, None] <= [1, 1.5])
+    assert R.min() >= 0.03 - 1e-12 and R.max() <= 0.06 + 1e-12 and R.std() > 0
+    assert _min_gap(build_scene(spec)) > 0
+    again = load_scene_file(_write(tmp_path, text, "again.toml"))
+    np.testing.assert_array_equal(P, [b["position"] for b in again.bodies])
+
+
+@pytest.mark.parametrize("tilt", [0.0, -25.0])
+def test_stack_bodies_touch_without_overlap(tmp_path, tilt):
+    text = f"""
+    [scene]
+    dim = 2
+    [[obstacles]]
+    shape = "line"
+    inclination = {tilt}
+    [[generate]]
+    kind = "stack"
+    base = [0, 0]
+    count = 4
+    tilt = {tilt}
+    body = {{shape = "box", size = [0.2, 0.05]}}
+    """
+    scene = build_scene(load_scene_file(_write(tmp_path, text)))
+    sys_ = compile_scene(scene)
+    C = detect(sys_, 1e-9)
+    assert C.n >= 2 * 4                      # two corners per interface and on the line
+    assert np.abs(C.gap).max() < 1e-12
+    np.testing.assert_allclose(sys_.angle, math.radians(tilt))
+
+
+def test_wall_hopper_row_generators(tmp_path):
+    text = BASE2 + """
+    [[generate]]
+    kind = "wall"
+    origin = [2, 0]
+    rows = 5
+    columns = 4
+    body = {shape = "box", size = [0.2, 0.1]}
+    [[generate]]
+    kind = "hopper"
+    outlet = [-2, 0.5]
+    opening = 0.15
+    count = 60
+    seed = 2
+    body = {shape = "disk", radius = 0.02}
+    [[generate]]
+    kind = "row"
+    fixed = true
+    start = [-1, 0.05]
+    end = [1, 0.05]
+    count = 11
+    body = {shape = "disk", radius = 0.05}
+    """
+    spec = load_scene_file(_write(tmp_path, text))
+    assert len(spec.bodies) == 5 * 4 - 2 + 60
+    assert len(spec.obstacles) == 1 + 2 + 11          # line, two hopper walls, fixed row
+    scene = build_scene(spec)
+    sys_ = compile_scene(scene)
+    C = detect(sys_, 1e-9)
+    assert np.abs(C.gap).max() < 1e-12                # wall blocks touch, nothing overlaps
+    wall = np.array([b["position"] for b in spec.bodies[:18]])
+    assert np.allclose(np.unique(np.round(wall[:, 1], 9)), 0.05 + 0.1 * np.arange(5))
+    grains = sys_.pos[18:]
+    # every grain lies inside the funnel, above the outlet
+    half = 0.075 + (grains[:, 1] - 0.5) * math.tan(math.radians(30))
+    assert np.all(np.abs(grains[:, 0] + 2) < half) and np.all(grains[:, 1] > 0.5)
+
+
+@needs_boxes
+def test_kapla_tower_and_3d_boxes(tmp_path):
+    import shutil
+    from pathlib import Path
+    src = Path(__file__).resolve().parents[1] / "examples" / "kapla_tower.toml"
+    p = tmp_path / "k.toml"
+    shutil.copy(src, p)
+    scene = build_scene(load_scene_file(p))
+    assert len(scene.bodies) == 24
+    assert _min_gap(scene) > -1e-9
+
+
+def test_kapla_tower_layout(tmp_path):
+    from pathlib import Path
+    spec = load_scene_file(Path(__file__).resolve().parents[1] / "examples" / "kapla_tower.toml")
+    assert len(spec.bodies) == 24
+    z = np.array([b["position"][2] for b in spec.bodies])
+    np.testing.assert_allclose(np.unique(np.round(z, 12)), 0.0039 + 0.0078 * np.arange(12))
+    long_axis = np.array([quat_to_matrix(b["orientation"]) @ [1, 0, 0] for b in spec.bodies])
+    np.testing.assert_allclose(np.abs(long_axis[0::4]), [[1, 0, 0]] * 6, atol=1e-15)
+    np.testing.assert_allclose(np.abs(long_axis[2::4]), [[0, 1, 0]] * 6, atol=1e-15)
+
+
+# ----------------------------------------------------------------------------- builder
+def test_builder_makes_dynamics_objects(tmp_path):
+    text = BASE2 + """
+    [[bodies]]
+    shape = "box"
+    size = [0.4, 0.1]
+    position = [0, 0.05]
+    angle = 90
+    density = 2.0
+    mu = 0.7
+    [[obstacles]]
+    shape = "box"
+    size = [1, 0.2]
+    position = [3, 0]
+    angle = 45
+    """
+    scene = build_scene(load_scene_file(_write(tmp_path, text)))
+    b = scene.bodies[0]
+    assert b.mass == pytest.approx(2.0 * 0.04) and b.mu == 0.7
+    np.testing.assert_allclose(np.abs(b.vertices).max(0), [0.2, 0.05])
+    V = scene.obstacles[1].vertices
+    np.testing.assert_allclose(np.linalg.norm(V - [3, 0], axis=1), math.hypot(0.5, 0.1))
+
+
+def test_material_table_needs_the_dynamics_support(tmp_path):
+    from socp_cd.dynamics import Scene
+    import dataclasses
+    text = BASE2 + """
+    [[materials]]
+    pair = ["steel", "steel"]
+    mu = 0.2
+    [[bodies]]
+    shape = "disk"
+    radius = 0.1
+    position = [0, 0.1]
+    material = "steel"
+    """
+    spec = load_scene_file(_write(tmp_path, text))
+    assert spec.materials == {("steel", "steel"): {"mu": 0.2}}
+    if "materials" in {f.name for f in dataclasses.fields(Scene)}:
+        assert build_scene(spec).bodies[0].material == "steel"
+    else:
+        with pytest.raises(SceneFileError, match="material"):
+            build_scene(spec)
+
+
+def test_3d_box_without_dynamics_support_is_a_clear_error(tmp_path):
+    if has_boxes():
+        pytest.skip("socp_cd.dynamics has Box")
+    text = """
+    [scene]
+    dim = 3
+    [[bodies]]
+    shape = "box"
+    size = [1, 1, 1]
+    position = [0, 0, 1]
+    """
+    with pytest.raises(SceneFileError, match=r"bodies\[0\].shape: shape 'box' in 3D needs socp_cd.dynamics.Box"):
+        build_scene(load_scene_file(_write(tmp_path, text)))
