@@ -96,6 +96,10 @@ def test_bad_body_names_file_key_path_and_reason(tmp_path, body, key, reason):
      'position = [0, 0]}\n', "generate[0].body.position", "template has no position"),
     (BASE2 + '[[generate]]\nkind = "random_packing"\nlo = [0, 0]\nhi = [1, 1]\ncount = 500\n'
      'body = {shape = "disk", radius = 0.1}\n', "generate[0].count", "random sequential placement jams"),
+    (BASE2 + '[[generate]]\nkind = "wall"\norigin = [0, 0]\nrows = 100000\ncolumns = 100000\n'
+     'body = {shape = "box", size = [1, 1]}\n', "generate[0].rows", "at most 1000000 bodies"),
+    (BASE2 + '[[bodies]]\nshape = "polygon"\nsides = 1000000000\nradius = 1\nposition = [0, 1]\n',
+     "bodies[0].sides", "must be <= 1000"),
     (BASE2 + '[[generate]]\nkind = "wall"\norigin = [0, 0]\nrows = 2\ncolumns = 2\n'
      'body = {shape = "disk", radius = 0.1}\n', "generate[0].body.shape", "made of boxes"),
 ])

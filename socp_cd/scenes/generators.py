@@ -270,6 +270,8 @@ def _wall(ck, t, path, dim, tmpl):
     origin = ck.vector(_need(ck, t, path, "origin"), f"{path}.origin", dim)
     rows = _count(ck, t, path, "rows")
     cols = _count(ck, t, path, "columns")
+    if rows * cols > 1_000_000:
+        ck.fail(f"{path}.rows", f"at most 1000000 bodies per generator, got {rows} x {cols}")
     gap = ck.number(t.get("gap", 0.0), f"{path}.gap", nonneg=True)
     size = np.asarray(tmpl["size"])
     out = []
@@ -292,7 +294,9 @@ def _kapla(ck, t, path, dim, tmpl):
         ck.fail(f"{path}.body.shape", "a Kapla tower is made of 3D boxes (size = [L, W, H])")
     center = ck.vector(_need(ck, t, path, "center"), f"{path}.center", 3)
     levels = _count(ck, t, path, "levels")
-    per = ck.number(t.get("per_level", 2), f"{path}.per_level", integer=True, lo=1)
+    per = ck.number(t.get("per_level", 2), f"{path}.per_level", integer=True, lo=1, hi=1000)
+    if levels * per > 1_000_000:
+        ck.fail(f"{path}.levels", f"at most 1000000 bodies per generator, got {levels} x {per}")
     gap = ck.number(t.get("gap", 0.0), f"{path}.gap", nonneg=True)
     L, W, H = np.asarray(tmpl["size"])
     if per * W > L:

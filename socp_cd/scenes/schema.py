@@ -400,7 +400,7 @@ def _geometry(ck: Checker, t: dict, path: str, shape: str, dim: int) -> dict:
             if abs(area) <= 1e-300:
                 ck.fail(_join(path, "vertices"), "polygon has zero area")
         else:
-            n = ck.number(t["sides"], _join(path, "sides"), integer=True, lo=3)
+            n = ck.number(t["sides"], _join(path, "sides"), integer=True, lo=3, hi=1000)
             if "radius" not in t:
                 ck.fail(_join(path, "radius"), "missing required key for a regular polygon ('sides' given)")
             a = 2 * np.pi * np.arange(n) / n
