@@ -252,7 +252,7 @@ def test_sphere_column_agrees_with_siconos_moreau_jean():
         sys.path.pop(0)
     from socp_cd.scenes.siconos_md import run_both
     sc = SCENES["sphere_column"]
-    r = run_both(sc["text"], 60, sc["contacts"], tol=1e-10)
+    r = run_both(sc["text"], 60, sc["distance"], tol=1e-10)
     assert r.active_ours.max() == 4 and np.array_equal(r.active_ours, r.active_siconos)
     assert r.position_difference().max() < 1e-10 and r.velocity_difference().max() < 1e-8
     assert np.abs(r.pos_ours[-1] - r.pos_ours[0]).max() > 1e-2      # the top sphere moved

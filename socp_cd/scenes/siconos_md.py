@@ -5,9 +5,9 @@
 interpreter that has ``siconos.kernel``, with Siconos' ``MoreauJeanOSI`` +
 ``FrictionContact`` (worker: ``_siconos_md_worker.py``), and returns both
 trajectories.  Siconos' side models each contact as a linear relation with a
-fixed normal, so only scenes of disks/spheres whose contact normals do not
-turn (columns, flat or inclined supports) are allowed; every body pair listed
-in ``contacts`` (and every body against every half-space) is declared.
+fixed normal and fixed arms (see :func:`siconos_job`), so only scenes whose
+contact geometry does not change are allowed (columns, round bodies on flat or
+inclined supports, blocks sliding without rotating).
 """
 from __future__ import annotations
 
@@ -58,23 +58,35 @@ def worker_path() -> Path:
     return Path(__file__).with_name("_siconos_md_worker.py")
 
 
-def siconos_job(scene, sim, steps: int, contacts=(), tol: float = 1e-10, max_iter: int = 100000) -> dict:
-    """The worker's job for a socp_cd ``scene`` integrated as ``sim`` (same h, θ).
+def siconos_job(scene, sim, steps: int, distance: float = 0.0, tol: float = 1e-10,
+                max_iter: int = 100000) -> dict:
+    """The worker's job for a socp_cd ``scene`` integrated as ``sim`` (same h, θ, margin).
+
+    The contacts are those socp_cd detects within ``distance`` in the initial
+    configuration, each frozen as a linear relation: its normal, and its arms
+    (contact point minus centre: ``∓R n`` for disks/spheres, the detected point
+    for polygons) stay those of the start.  That is exact for round bodies on
+    flat supports and in straight columns, and for polygons that neither rotate
+    nor slide on one another (a block sliding on an incline, a stack sliding as
+    one block).
 
     Parameters
     ----------
     scene : socp_cd.dynamics.Scene
-        Disks or spheres with ``Line``/``Plane`` obstacles.
+        Disks, spheres or polygons with ``Line``/``Plane`` obstacles.
     sim : socp_cd.dynamics.Simulation
     steps : int
-    contacts : sequence of (i, j)
-        Body pairs that may touch (their normal is taken from the initial centres).
+    distance : float
+        Detection distance for the contacts declared to Siconos (bodies that
+        will touch later must be closer than this at the start).
     """
+    from ..dynamics import detect
+
     s = sim.sys
     d = s.dim
     for k, b in enumerate(scene.bodies):
-        if b.kind != "disk":
-            raise UnsupportedError(f"bodies[{k}]: the Siconos side handles disks and spheres only")
+        if b.kind not in ("disk", "polygon"):
+            raise UnsupportedError(f"bodies[{k}]: the Siconos side handles disks, spheres and polygons only")
     for k, o in enumerate(scene.obstacles):
         if o.kind != "halfspace":
             raise UnsupportedError(f"obstacles[{k}]: the Siconos side handles lines and planes only")
@@ -84,28 +96,21 @@ def siconos_job(scene, sim, steps: int, contacts=(), tol: float = 1e-10, max_ite
         bodies.append({"mass": float(s.mass[k]), "inertia": float(s.inertia[k]), "q0": q0.tolist(),
                        "v0": s.vel[k].tolist(), "rotation": not b.fixed_rotation})
 
-    def law(i, j_obj):
-        mus = [m for m in (scene.bodies[i].mu, j_obj.mu) if m is not None]
-        es = [e for e in (scene.bodies[i].restitution, j_obj.restitution) if e is not None]
-        return (min(mus) if mus else scene.mu), (min(es) if es else scene.restitution)
+    def arm(body: int, point, normal, sign: float) -> list:
+        if scene.bodies[body].kind == "disk":
+            return (sign * scene.bodies[body].radius * normal).tolist()
+        return (point - s.pos[body]).tolist()
 
+    C = detect(s, max(distance, sim.margin))
     cs = []
-    for k, o in enumerate(scene.obstacles):
-        n = np.asarray(o.normal, float)
-        for i, b in enumerate(scene.bodies):
-            mu, e = law(i, o)
-            cs.append({"i": i, "j": -1, "normal": n.tolist(), "gap0": float(n @ (s.pos[i] - o.point) - b.radius),
-                       "arm_i": (-b.radius * n).tolist(), "arm_j": [0.0] * d, "mu": mu, "e": e})
-    for i, j in contacts:
-        bi, bj = scene.bodies[i], scene.bodies[j]
-        dx = s.pos[i] - s.pos[j]
-        n = dx / np.linalg.norm(dx)
-        mu, e = law(i, bj)
-        cs.append({"i": int(i), "j": int(j), "normal": n.tolist(),
-                   "gap0": float(np.linalg.norm(dx) - bi.radius - bj.radius),
-                   "arm_i": (-bi.radius * n).tolist(), "arm_j": (bj.radius * n).tolist(), "mu": mu, "e": e})
+    for c in range(C.n):
+        i, j, n, p = int(C.i[c]), int(C.j[c]), C.normal[c], C.point[c]
+        cs.append({"i": i, "j": j, "normal": n.tolist(), "gap0": float(C.gap[c]), "arm_i": arm(i, p, n, -1.0),
+                   "arm_j": arm(j, p, n, 1.0) if j >= 0 else [0.0] * d, "mu": float(C.mu[c]),
+                   "e": float(C.e[c])})
     return {"dim": d, "h": sim.h, "theta": sim.theta, "steps": int(steps), "tol": tol, "max_iter": max_iter,
-            "gravity": np.asarray(s.gravity).tolist(), "activation_threshold": sim.margin, "bodies": bodies, "contacts": cs}
+            "gravity": np.asarray(s.gravity).tolist(), "activation_threshold": sim.margin, "bodies": bodies,
+            "contacts": cs}
 
 
 def run_siconos(job: dict, timeout: float = 600) -> dict:
@@ -124,10 +129,12 @@ def run_siconos(job: dict, timeout: float = 600) -> dict:
             return {k: z[k] for k in z.files}
 
 
-def run_both(scene_text: str, steps: int, contacts=(), *, tol: float = 1e-10, source: str = "<scene>") -> SideBySide:
+def run_both(scene_text: str, steps: int, distance: float = 0.0, *, tol: float = 1e-10,
+             source: str = "<scene>") -> SideBySide:
     """Integrate a scene (TOML text) ``steps`` steps with socp_cd and with Siconos.
 
-    socp_cd uses the file's solver with ``tol``; Siconos its NSGS with ``tol``.
+    socp_cd uses the file's solver with ``tol``; Siconos its NSGS with ``tol``;
+    ``distance``: see :func:`siconos_job`.
     """
     import tomllib
 
@@ -140,7 +147,7 @@ def run_both(scene_text: str, steps: int, contacts=(), *, tol: float = 1e-10, so
     opts = simulation_options(spec)
     opts["tol"] = tol
     sim = Simulation(scene, opts.pop("h"), **opts)
-    job = siconos_job(scene, sim, steps, contacts, tol=tol)
+    job = siconos_job(scene, sim, steps, distance, tol=tol)
     d, n = sim.sys.dim, sim.sys.n_bodies
     pos, vel, act = [sim.sys.pos.copy()], [sim.sys.vel.copy()], [0]
     for _ in range(steps):
