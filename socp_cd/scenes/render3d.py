@@ -31,13 +31,16 @@ class Renderer3D:
         # draw polyhedral bodies by their planar faces (quads for boxes): mplot3d sorts whole
         # polygons by depth, and long thin triangles sort badly
         self.polys = [None if len(F) > 40 else hull_faces(V) for V, F in zip(self.meshes.local, self.meshes.faces)]
-        W = self.meshes.world(first_frame)
-        P = np.vstack(W)
+        # limits: the bodies, the finite obstacles and the anchor points of half-spaces
+        P = [np.vstack(self.meshes.world(first_frame))]
+        P += [V for V, _, _ in obstacle_meshes([o for o in obstacles if not hasattr(o, "normal")], 3, 0.0)]
+        P += [np.asarray(o.point, dtype=np.float64)[None] for o in obstacles if hasattr(o, "normal")]
+        P = np.vstack(P)
         lo, hi = P.min(0), P.max(0)
-        pad = 0.15 * float(np.max(hi - lo)) + 1e-9
+        pad = 0.1 * float(np.max(hi - lo)) + 1e-9
         self.lo, self.hi = lo - pad, hi + pad
         ext = float(np.max(self.hi - self.lo))
-        self.obstacles = obstacle_meshes(obstacles, 3, 0.6 * ext)
+        self.obstacles = obstacle_meshes(obstacles, 3, ext)
         self.elev, self.azim = elev, azim
 
     def render(self, frame, path=None, title: str | None = None):
