@@ -338,3 +338,68 @@ def test_3d_box_without_dynamics_support_is_a_clear_error(tmp_path):
     """
     with pytest.raises(SceneFileError, match=r"bodies\[0\].shape: shape 'box' in 3D needs socp_cd.dynamics.Box"):
         build_scene(load_scene_file(_write(tmp_path, text)))
+
+
+def test_3d_entries_follow_the_agreed_box_interface(tmp_path, monkeypatch):
+    """Until the blocks merge, stand-in classes record what the builder passes to
+    Box / ConvexPolyhedron / FixedBox / FixedPolyhedron (the agreed interface)."""
+    import dataclasses
+    from typing import Any, Optional
+
+    import socp_cd.dynamics as dyn
+    from socp_cd.scenes.builder import make_body, make_obstacle
+
+    @dataclasses.dataclass
+    class Recorder:
+        size: Any = None
+        vertices: Any = None
+        position: Any = (0, 0, 0)
+        orientation: Any = (1, 0, 0, 0)
+        velocity: Any = (0, 0, 0)
+        omega: Any = (0, 0, 0)
+        mass: Optional[float] = None
+        density: float = 1.0
+        inertia: Optional[float] = None
+        mu: Optional[float] = None
+        restitution: Optional[float] = None
+        material: Optional[str] = None
+
+    for name in ("Box", "ConvexPolyhedron", "FixedBox", "FixedPolyhedron"):
+        monkeypatch.setattr(dyn, name, type(name, (Recorder,), {}), raising=False)
+    text = """
+    [scene]
+    dim = 3
+    [[bodies]]
+    shape = "box"
+    size = [0.3, 0.2, 0.1]
+    position = [1, 2, 3]
+    axis_angle = [0, 0, 1, 90]
+    velocity = [1, 0, 0]
+    omega = [0, 0, 2]
+    density = 450.0
+    material = "wood"
+    [[bodies]]
+    shape = "polyhedron"
+    vertices = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+    position = [0, 0, 1]
+    mass = 2.0
+    mu = 0.4
+    [[obstacles]]
+    shape = "box"
+    size = [1, 1, 0.1]
+    position = [0, 0, -0.05]
+    restitution = 0.5
+    """
+    spec = load_scene_file(_write(tmp_path, text))
+    box = make_body(spec, spec.bodies[0])
+    assert type(box).__name__ == "Box" and box.size == (0.3, 0.2, 0.1) and box.material == "wood"
+    np.testing.assert_allclose(box.orientation, [math.cos(math.pi / 4), 0, 0, math.sin(math.pi / 4)])
+    np.testing.assert_allclose(box.position, [1, 2, 3])
+    np.testing.assert_allclose(box.omega, [0, 0, 2])
+    assert box.density == 450.0 and box.mass is None
+    poly = make_body(spec, spec.bodies[1])
+    assert type(poly).__name__ == "ConvexPolyhedron" and poly.mass == 2.0 and poly.mu == 0.4
+    np.testing.assert_allclose(poly.vertices, [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    wall = make_obstacle(spec, spec.obstacles[0])
+    assert type(wall).__name__ == "FixedBox" and wall.size == (1.0, 1.0, 0.1) and wall.restitution == 0.5
+    assert wall.orientation == (1.0, 0.0, 0.0, 0.0)
