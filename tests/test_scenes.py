@@ -8,7 +8,7 @@ import pytest
 from socp_cd.dynamics import compile_scene, detect
 from socp_cd.errors import SocpCdError
 from socp_cd.scenes import SceneFileError, build_scene, has_boxes, load_scene_file
-from socp_cd.scenes.schema import quat_to_matrix
+from socp_cd.scenes.rotations import quat_to_matrix
 
 needs_boxes = pytest.mark.skipif(not has_boxes(), reason="socp_cd.dynamics has no Box yet (blocks merge)")
 

@@ -32,6 +32,8 @@ import math
 
 import numpy as np
 
+from .rotations import quat_from_axis_angle, quat_mul
+
 _KINDS = {
     "random_packing": {"lo", "hi", "count", "seed", "radius_range"},
     "hopper": {"outlet", "opening", "wall_angle", "count", "seed", "jitter", "walls", "wall_thickness",
@@ -236,7 +238,6 @@ def _hopper(ck, t, path, dim, tmpl):
                     axis = np.array([0.0, 1.0, 0.0]) if ax == 0 else np.array([-1.0, 0.0, 0.0])
                     if ax == 1:
                         size = size[[1, 0, 2]]
-                    from .schema import quat_from_axis_angle
                     obstacles.append({"shape": "box", "size": size, "position": c,
                                       "orientation": quat_from_axis_angle(axis, side * ang),
                                       "path": f"{path}.walls", "material": tmpl["material"], "mu": None,
@@ -258,8 +259,7 @@ def _stack(ck, t, path, dim, tmpl):
         if dim == 2:
             out.append(_place(tmpl, p, angle=tmpl["angle"] + tilt))
         else:
-            from .schema import quat_from_axis_angle
-            out.append(_place(tmpl, p, orientation=_compose(quat_from_axis_angle([0.0, 1.0, 0.0], tilt),
+            out.append(_place(tmpl, p, orientation=quat_mul(quat_from_axis_angle([0.0, 1.0, 0.0], tilt),
                                                            tmpl["orientation"])))
     return out, []
 
@@ -288,7 +288,6 @@ def _wall(ck, t, path, dim, tmpl):
 
 
 def _kapla(ck, t, path, dim, tmpl):
-    from .schema import quat_from_axis_angle
 
     if dim != 3 or tmpl["shape"] != "box":
         ck.fail(f"{path}.body.shape", "a Kapla tower is made of 3D boxes (size = [L, W, H])")
@@ -311,7 +310,7 @@ def _kapla(ck, t, path, dim, tmpl):
             p[2] += (lev + 0.5) * H + lev * gap
             p[1 if along_x else 0] += o
             out.append(_place(tmpl, p, orientation=(tmpl["orientation"] if along_x else
-                                                    _compose(rot, tmpl["orientation"]))))
+                                                    quat_mul(rot, tmpl["orientation"]))))
     return out, []
 
 
@@ -320,11 +319,6 @@ def _row(ck, t, path, dim, tmpl):
     b = ck.vector(_need(ck, t, path, "end"), f"{path}.end", dim)
     n = _count(ck, t, path)
     return [_place(tmpl, a + (b - a) * (k / max(n - 1, 1))) for k in range(n)], []
-
-
-def _compose(p, q):
-    from .schema import quat_mul
-    return quat_mul(p, q)
 
 
 __all__ = ["expand_generator", "half_extent", "bounding_radius"]

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .schema import quat_to_matrix
+from .rotations import quat_to_matrix
 
 DISK_SIDES = 32
 
