@@ -77,6 +77,7 @@ class EvalCase:
     split : str
         ``"tune"`` or ``"holdout"``.
     n_contacts, dim : int
+    is_global : bool
     params : dict
         The generating parameters (``mu``, ``seed``, ``mix``, ``scale`` ...).
     """
@@ -87,6 +88,7 @@ class EvalCase:
     split: str
     n_contacts: int
     dim: int
+    is_global: bool
     build: Callable[[], object] = field(repr=False, compare=False)
     params: dict = field(default_factory=dict, compare=False)
 
@@ -238,7 +240,7 @@ def manufactured_cases(data_dir, *, mus: Iterable[float] = MUS, seeds: Iterable[
     cases: list[EvalCase] = []
     for path in _real_files(data_dir):
         base = read_problem(path)
-        nc, dim = base.n_contacts, base.dim
+        nc, dim, glob = base.n_contacts, base.dim, base.is_global
         if max_contacts is not None and nc > max_contacts:
             continue
         load = _loader(path)
@@ -250,14 +252,14 @@ def manufactured_cases(data_dir, *, mus: Iterable[float] = MUS, seeds: Iterable[
                 def build(load=load, mu=mu, mix=mix, seed=seed):
                     return manufacture(load(), mu, mix, seed)
                 cases.append(EvalCase(cid, "real-manufactured", path.name, split_of(cid), nc, dim,
-                                      build, dict(mu=mu, mix=mix_name, seed=seed)))
+                                      glob, build, dict(mu=mu, mix=mix_name, seed=seed)))
         for lam in scales:
             for what in ("q", "Wq"):
                 cid = f"real-scaled/{path.name}/{what}x{lam:g}"
 
                 def build(load=load, lam=lam, what=what):
                     return rescaled(manufacture(load(), 0.5, MIXES["mixed"], 0), lam, what)
-                cases.append(EvalCase(cid, "real-scaled", path.name, split_of(cid), nc, dim, build,
+                cases.append(EvalCase(cid, "real-scaled", path.name, split_of(cid), nc, dim, glob, build,
                                       dict(mu=0.5, mix="mixed", seed=0, scale=lam, what=what)))
     return cases
 
@@ -270,7 +272,7 @@ def collection_cases(folder) -> list[EvalCase]:
         p = read_problem(path)
         cid = f"{Path(folder).name}/{path.name}"
         out.append(EvalCase(cid, Path(folder).name, path.name, "holdout", p.n_contacts, p.dim,
-                            (lambda path=path: read_problem(path)), {}))
+                            p.is_global, (lambda path=path: read_problem(path)), {}))
     return out
 
 
