@@ -1,0 +1,59 @@
+"""The evaluation set: exact solutions on real operators, scaled copies, a stable split."""
+import numpy as np
+import pytest
+
+import socp_cd
+from socp_cd.bench.evalset import (MIXES, exact_error, manufacture, manufactured_cases, rescaled,
+                                   split_of)
+from socp_cd.data import shared_problems_dir
+
+DATA = shared_problems_dir()
+pytestmark = pytest.mark.skipif(DATA is None, reason="shared problems not found")
+
+
+@pytest.fixture(scope="module")
+def cases():
+    return manufactured_cases(DATA, max_contacts=100)
+
+
+def test_every_small_real_file_is_covered(cases):
+    sources = {c.source for c in cases}
+    small = {p.name for p in DATA.iterdir()
+             if p.name != "MANIFEST.tsv" and socp_cd.read_problem(p).n_contacts <= 100}
+    assert sources == small
+    assert {c.family for c in cases} == {"real-manufactured", "real-scaled"}
+
+
+def test_split_is_deterministic_and_mixed(cases):
+    assert all(c.split == split_of(c.case_id) for c in cases)
+    frac = np.mean([c.split == "tune" for c in cases])
+    assert 0.15 < frac < 0.45
+    assert len({c.case_id for c in cases}) == len(cases)
+
+
+@pytest.mark.parametrize("name", ["Capsules-i122-1617.dat", "GFC3D_TwoRods1.dat",
+                                  "FrictionContactProblem00071.dat", "OneObject-i1028-138.hdf5.dat"])
+@pytest.mark.parametrize("mix", list(MIXES))
+def test_manufactured_solution_is_exact_on_real_operator(name, mix):
+    base = socp_cd.read_problem(DATA / name)
+    p = manufacture(base, 0.5, MIXES[mix], seed=3)
+    assert p.is_global == base.is_global
+    r = p.solution.r
+    assert socp_cd.error(p, r) < 1e-12
+    assert exact_error(p, r) < 1e-12
+    # the operator is the real one, the data are new
+    if not p.is_global:
+        assert (p.W != base.W).nnz == 0
+        assert not np.allclose(p.q, base.q)
+    # r = 0 is not a solution: the problem is not trivial
+    assert socp_cd.error(p, np.zeros(p.m)) > 1e-3
+
+
+@pytest.mark.parametrize("what", ["q", "Wq"])
+@pytest.mark.parametrize("lam", [1e-6, 1e6])
+def test_rescaled_copies_keep_exact_solution(what, lam):
+    base = socp_cd.read_problem(DATA / "Confeti-ex03-Fc3D-SBM.dat")
+    p = rescaled(manufacture(base, 1.0, MIXES["mixed"], 0), lam, what)
+    assert socp_cd.error(p, p.solution.r) < 1e-11
+    assert np.allclose(p.velocity(p.solution.r), p.solution.u, rtol=1e-9,
+                       atol=1e-12 * np.abs(p.solution.u).max())

@@ -1,0 +1,341 @@
+"""Our solvers against every Siconos 4.4 solver, on shared/ and on problems nobody tuned on.
+
+Problem sets (see :mod:`socp_cd.bench.evalset`):
+
+``shared``
+    The real problems of ``shared/data/problems``.
+``eval``
+    Exact solutions manufactured on the real operators of ``shared/`` and
+    their ``q``/``(W, q)`` rescaled copies.  Each case is ``tune`` or
+    ``holdout``; the tables report both, side by side, and the targets are
+    judged on all of it.  ``--n-eval`` cases per kind are drawn (seeded).
+``sim``
+    FCLib collections dumped from socp_cd's own simulations (``--sim DIR``,
+    every ``*.hdf5`` below it; see ``socp-cd simulate --fclib``).
+
+Every solver's answer is judged by *our* recomputed Siconos error
+(:func:`socp_cd.error`); a Siconos run that reports convergence (``info = 0``)
+with a recomputed error above ``tol`` is counted as a failure and listed as a
+*refuted claim*.
+
+Timing: ours is the wall time of the whole ``socp_cd.solve`` call (argument
+checks, the solve, the independent residual), JIT warmed, min over
+``--repeats`` runs; Siconos' is the solver call alone inside its worker
+(``time``), min over ``--repeats`` runs for problems with at most 10 contacts
+and one run otherwise.  Both sides have the same per-problem ``--time-limit``.
+
+Usage::
+
+    .venv/bin/python validation/newton_vs_siconos.py [--quick] [--tol 1e-8]
+        [--ours auto newton clarabel nsgs] [--n-eval 80] [--max-contacts 700]
+        [--sweep 1e-4 1e-6 1e-8 1e-10] [--sim DIR ...] [--time-limit 5]
+
+Writes ``validation/results/newton_vs_siconos.{csv,md,json}`` and
+``newton_vs_siconos_profile.png``.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+import socp_cd
+from socp_cd.bench.evalset import collection_cases, manufactured_cases
+from socp_cd.bench.reports import performance_profile, shifted_geometric_mean
+from socp_cd.bench.siconos_peer import SOLVERS as SICONOS_SOLVERS
+from socp_cd.bench.siconos_peer import siconos_available, siconos_batch
+from socp_cd.data import shared_problems_dir
+
+OUT = Path(__file__).resolve().parent / "results"
+SGM_SHIFT = 0.01
+SMALL = 10          #: contacts; Siconos is repeated on problems this small
+
+
+def kind_of(p) -> str:
+    """Siconos' problem family of ``p``: ``local3``, ``local2`` or ``global3``."""
+    return "global3" if p.is_global else f"local{p.dim}"
+
+
+def problem_set(args) -> list[dict]:
+    """``[{"set", "id", "split", "kind", "nc", "problem"}]`` of the run."""
+    data = shared_problems_dir()
+    items = []
+    for path in sorted(Path(data).iterdir()):
+        if path.name == "MANIFEST.tsv":
+            continue
+        p = socp_cd.read_problem(path)
+        if p.n_contacts <= args.max_contacts:
+            items.append(dict(set="shared", id=path.name, split="shared", kind=kind_of(p),
+                              nc=p.n_contacts, problem=p))
+    rng = np.random.default_rng(args.seed)
+    cases = manufactured_cases(data, max_contacts=args.max_contacts)
+    by_kind = defaultdict(list)
+    for c in cases:
+        if c.is_global:
+            by_kind["global3"].append(c)
+        else:
+            by_kind[f"local{c.dim}"].append(c)
+    for kind, cs in sorted(by_kind.items()):
+        n = min(len(cs), args.n_eval if kind == "local3" else max(args.n_eval // 3, 1))
+        for i in sorted(rng.choice(len(cs), n, replace=False)):
+            c = cs[i]
+            items.append(dict(set="eval", id=c.case_id, split=c.split, kind=kind, nc=c.n_contacts,
+                              problem=c.problem()))
+    for folder in args.sim or ():
+        for sub in sorted({p.parent for p in Path(folder).rglob("*.hdf5")}):
+            for c in collection_cases(sub):
+                if c.n_contacts <= args.max_contacts:
+                    p = c.problem()
+                    items.append(dict(set="sim", id=c.case_id, split="holdout", kind=kind_of(p),
+                                      nc=c.n_contacts, problem=p))
+    return items
+
+
+def run_ours(item, solver, tol, args) -> dict:
+    """Min-of-repeats wall time of ``socp_cd.solve``; error of the last run."""
+    p = item["problem"]
+    best, res = math.inf, None
+    for _ in range(args.repeats):
+        t0 = time.perf_counter()
+        try:
+            res = socp_cd.solve(p, solver=solver, tol=tol, time_limit=args.time_limit)
+        except socp_cd.UnsupportedError:
+            return dict(error=math.inf, status="unsupported", time=math.inf, claimed=False)
+        best = min(best, time.perf_counter() - t0)
+        if not res.converged:          # a failure is not repeated
+            break
+    return dict(error=float(res.error), status=res.status, time=best, claimed=bool(res.converged),
+                path=";".join(f"{s['method']}:{s['error']:.1e}" for s in res.info.get("path", [])))
+
+
+def run_siconos(items, solvers_for, tol, args) -> dict:
+    """``(item index, solver) -> record`` for every Siconos solver of each item's kind."""
+    tasks, keys = [], []
+    for k, it in enumerate(items):
+        reps = args.repeats if it["nc"] <= SMALL else 1
+        for s in solvers_for(it["kind"]):
+            for _ in range(reps):
+                tasks.append({"task": "solve", "problem": it["problem"], "solver": s, "tol": tol,
+                              "max_iter": args.siconos_max_iter, "time_limit": args.time_limit})
+                keys.append((k, s))
+    out: dict = {}
+    results = siconos_batch(tasks, timeout=None) if tasks else []
+    for (k, s), r in zip(keys, results):
+        p = items[k]["problem"]
+        err = math.inf
+        if r.get("status") == "ok" and r.get("r") is not None:
+            rr = np.asarray(r["r"], dtype=np.float64)
+            if rr.shape == (p.m,) and np.all(np.isfinite(rr)):
+                err = float(socp_cd.error(p, rr))
+        claimed = r.get("status") == "ok" and r.get("info") == 0
+        t = float(r.get("time") or math.inf) if r.get("status") == "ok" else math.inf
+        prev = out.get((k, s))
+        rec = dict(error=err, status=r.get("status"), time=t, claimed=claimed)
+        if prev is None or (rec["error"] <= tol and rec["time"] < prev["time"]):
+            out[(k, s)] = rec
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--tol", type=float, default=1e-8)
+    ap.add_argument("--ours", nargs="+", default=["auto", "newton", "clarabel", "nsgs"])
+    ap.add_argument("--siconos", nargs="*", default=None,
+                    help="Siconos solver names (default: all of each kind)")
+    ap.add_argument("--n-eval", type=int, default=80, help="generated cases drawn (3D local; a third per other kind)")
+    ap.add_argument("--max-contacts", type=int, default=700)
+    ap.add_argument("--sweep", type=float, nargs="*", default=[1e-4, 1e-6, 1e-10],
+                    help="extra tolerances run for ours and Siconos prox/nsn_ac/nsn_fb/nsgs")
+    ap.add_argument("--sim", nargs="*", default=None, help="folders of FCLib collections")
+    ap.add_argument("--time-limit", type=float, default=5.0)
+    ap.add_argument("--siconos-max-iter", type=int, default=100000)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--quick", action="store_true", help="a few problems, for a smoke run")
+    ap.add_argument("--out", type=Path, default=OUT)
+    args = ap.parse_args(argv)
+    if args.quick:
+        args.n_eval, args.max_contacts, args.sweep, args.repeats = 6, 60, [], 1
+    have_sic = siconos_available()
+    items = problem_set(args)
+    print(f"{len(items)} problems; Siconos {'available' if have_sic else 'NOT available'}", flush=True)
+
+    # warm every JIT once on a small problem of each kind
+    for kind in ("local3", "local2", "global3"):
+        it = next((i for i in items if i["kind"] == kind), None)
+        if it is not None:
+            for s in args.ours:
+                try:
+                    socp_cd.solve(it["problem"], solver=s, tol=1e-4)
+                except socp_cd.UnsupportedError:
+                    pass
+
+    rows = []
+    tols = [args.tol] + [t for t in args.sweep if t != args.tol]
+    for tol in tols:
+        for k, it in enumerate(items):
+            for s in args.ours:
+                rec = run_ours(it, s, tol, args)
+                rows.append(dict(tol=tol, set=it["set"], split=it["split"], kind=it["kind"], problem=it["id"],
+                                 nc=it["nc"], solver=s, side="ours", **rec))
+        print(f"ours done at tol {tol:g}", flush=True)
+        if have_sic:
+            if tol == args.tol:
+                pick = (lambda kind: args.siconos if args.siconos else SICONOS_SOLVERS[kind])
+            else:
+                strong = {"local3": ("prox", "nsn_ac", "nsn_fb", "nsgs"), "local2": ("nsgs", "lemke"),
+                          "global3": ("prox_wr", "nsgs_wr", "nsn_ac")}
+                pick = (lambda kind: strong[kind])
+            t0 = time.time()
+            sic = run_siconos(items, lambda kind: [s for s in pick(kind) if s in SICONOS_SOLVERS[kind]],
+                              tol, args)
+            print(f"siconos done at tol {tol:g} in {time.time() - t0:.0f} s", flush=True)
+            for (k, s), rec in sic.items():
+                it = items[k]
+                rows.append(dict(tol=tol, set=it["set"], split=it["split"], kind=it["kind"], problem=it["id"],
+                                 nc=it["nc"], solver=f"siconos:{s}", side="siconos", path="", **rec))
+    args.out.mkdir(parents=True, exist_ok=True)
+    write(rows, args, have_sic)
+    return 0
+
+
+def solved(r, tol) -> bool:
+    return math.isfinite(r["error"]) and r["error"] <= tol
+
+
+def write(rows, args, have_sic) -> None:
+    """CSV of every run, markdown report, JSON summary and profile figure."""
+    stem = args.out / "newton_vs_siconos"
+    keys = ["tol", "set", "split", "kind", "problem", "nc", "solver", "side", "error", "status", "claimed",
+            "time", "path"]
+    with open(stem.with_suffix(".csv"), "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow(r)
+    tol = args.tol
+    main_rows = [r for r in rows if r["tol"] == tol]
+    lines = [f"# Our solvers vs every Siconos 4.4 solver (tol {tol:g})", "",
+             f"Generated by `validation/newton_vs_siconos.py` ({'quick' if args.quick else 'full'} run; "
+             f"time limit {args.time_limit:g} s per problem and solver, ours min of {args.repeats}; "
+             "errors recomputed by `socp_cd.error`). Sets: `shared` = the real problems; `eval` = exact "
+             "solutions manufactured on their operators (tune / holdout split by a hash of the case id; "
+             "no parameter was chosen on holdout cases); `sim` = problems dumped from our simulations.", ""]
+    summary = {"tol": tol, "kinds": {}}
+    for kind in ("local3", "local2", "global3"):
+        kr = [r for r in main_rows if r["kind"] == kind]
+        if not kr:
+            continue
+        probs = sorted({(r["set"], r["split"], r["problem"]) for r in kr})
+        solvers = sorted({r["solver"] for r in kr}, key=lambda s: (s.startswith("siconos"), s))
+        groups = sorted({(s, sp) for s, sp, _ in probs})
+        lines += [f"## {kind}: solved at {tol:g}", "",
+                  "| solver | " + " | ".join(f"{s}/{sp} ({sum(1 for x in probs if x[:2] == (s, sp))})"
+                                             for s, sp in groups) + " | all | SGM time [s] | refuted claims |",
+                  "|---|" + "---|" * (len(groups) + 3)]
+        table = defaultdict(dict)
+        for r in kr:
+            table[(r["set"], r["split"], r["problem"])][r["solver"]] = r["time"] if solved(r, tol) else math.inf
+        ksum = {}
+        for s in solvers:
+            cells = []
+            for g in groups:
+                n_ok = sum(1 for r in kr if r["solver"] == s and (r["set"], r["split"]) == g and solved(r, tol))
+                cells.append(str(n_ok))
+            rs = [r for r in kr if r["solver"] == s]
+            n_all = sum(solved(r, tol) for r in rs)
+            times = [table[pr].get(s, math.inf) for pr in probs]
+            charged = [t if math.isfinite(t) else args.time_limit for t in times]
+            sgm = shifted_geometric_mean(charged, SGM_SHIFT)
+            refuted = sum(1 for r in rs if r["claimed"] and not solved(r, tol))
+            lines.append(f"| {s} | " + " | ".join(cells) + f" | {n_all}/{len(probs)} | {sgm:.4f} | {refuted} |")
+            ksum[s] = dict(solved=n_all, problems=len(probs), sgm=sgm, refuted=refuted)
+        # any-Siconos coverage and what ours miss
+        sic = [s for s in solvers if s.startswith("siconos:")]
+        if sic:
+            any_sic = {pr for pr in probs if any(math.isfinite(table[pr].get(s, math.inf)) for s in sic)}
+            lines += ["", f"Solved by at least one Siconos solver: {len(any_sic)}/{len(probs)}."]
+            for s in [s for s in solvers if not s.startswith("siconos:")]:
+                missed = sorted(pr for pr in any_sic if not math.isfinite(table[pr].get(s, math.inf)))
+                best = {r["problem"]: r["error"] for r in kr if r["solver"] == s}
+                lines.append(f"- `{s}` misses {len(missed)} of them" + (
+                    ": " + ", ".join(f"{pr[2]} ({best.get(pr[2], math.inf):.1e})" for pr in missed[:12])
+                    + (" …" if len(missed) > 12 else "") if missed else ""))
+                ksum[s]["missed_vs_any_siconos"] = len(missed)
+            # Dolan–Moré against all Siconos solvers, per ours
+            taus = np.array([1.0, 2.0, 4.0, 10.0])
+            lines += ["", "Dolan–Moré ρ(τ) of each of ours against all Siconos solvers of this kind:", "",
+                      "| solver | ρ(1) | ρ(2) | ρ(4) | ρ(10) |", "|---|---|---|---|---|"]
+            for s in [s for s in solvers if not s.startswith("siconos:")]:
+                sub = {pr: {k: v for k, v in row.items() if k == s or k.startswith("siconos:")}
+                       for pr, row in table.items()}
+                _, rho = performance_profile(sub, taus)
+                lines.append(f"| {s} | " + " | ".join(f"{x:.2f}" for x in rho[s]) + " |")
+                ksum[s]["rho"] = dict(zip(map(str, taus), map(float, rho[s])))
+        lines.append("")
+        summary["kinds"][kind] = ksum
+        if kind == "local3":
+            _figure(table, args.out / "newton_vs_siconos_profile.png", tol)
+    # tolerance sweep
+    sweep = sorted({r["tol"] for r in rows}, reverse=True)
+    if len(sweep) > 1:
+        lines += ["## Solved counts per tolerance (all kinds and sets)", "",
+                  "| solver | " + " | ".join(f"{t:g}" for t in sweep) + " |", "|---|" + "---|" * len(sweep)]
+        for s in sorted({r["solver"] for r in rows if r["tol"] != tol}):
+            cells = []
+            for t in sweep:
+                rs = [r for r in rows if r["solver"] == s and r["tol"] == t]
+                cells.append(f"{sum(solved(r, t) for r in rs)}/{len(rs)}" if rs else "–")
+            lines.append(f"| {s} | " + " | ".join(cells) + " |")
+        lines.append("")
+    # one-contact per-call time
+    one = [r for r in main_rows if r["nc"] == 1 and r["kind"] == "local3" and solved(r, tol)]
+    if one:
+        lines += ["## One-contact problems: per-call time [µs] (min of repeats)", "",
+                  "| problem | " + " | ".join(sorted({r["solver"] for r in one})) + " |",
+                  "|---|" + "---|" * len({r["solver"] for r in one})]
+        for pr in sorted({r["problem"] for r in one}):
+            cells = []
+            for s in sorted({r["solver"] for r in one}):
+                t = [r["time"] for r in one if r["problem"] == pr and r["solver"] == s]
+                cells.append(f"{1e6 * t[0]:.0f}" if t else "–")
+            lines.append(f"| {pr} | " + " | ".join(cells) + " |")
+        lines.append("")
+    if not have_sic:
+        lines.append("Siconos was not available: peer columns are missing.")
+    stem.with_suffix(".md").write_text("\n".join(lines) + "\n")
+    stem.with_suffix(".json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
+    print("\n".join(lines))
+
+
+def _figure(table, path, tol) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    taus, rho = performance_profile(table)
+    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    for s, y in sorted(rho.items(), key=lambda kv: (-kv[1][-1], kv[0])):
+        ours = not s.startswith("siconos:")
+        ax.step(taus, y, where="post", lw=2.4 if ours else 1.1, ls="-" if ours else "--", label=s)
+    ax.set_xscale("log")
+    ax.set_xlim(1, max(taus.max(), 10))
+    ax.set_ylim(0, 1.02)
+    ax.set_xlabel("τ (time / fastest time)")
+    ax.set_ylabel("ρ(τ): fraction of problems")
+    ax.set_title(f"3D local problems, tol {tol:g}: performance profile (ours solid)")
+    ax.legend(fontsize=7, ncol=2, loc="lower right")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
