@@ -404,3 +404,115 @@ def test_hdf5_solution_wrong_length(good_h5):
     with pytest.raises(ProblemFormatError) as ei:
         read_problem(good_h5)
     assert "expected 9" in check(ei, good_h5, "/solution/r")
+
+
+# ------------------------------------------- Siconos text: shifted values, odd tokens
+def siconos_dense_text(W, q, mu, dim, trailing=None):
+    """A local problem laid out as Siconos ``frictionContact_printInFile`` writes it."""
+    W = np.asarray(W, dtype=float)
+    m = W.shape[0]
+    vals = W.T.reshape(-1)  # column-major
+    rows = [" ".join(f"{v:32.24e}" for v in vals[k:k + m]) for k in range(0, vals.size, m)]
+    lines = [str(dim), str(len(mu)), "0", str(m), str(m), f"{m}\t{m}", *rows,
+             " ".join(f"{v:32.24e}" for v in q), " ".join(f"{v:32.24e}" for v in mu)]
+    if trailing is not None:
+        lines.append(trailing)
+    return "\n".join(lines) + "\n"
+
+
+def drop_token(text, index):
+    """*text* without its whitespace-separated token number *index*, line layout kept."""
+    lines, seen = text.split("\n"), 0
+    for li, line in enumerate(lines):
+        toks = line.split()
+        if seen + len(toks) > index:
+            del toks[index - seen]
+            lines[li] = " ".join(toks)
+            return "\n".join(lines)
+        seen += len(toks)
+    raise IndexError(index)
+
+
+W2D = np.array([[2.0, 0.5, 0.1, 0.0], [0.5, 1.0, 0.0, 0.2], [0.1, 0.0, 3.0, 0.4], [0.0, 0.2, 0.4, 2.0]])
+
+
+def test_siconos_layout_helper_reads_back(tmp_path):
+    path = tmp_path / "ok.dat"
+    path.write_text(siconos_dense_text(W2D, [-1, 0.5, -2, 0.25], [0.3, 0.6], 2, trailing="1"))
+    p = read_problem(path)
+    np.testing.assert_array_equal(p.W.toarray(), W2D)
+    np.testing.assert_array_equal(p.mu, [0.3, 0.6])
+
+
+def test_dense_missing_W_value_with_trailing_flag_is_rejected(tmp_path):
+    """One W value lost: q and mu would shift by one and the flag '1' become a mu."""
+    text = siconos_dense_text(W2D, [-1, 0.5, -2, 0.25], [0.3, 0.6], 2, trailing="1")
+    path = tmp_path / "missing_w.dat"
+    path.write_text(drop_token(text, 7 + 5))  # 7 header tokens, then W
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "new line" in check(ei, path, "q")
+
+
+def test_old_layout_missing_W_value_is_rejected(tmp_path):
+    """Old files: one value per line, blank lines between sections."""
+    toks = ["3", "1", "", "0", "3", "3", "", "3", "3", "", "1", "0", "0", "", "0", "1", "0", "",
+            "0", "0", "1", "", "-1", "0", "0", "", "0.5", "1"]
+    del toks[toks.index("1", 10)]  # first W value
+    path = tmp_path / "old.dat"
+    path.write_text("\n".join(toks))
+    with pytest.raises(ProblemFormatError):
+        read_problem(path)
+
+
+def test_2d_missing_mu_value_followed_by_flag_is_rejected(tmp_path):
+    text = siconos_dense_text(W2D, [-1, 0.5, -2, 0.25], [0.3, 0.6], 2, trailing="0")
+    path = tmp_path / "missing_mu.dat"
+    path.write_text(drop_token(text, 7 + 16 + 4 + 1))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    check(ei, path, "mu")
+
+
+def test_2d_one_mu_too_many_is_rejected(tmp_path):
+    text = siconos_dense_text(W2D, [-1, 0.5, -2, 0.25], [0.3, 0.6, 0.9], 2)
+    assert text.startswith("2\n3\n")
+    text = "2\n2\n" + text[4:]  # header keeps 2 contacts
+    path = tmp_path / "extra_mu.dat"
+    path.write_text(text)
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "line goes on" in check(ei, path, "mu")
+
+
+def test_huge_token_is_not_echoed_whole(tmp_path):
+    path = write_tokens(tmp_path, replaced(W_FIRST + 4, "7" * 2_000_000 + "x"))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    msg = check(ei, path, "W")
+    assert len(msg) < 500
+    assert "2000001 bytes" in msg
+
+
+@pytest.mark.parametrize("index, value, field", [(W_FIRST + 4, "1_4", "W"), (Q_FIRST, "1_0", "q"),
+                                                 (1, "0_1", "n_contacts")])
+def test_underscore_digit_groups_are_rejected(tmp_path, index, value, field):
+    path = write_tokens(tmp_path, replaced(index, value))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert value in check(ei, path, field)
+
+
+def test_trailing_token_must_be_an_integer_flag(tmp_path):
+    path = write_tokens(tmp_path, GOOD + ["0.5"])
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    check(ei, path, "end of file")
+
+
+def test_declared_size_beyond_the_file_fails_before_allocating(tmp_path):
+    """An all-zero sparse-block W declared 10^9 x 10^9 must not allocate its row pointers."""
+    path = write_tokens(tmp_path, ["2", str(10**9 // 2), "1", str(10**9), str(10**9), "0", "0.5"])
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path, global_problem=False)
+    assert "exceeds" in check(ei, path, "W")

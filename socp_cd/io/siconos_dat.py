@@ -53,19 +53,74 @@ STORAGE_NAMES = {0: "dense", 1: "sparse-block", 2: "CSparse"}
 _SIZE_RE = re.compile(rb"^(\d+)-by-(\d+),?$")
 
 
+#: ASCII whitespace as ``bytes.split()`` understands it (space, \t, \n, \v, \f, \r).
+_IS_SPACE = np.zeros(256, dtype=bool)
+_IS_SPACE[[9, 10, 11, 12, 13, 32]] = True
+#: Bytes of the file scanned at once when locating tokens (bounds temporaries).
+_SCAN_CHUNK = 1 << 20
+#: Tokens converted to numbers at once (bounds the Python objects alive at a time).
+_CONVERT_CHUNK = 1 << 15
+#: Longest token text quoted in an error message.
+MAX_QUOTED = 40
+
+
+def quote_token(tok: bytes) -> str:
+    """A token for an error message: decoded, quoted, truncated to MAX_QUOTED characters."""
+    text = tok[:MAX_QUOTED].decode("utf-8", errors="replace")
+    if len(tok) > MAX_QUOTED:
+        return f"{text!r}... ({len(tok)} bytes)"
+    return repr(text)
+
+
+def _token_bounds(buf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and end offsets of the whitespace-separated tokens of *buf* (uint8).
+
+    Scanned in chunks of ``_SCAN_CHUNK`` bytes; offsets are int32 for files
+    under 2 GiB, so the index costs 8 bytes per token.
+    """
+    idx = np.int32 if buf.size < 2**31 - 1 else np.int64
+    starts, ends = [], []
+    prev = True
+    for a in range(0, buf.size, _SCAN_CHUNK):
+        space = _IS_SPACE[buf[a:a + _SCAN_CHUNK]].view(np.int8)
+        step = np.diff(space, prepend=np.int8(prev))  # -1: token starts, +1: token ended
+        starts.append((np.flatnonzero(step == -1) + a).astype(idx))
+        ends.append((np.flatnonzero(step == 1) + a).astype(idx))
+        prev = bool(space[-1])
+    if not prev:
+        ends.append(np.array([buf.size], dtype=idx))
+    empty = np.zeros(0, dtype=idx)
+    return np.concatenate(starts or [empty]), np.concatenate(ends or [empty])
+
+
 class _Tokens:
-    """Cursor over the whitespace-separated tokens of a text file."""
+    """Cursor over the whitespace-separated tokens of a text file.
+
+    Tokens are located once (two offset arrays) and converted on demand, a
+    chunk at a time, so reading costs a small multiple of the file size.
+    Line breaks are kept: Siconos writes every vector on lines of its own, and
+    :meth:`expect_own_lines` uses that to catch a value missing or in excess.
+    """
 
     def __init__(self, data: bytes, source: str):
-        self.toks = data.split()
+        self.data = bytes(data)
+        self.buf = np.frombuffer(self.data, dtype=np.uint8)
+        self.starts, self.ends = _token_bounds(self.buf)
         self.pos = 0
         self.source = source
 
     def _err(self, field, reason):
         return ProblemFormatError(field, reason, self.source)
 
+    def __len__(self) -> int:
+        return self.starts.size
+
     def remaining(self) -> int:
-        return len(self.toks) - self.pos
+        return len(self) - self.pos
+
+    def tok(self, k: int) -> bytes:
+        """Text of token *k* (0-based)."""
+        return self.data[self.starts[k]:self.ends[k]]
 
     def _need(self, n, field, what):
         if self.remaining() < n:
@@ -73,14 +128,16 @@ class _Tokens:
                                    f"#{self.pos + 1}, only {self.remaining()} tokens left")
 
     def int(self, field: str) -> int:
-        """Next token as an integer."""
+        """Next token as an integer (decimal digits with an optional sign)."""
         self._need(1, field, "an integer")
-        tok = self.toks[self.pos]
+        tok = self.tok(self.pos)
         try:
+            if b"_" in tok:
+                raise ValueError
             val = int(tok)
         except ValueError:
             raise self._err(field, f"expected an integer at token #{self.pos + 1}, "
-                                   f"got {tok.decode(errors='replace')!r}") from None
+                                   f"got {quote_token(tok)}") from None
         self.pos += 1
         return val
 
@@ -90,32 +147,98 @@ class _Tokens:
         if not np.all(np.isfinite(vals)) or np.any(vals != np.round(vals)):
             bad = int(np.flatnonzero(~np.isfinite(vals) | (vals != np.round(vals)))[0])
             raise self._err(field, f"expected an integer at token #{self.pos - n + bad + 1}, "
-                                   f"got {self.toks[self.pos - n + bad].decode(errors='replace')!r}")
+                                   f"got {quote_token(self.tok(self.pos - n + bad))}")
         return vals.astype(np.int64)
 
     def floats(self, n: int, field: str, what: str | None = None) -> np.ndarray:
-        """Next *n* tokens as float64 (vectorized conversion)."""
+        """Next *n* tokens as float64, converted ``_CONVERT_CHUNK`` tokens at a time.
+
+        Python's ``float`` syntax is accepted except digit-group underscores
+        (``1_4`` is not 14 in a data file).
+        """
         if n < 0:
             raise self._err(field, f"negative length {n}")
         self._need(n, field, what or f"{n} numbers")
-        chunk = self.toks[self.pos:self.pos + n]
-        try:
-            vals = np.array(list(map(float, chunk)), dtype=np.float64)
-        except ValueError:
-            k = next(k for k, t in enumerate(chunk) if not _is_float(t))
-            raise self._err(field, f"non-numeric token {chunk[k].decode(errors='replace')!r} at "
-                                   f"token #{self.pos + k + 1}") from None
+        out = np.empty(n, dtype=np.float64)
+        for c in range(0, n, _CONVERT_CHUNK):
+            k0, k1 = self.pos + c, self.pos + min(c + _CONVERT_CHUNK, n)
+            chunk = self.data[self.starts[k0]:self.ends[k1 - 1]].split()
+            try:
+                if any(b"_" in t for t in chunk):
+                    raise ValueError
+                out[c:c + len(chunk)] = list(map(float, chunk))
+            except ValueError:
+                k = next(k for k, t in enumerate(chunk) if not _is_float(t))
+                raise self._err(field, f"non-numeric token {quote_token(chunk[k])} at "
+                                       f"token #{k0 + k + 1}") from None
         self.pos += n
-        return vals.reshape(n)
+        return out
 
     def word(self, field: str) -> bytes:
         self._need(1, field, "a token")
-        tok = self.toks[self.pos]
+        tok = self.tok(self.pos)
         self.pos += 1
         return tok
 
+    def words(self, n: int, field: str) -> np.ndarray:
+        """Next *n* tokens as an object array of bytes."""
+        self._need(n, field, f"{n} tokens")
+        arr = np.empty(n, dtype=object)
+        if n:
+            arr[:] = self.data[self.starts[self.pos]:self.ends[self.pos + n - 1]].split()
+        self.pos += n
+        return arr
+
+    # ------------------------------------------------------------ line layout
+    def _line_break_before(self, k: int) -> bool:
+        """Whether a newline separates token *k* from token *k - 1* (file ends count)."""
+        if k <= 0 or k >= len(self):
+            return True
+        return b"\n" in self.data[self.ends[k - 1]:self.starts[k]]
+
+    def _layouts(self, k0: int, n: int) -> set:
+        """Layouts of tokens ``k0..k0+n-1``: ``"row"`` (one line), ``"column"`` (one per line)."""
+        a = int(self.starts[k0])
+        span = self.buf[a:self.ends[k0 + n - 1]]
+        breaks = np.flatnonzero(span == 10)
+        if breaks.size == 0:
+            return {"row", "column"} if n == 1 else {"row"}
+        line = np.searchsorted(breaks, self.starts[k0:k0 + n] - a)
+        return {"column"} if np.array_equal(line, np.arange(n)) else set()
+
+    def expect_own_lines(self, k0: int, n: int, field: str, layouts: set) -> set:
+        """Check that tokens ``k0..k0+n-1`` (a vector) fill whole lines in one layout.
+
+        Siconos prints each vector on one line (older files: one value per
+        line).  A vector starting or ending inside a line, or split over lines
+        otherwise, means that a preceding count is wrong: a value is missing
+        or in excess, and every later value would be shifted.
+
+        Returns
+        -------
+        set
+            The layouts still possible (intersection with *layouts*).
+        """
+        if not self._line_break_before(k0):
+            raise self._err(field, f"does not start on a new line (token #{k0 + 1}): the data "
+                                   "before it have a value missing or in excess")
+        if not self._line_break_before(k0 + n):
+            raise self._err(field, f"{n} values expected, but its line goes on (token "
+                                   f"#{k0 + n + 1}): a value in excess here or missing before")
+        both = self._layouts(k0, n) & layouts
+        if not both:
+            raise self._err(field, f"{n} values expected on one line, or one per line like the "
+                                   "vectors before it: a value is missing or in excess")
+        return both
+
+
+#: Layouts a vector may have in a Siconos text file.
+VECTOR_LAYOUTS = frozenset({"row", "column"})
+
 
 def _is_float(tok: bytes) -> bool:
+    if b"_" in tok:
+        return False
     try:
         float(tok)
     except ValueError:
@@ -134,6 +257,9 @@ def _read_matrix(t: _Tokens, name: str) -> tuple[sp.spmatrix | np.ndarray, int]:
     size1 = t.int(f"{name}.size1")
     if size0 < 0 or size1 < 0:
         raise t._err(name, f"negative size {size0} x {size1}")
+    if max(size0, size1) > t.remaining():  # the vectors after it hold that many values
+        raise t._err(name, f"size {size0} x {size1} exceeds the {t.remaining()} values left in "
+                           "the file (the vectors that follow need that many)")
     if storage == 0:
         return _read_dense(t, name, size0, size1), storage
     if storage == 1:
@@ -182,6 +308,8 @@ def _read_sbm(t, name, size0, size1):
     nr = (rowsz - rstart)[brow]
     nc = (colsz - cstart)[index2]
     count = nr * nc
+    if np.any(count > t.remaining()):
+        raise t._err(f"{name} blocks", "block sizes exceed the values left in the file")
     # token layout: [blockNum, count values] per block
     total = int(np.sum(count + 1))
     start = t.pos
@@ -190,7 +318,7 @@ def _read_sbm(t, name, size0, size1):
     numbers = raw[offs]
     if not np.array_equal(numbers, np.arange(filled2, dtype=np.float64)):
         k = int(np.flatnonzero(numbers != np.arange(filled2))[0])
-        raise t._err(f"{name} blocks", f"block number {t.toks[start + offs[k]].decode(errors='replace')!r}"
+        raise t._err(f"{name} blocks", f"block number {quote_token(t.tok(start + offs[k]))}"
                                         f" at token #{start + offs[k] + 1}, expected {k}")
     # position of every value: block k, local index l in [0, count_k)
     blk = np.repeat(np.arange(filled2), count)
@@ -236,10 +364,9 @@ def _read_csparse(t, name, size0, size1):
     t.int(f"{name}.nzmax")
     _expect(t, b"nnz:", name)
     nnz_tok = t.word(f"{name}.nnz").rstrip(b",")
-    try:
-        nnz = int(nnz_tok)
-    except ValueError:
-        raise t._err(f"{name}.nnz", f"expected an integer, got {nnz_tok.decode(errors='replace')!r}") from None
+    if not _is_int_token(nnz_tok):
+        raise t._err(f"{name}.nnz", f"expected an integer, got {quote_token(nnz_tok)}")
+    nnz = int(nnz_tok)
     if nnz < 0:
         raise t._err(f"{name}.nnz", f"negative number of entries {nnz}")
     if is_triplet:
@@ -285,29 +412,33 @@ def _read_csparse(t, name, size0, size1):
 def _expect(t, word, name):
     tok = t.word(f"{name} CSparse header")
     if tok != word:
-        raise t._err(f"{name} CSparse header", f"expected {word.decode()!r}, got "
-                                               f"{tok.decode(errors='replace')!r}")
+        raise t._err(f"{name} CSparse header", f"expected {word.decode()!r}, got {quote_token(tok)}")
 
 
 def _words(t, n, field):
-    t._need(n, field, f"{n} tokens")
-    arr = np.array(t.toks[t.pos:t.pos + n], dtype=object)
-    t.pos += n
-    return arr
+    return t.words(n, field)
+
+
+def _is_int_token(tok: bytes) -> bool:
+    """Whether *tok* is an optionally signed run of decimal digits."""
+    return _INT_RE.match(tok) is not None
+
+
+_INT_RE = re.compile(rb"^[+-]?[0-9]{1,18}$")
 
 
 def _to_int(t, arr, field):
-    try:
-        return np.array(list(map(int, arr)), dtype=np.int64)
-    except ValueError:
-        raise t._err(field, "non-integer token") from None
+    bad = [tok for tok in arr if not _is_int_token(tok)]
+    if bad:
+        raise t._err(field, f"non-integer token {quote_token(bad[0])}")
+    return np.array(list(map(int, arr)), dtype=np.int64)
 
 
 def _to_float(t, arr, field):
-    try:
-        return np.array(list(map(float, arr)), dtype=np.float64)
-    except ValueError:
-        raise t._err(field, "non-numeric token") from None
+    bad = [tok for tok in arr if not _is_float(tok)]
+    if bad:
+        raise t._err(field, f"non-numeric token {quote_token(bad[0])}")
+    return np.array(list(map(float, arr)), dtype=np.float64)
 
 
 # ---------------------------------------------------------------- problems
@@ -322,10 +453,16 @@ def _header(t):
 
 
 def _finish(t):
+    """Accept at most one trailing integer (legacy flag) on a line of its own."""
     if t.remaining() > MAX_TRAILING_TOKENS:
         raise t._err("end of file", f"{t.remaining()} unexpected tokens after mu "
-                                    f"(starting with {t.toks[t.pos].decode(errors='replace')!r}); "
+                                    f"(starting with {quote_token(t.tok(t.pos))}); "
                                     "wrong n_contacts or matrix size?")
+    if t.remaining():
+        tok = t.tok(t.pos)
+        if not _is_int_token(tok):
+            raise t._err("end of file", f"unexpected token {quote_token(tok)} after mu "
+                                        "(only an integer flag may follow)")
 
 
 def is_global_dat(path) -> bool:
@@ -376,10 +513,38 @@ def read_siconos_dat(path, data: bytes | None = None, *, global_problem: bool | 
             raise exc from None
 
 
+def _vectors(t, groups) -> list:
+    """Read the vectors that end a file, then check the end of file.
+
+    *groups* lists groups of ``(field, length)``: Siconos prints each group on
+    one line (``q`` / ``mu`` of a local problem; ``q b`` together, then
+    ``mu``, of a global one), older files one value per line.  Every group
+    must fill whole lines, all in the same layout: this catches a value
+    missing or in excess anywhere before (see :meth:`_Tokens.expect_own_lines`).
+    """
+    out, layouts = [], set(VECTOR_LAYOUTS)
+    for group in groups:
+        k0 = t.pos
+        lengths = [n for _, n in group]
+        for field, n in group:
+            out.append(t.floats(n, field))
+        try:
+            layouts = t.expect_own_lines(k0, sum(lengths), " and ".join(f for f, _ in group),
+                                         layouts)
+        except ProblemFormatError:
+            if len(group) == 1:
+                raise
+            # hand-written files: each vector of the group on lines of its own
+            for (field, n), start in zip(group, k0 + np.cumsum([0] + lengths[:-1])):
+                layouts = t.expect_own_lines(int(start), n, field, layouts)
+    _finish(t)
+    return out
+
+
 def _parse(path, data: bytes, global_problem: bool):
     source = str(path)
     t = _Tokens(data, source)
-    if not t.toks:
+    if not len(t):
         raise ProblemFormatError("dim", "file is empty", source)
     dim, nc = _header(t)
     m = dim * nc
@@ -389,9 +554,7 @@ def _parse(path, data: bytes, global_problem: bool):
         if W.shape != (m, m):
             raise t._err("W", f"has shape {W.shape[0]} x {W.shape[1]}, expected {m} x {m} "
                               f"(dim = {dim}, n_contacts = {nc})")
-        q = t.floats(W.shape[1], "q")
-        mu = t.floats(nc, "mu")
-        _finish(t)
+        q, mu = _vectors(t, [[("q", W.shape[1])], [("mu", nc)]])
         return FrictionContactProblem(W, q, mu, dim, source=source, name=name,
                                       info=f"Siconos text file, W storage: {STORAGE_NAMES[storage]}")
     M, storage = _read_matrix(t, "M")
@@ -401,10 +564,8 @@ def _parse(path, data: bytes, global_problem: bool):
     if H.shape != (M.shape[0], m):
         raise t._err("H", f"has shape {H.shape[0]} x {H.shape[1]}, expected {M.shape[0]} x {m} "
                           f"(dofs x dim*n_contacts)")
-    f = t.floats(M.shape[1], "q (f)")
-    w = t.floats(H.shape[1], "b (w)")
-    mu = t.floats(nc, "mu")
-    _finish(t)
+    f, w, mu = _vectors(t, [[("q (f)", M.shape[1]), ("b (w)", H.shape[1])],
+                                 [("mu", nc)]])
     return GlobalFrictionContactProblem(M, H, f, w, mu, dim, source=source, name=name,
                                         info=f"Siconos text file, M storage: {STORAGE_NAMES[storage]}")
 
