@@ -516,3 +516,46 @@ def test_declared_size_beyond_the_file_fails_before_allocating(tmp_path):
     with pytest.raises(ProblemFormatError) as ei:
         read_problem(path, global_problem=False)
     assert "exceeds" in check(ei, path, "W")
+
+
+# ------------------------------------------- FCLib HDF5: sizes declared, never stored
+def declare_unwritten(h, name, n, dtype="f8", **kw):
+    """Replace dataset *name* by one declaring *n* values and storing none."""
+    del h[name]
+    h.create_dataset(name, shape=(n,), dtype=dtype, **kw)
+
+
+@pytest.mark.parametrize("name, n, kw", [
+    ("/fclib_local/vectors/q", 2 * 10**9, {}),
+    ("/fclib_local/W/x", 2 * 10**9, {}),
+    ("/fclib_local/W/i", 4 * 10**8, {"compression": "gzip", "chunks": (10**6,)}),
+], ids=["q-2e9", "W.x-2e9", "W.i-gzip-4e8"])
+def test_hdf5_inflated_dataset_rejected_before_reading(good_h5, name, n, kw):
+    """A small file declaring gigabytes: rejected from the declared size, nothing read.
+
+    Run under a 1 GB address-space cap, so that reading it (16 GB, 3.2 GB)
+    would end in a raw MemoryError instead of a format error.
+    """
+    from _capped import read_capped
+    mutate(good_h5, lambda h: declare_unwritten(h, name, n, "i4" if name.endswith("/i") else "f8", **kw))
+    assert good_h5.stat().st_size < 100_000
+    out = read_capped(good_h5)
+    assert out["status"] == "error", out
+    assert out["type"] == "ProblemFormatError"
+    assert f"field '{name}'" in out["message"]
+    assert out["maxrss_kb"] < 400_000
+
+
+def test_hdf5_unwritten_small_dataset_reads_as_fill_value(good_h5):
+    """Real files hold small datasets never written (Box_Stacks /solution/r): zeros, not an error."""
+    def add(h):
+        h.create_group("solution").create_dataset("r", shape=(9,), dtype="f8")
+    mutate(good_h5, add)
+    np.testing.assert_array_equal(read_problem(good_h5).solution.r, np.zeros(9))
+
+
+def test_hdf5_size_field_with_many_values_rejected(good_h5):
+    mutate(good_h5, lambda h: replace_ds(h, "/fclib_local/W/m", np.array([9, 9], dtype=np.int32)))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "expected 1" in check(ei, good_h5, "/fclib_local/W/m")
