@@ -36,6 +36,27 @@ class ProblemFormatError(InvalidProblemError):
     """A file is malformed, truncated, or misses a required group/field."""
 
 
+class InvalidArgumentError(SocpCdError, TypeError, ValueError):
+    """A function argument of the wrong type or value (not problem data).
+
+    Parameters
+    ----------
+    argument : str
+        Name of the argument (``"path"``, ``"tol"``...).
+    reason : str
+        Human-readable explanation.
+    """
+
+    def __init__(self, argument: str, reason: str):
+        self.argument = argument
+        self.reason = reason
+        super().__init__(f"argument '{argument}': {reason}")
+
+
+class InputTooLargeError(ProblemFormatError, MemoryError):
+    """A file whose content does not fit in the memory available for reading it."""
+
+
 class UnsupportedError(SocpCdError, ValueError):
     """A solver/formulation combination, or an option, that is not available."""
 
@@ -48,6 +69,8 @@ __all__ = [
     "SocpCdError",
     "InvalidProblemError",
     "ProblemFormatError",
+    "InvalidArgumentError",
+    "InputTooLargeError",
     "UnsupportedError",
     "SolverError",
 ]

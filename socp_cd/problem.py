@@ -57,8 +57,22 @@ class Solution:
     v: Optional[np.ndarray] = None
 
 
+def _reject_complex(x, name: str, source: str | None):
+    """Raise when *x* holds complex numbers (NumPy would drop their imaginary part)."""
+    dtype = x.dtype if sp.issparse(x) or isinstance(x, np.ndarray) else None
+    if dtype is None:
+        try:
+            dtype = np.asarray(x).dtype
+        except (TypeError, ValueError):
+            return  # ragged or odd input: the float conversion reports it
+    if dtype.kind == "c":
+        raise InvalidProblemError(name, f"has complex dtype {dtype}; real values expected "
+                                        "(the imaginary part is not dropped silently)", source)
+
+
 def _as_sparse(A, name: str, source: str | None) -> sp.csr_matrix:
     """Convert *A* (dense or sparse) to float64 CSR, checking finiteness."""
+    _reject_complex(A, name, source)
     try:
         if sp.issparse(A):
             A = sp.csr_matrix(A, dtype=np.float64)
@@ -80,6 +94,7 @@ def _as_sparse(A, name: str, source: str | None) -> sp.csr_matrix:
 
 def _as_vector(x, name: str, n: int, source: str | None) -> np.ndarray:
     """Convert *x* to a finite float64 vector of length *n*."""
+    _reject_complex(x, name, source)
     try:
         arr = np.asarray(x, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -103,6 +118,7 @@ def _check_dim(dim, source):
 
 def _as_mu(mu, n_contacts: int, source: str | None) -> np.ndarray:
     """Broadcast *mu* to one finite, non-negative coefficient per contact."""
+    _reject_complex(mu, "mu", source)
     try:
         arr = np.asarray(mu, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError) as exc:

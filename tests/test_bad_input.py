@@ -559,3 +559,21 @@ def test_hdf5_size_field_with_many_values_rejected(good_h5):
     with pytest.raises(ProblemFormatError) as ei:
         read_problem(good_h5)
     assert "expected 1" in check(ei, good_h5, "/fclib_local/W/m")
+
+
+# ------------------------------------------------------------------ path arguments
+@pytest.mark.parametrize("path", [None, 3, 2.5, b"\xff\xfe.dat", "", object()],
+                         ids=["None", "int", "float", "non-utf8-bytes", "empty", "object"])
+@pytest.mark.parametrize("reader", ["read_problem", "read_fclib", "read_siconos_dat"])
+def test_non_path_argument_raises_socp_cd_error(path, reader):
+    import socp_cd.io
+    from socp_cd.errors import InvalidArgumentError
+    with pytest.raises(InvalidArgumentError) as ei:
+        getattr(socp_cd.io, reader)(path)
+    assert isinstance(ei.value, SocpCdError) and ei.value.argument == "path"
+    assert "path" in str(ei.value)
+
+
+def test_utf8_bytes_path_is_accepted(tmp_path):
+    path = write_tokens(tmp_path, GOOD, "good.dat")
+    assert read_problem(str(path).encode()).n_contacts == 1

@@ -1,6 +1,8 @@
 """Problem construction, validation and algebra (socp_cd.problem)."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -42,10 +44,17 @@ def _nan_at(a, index, value=np.nan):
     (dict(W=np.ones(9), q=Q9, mu=MU3), "W"),                      # 1-D W
     (dict(W=W9, q=Q9.reshape(3, 3), mu=MU3), "q"),                # q not a vector
     (dict(W=[["a"] * 9] * 9, q=Q9, mu=MU3), "W"),                 # not numbers
+    (dict(W=W9 + 1e-3j, q=Q9, mu=MU3), "W"),                      # complex W
+    (dict(W=sp.csr_matrix(W9 + 0j), q=Q9, mu=MU3), "W"),          # complex sparse W
+    (dict(W=W9, q=Q9 + 1j, mu=MU3), "q"),                         # complex q
+    (dict(W=W9, q=list(Q9[:8]) + [1j], mu=MU3), "q"),             # complex in a list
+    (dict(W=W9, q=Q9, mu=MU3 + 0j), "mu"),                        # complex mu
 ])
 def test_local_validation_names_the_field(kwargs, field):
-    with pytest.raises(InvalidProblemError) as info:
-        FrictionContactProblem(**kwargs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no ComplexWarning on the way
+        with pytest.raises(InvalidProblemError) as info:
+            FrictionContactProblem(**kwargs)
     assert info.value.field == field
     assert f"'{field}'" in str(info.value)
 
@@ -90,13 +99,19 @@ def _global_data(n=7, nc=2, dim=3, seed=1):
     (lambda d: d.update(mu=np.array([0.3, -1.0])), "mu"),
     (lambda d: d.update(dim=1), "dim"),
     (lambda d: d.update(M=np.zeros((0, 0)), H=np.zeros((0, 6)), f=np.zeros(0)), "M"),
+    (lambda d: d.update(M=d["M"] + 0j), "M"),
+    (lambda d: d.update(H=sp.csr_matrix(d["H"] * 1j)), "H"),
+    (lambda d: d.update(f=d["f"] + 1e-9j), "f"),
+    (lambda d: d.update(w=d["w"] + 1j), "w"),
 ])
 def test_global_validation_names_the_field(change, field):
     M, H, f, w, mu = _global_data()
     d = dict(M=M, H=H, f=f, w=w, mu=mu)
     change(d)
-    with pytest.raises(InvalidProblemError) as info:
-        GlobalFrictionContactProblem(**d)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no ComplexWarning on the way
+        with pytest.raises(InvalidProblemError) as info:
+            GlobalFrictionContactProblem(**d)
     assert info.value.field == field
 
 

@@ -31,6 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InvalidProblemError, ProblemFormatError
+from .paths import source_name
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem, Solution
 
 #: Largest ratio of declared to stored bytes accepted for a filtered (compressed)
@@ -228,7 +229,7 @@ def read_fclib(path) -> FrictionContactProblem | GlobalFrictionContactProblem:
         Inconsistent problem data (raised by the problem constructor, with the file as source).
     """
     import h5py
-    source = str(path)
+    source = source_name(path)
     try:
         h5 = h5py.File(source, "r")
     except _H5_ERRORS as exc:

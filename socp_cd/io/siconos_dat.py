@@ -43,6 +43,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InvalidProblemError, ProblemFormatError
+from .paths import source_name
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
 
 #: Number of trailing tokens tolerated after ``mu`` (legacy flag written by old Siconos).
@@ -496,6 +497,7 @@ def read_siconos_dat(path, data: bytes | None = None, *, global_problem: bool | 
     InvalidProblemError
         NaN/Inf values, negative mu (raised by the problem constructor).
     """
+    path = source_name(path)
     if data is None:
         try:
             data = Path(path).read_bytes()
