@@ -577,3 +577,78 @@ def test_non_path_argument_raises_socp_cd_error(path, reader):
 def test_utf8_bytes_path_is_accepted(tmp_path):
     path = write_tokens(tmp_path, GOOD, "good.dat")
     assert read_problem(str(path).encode()).n_contacts == 1
+
+
+# ------------------------------------------------------------------ command line
+def run_cli(argv, capsys):
+    from socp_cd.cli import main
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def good_dat(tmp_path):
+    return write_tokens(tmp_path, GOOD, "good.dat")
+
+
+@pytest.mark.parametrize("argv", [
+    ["solve", "MISSING"], ["info", "MISSING"], ["solve", "GOOD", "--solver", "foo"],
+    ["solve", "GOOD", "--tol", "0"], ["solve", "GOOD", "--tol", "abc"], ["bogus"], ["solve"],
+    ["info", "BAD"],
+], ids=["solve-missing", "info-missing", "solver-foo", "tol-0", "tol-abc", "bogus-cmd",
+        "no-file", "bad-file"])
+def test_cli_bad_input_is_one_line_and_code_2(argv, good_dat, tmp_path, capsys):
+    from socp_cd.cli import EXIT_BAD_INPUT
+    bad = write_tokens(tmp_path, GOOD[:-1], "bad.dat")
+    names = {"MISSING": tmp_path / "missing.dat", "GOOD": good_dat, "BAD": bad}
+    code, out, err = run_cli([names.get(a, a) for a in argv], capsys)
+    assert code == EXIT_BAD_INPUT
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("socp-cd") and "error:" in lines[0]
+    assert "Traceback" not in err
+
+
+def test_cli_codes_are_distinct_and_documented(capsys):
+    from socp_cd import cli
+    codes = [cli.EXIT_OK, cli.EXIT_NOT_CONVERGED, cli.EXIT_BAD_INPUT, cli.EXIT_INTERNAL]
+    assert len(set(codes)) == 4
+    with pytest.raises(SystemExit) as ei:
+        cli.main(["--help"])
+    assert ei.value.code == 0
+    out = capsys.readouterr().out
+    for code in codes:
+        assert f"{code:3d}  {cli.EXIT_CODES[code]}" in out
+
+
+def test_cli_internal_error_is_one_line_and_code_3(good_dat, capsys, monkeypatch):
+    import socp_cd
+    from socp_cd.cli import EXIT_INTERNAL
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("boom\nsecond line")
+    monkeypatch.setattr(socp_cd, "read_problem", broken)
+    monkeypatch.delenv("SOCP_CD_DEBUG", raising=False)
+    code, out, err = run_cli(["info", good_dat], capsys)
+    assert code == EXIT_INTERNAL
+    assert err.strip().splitlines() == ["socp-cd info: internal error: ZeroDivisionError: boom second line "
+                                        "(set SOCP_CD_DEBUG=1 for the traceback)"]
+
+
+def test_cli_not_converged_is_code_1(tmp_path, capsys):
+    from socp_cd.cli import EXIT_NOT_CONVERGED
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((12, 12))
+    p = FrictionContactProblem(A @ A.T + np.eye(12), -rng.random(12), 0.8, 3)
+    path = write_fclib(p, tmp_path / "p.hdf5")
+    code, out, err = run_cli(["solve", path, "--max-iter", "1", "--tol", "1e-14"], capsys)
+    assert code == EXIT_NOT_CONVERGED, out + err
+    assert "converged      False" in out
+
+
+def test_cli_info_states_rank_method_and_triviality(good_dat, capsys):
+    code, out, err = run_cli(["info", good_dat, "--tol", "1e-8"], capsys)
+    assert code == 0
+    assert "rank_method      dense SVD of" in out
+    assert "trivial@1e-08    False" in out
