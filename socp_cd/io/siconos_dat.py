@@ -73,25 +73,36 @@ def quote_token(tok: bytes) -> str:
     return repr(text)
 
 
-def _token_bounds(buf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Start and end offsets of the whitespace-separated tokens of *buf* (uint8).
+def _token_starts(buf: np.ndarray) -> np.ndarray:
+    """Offsets where the whitespace-separated tokens of *buf* (uint8) start.
 
-    Scanned in chunks of ``_SCAN_CHUNK`` bytes; offsets are int32 for files
-    under 2 GiB, so the index costs 8 bytes per token.
+    Two passes over chunks of ``_SCAN_CHUNK`` bytes (count, then fill one
+    preallocated array); int32 offsets for files under 2 GiB, so the index
+    costs 4 bytes per token (at most twice the file size).
     """
-    idx = np.int32 if buf.size < 2**31 - 1 else np.int64
-    starts, ends = [], []
-    prev = True
-    for a in range(0, buf.size, _SCAN_CHUNK):
-        space = _IS_SPACE[buf[a:a + _SCAN_CHUNK]].view(np.int8)
-        step = np.diff(space, prepend=np.int8(prev))  # -1: token starts, +1: token ended
-        starts.append((np.flatnonzero(step == -1) + a).astype(idx))
-        ends.append((np.flatnonzero(step == 1) + a).astype(idx))
-        prev = bool(space[-1])
-    if not prev:
-        ends.append(np.array([buf.size], dtype=idx))
-    empty = np.zeros(0, dtype=idx)
-    return np.concatenate(starts or [empty]), np.concatenate(ends or [empty])
+    def chunk_starts(a, prev):
+        space = _IS_SPACE[buf[a:a + _SCAN_CHUNK]]
+        begins = ~space
+        begins[1:] &= space[:-1]
+        begins[0] &= prev
+        return begins, bool(space[-1])
+
+    offsets = range(0, buf.size, _SCAN_CHUNK)
+    counts, prev = [], True
+    for a in offsets:
+        begins, prev = chunk_starts(a, prev)
+        counts.append(int(np.count_nonzero(begins)))
+    out = np.empty(sum(counts), dtype=np.int32 if buf.size < 2**31 - 1 else np.int64)
+    k, prev = 0, True
+    for a, c in zip(offsets, counts):
+        begins, prev = chunk_starts(a, prev)
+        out[k:k + c] = np.flatnonzero(begins) + a
+        k += c
+    return out
+
+
+#: A token: a run of non-whitespace bytes.
+_TOKEN_RE = re.compile(rb"\S+")
 
 
 class _Tokens:
@@ -106,7 +117,7 @@ class _Tokens:
     def __init__(self, data: bytes, source: str):
         self.data = bytes(data)
         self.buf = np.frombuffer(self.data, dtype=np.uint8)
-        self.starts, self.ends = _token_bounds(self.buf)
+        self.starts = _token_starts(self.buf)
         self.pos = 0
         self.source = source
 
@@ -121,7 +132,12 @@ class _Tokens:
 
     def tok(self, k: int) -> bytes:
         """Text of token *k* (0-based)."""
-        return self.data[self.starts[k]:self.ends[k]]
+        return _TOKEN_RE.match(self.data, int(self.starts[k])).group()
+
+    def _span(self, k0: int, k1: int) -> bytes:
+        """Bytes from the start of token *k0* to the start of token *k1* (or the end)."""
+        end = int(self.starts[k1]) if k1 < len(self) else len(self.data)
+        return self.data[int(self.starts[k0]):end]
 
     def _need(self, n, field, what):
         if self.remaining() < n:
@@ -163,7 +179,7 @@ class _Tokens:
         out = np.empty(n, dtype=np.float64)
         for c in range(0, n, _CONVERT_CHUNK):
             k0, k1 = self.pos + c, self.pos + min(c + _CONVERT_CHUNK, n)
-            chunk = self.data[self.starts[k0]:self.ends[k1 - 1]].split()
+            chunk = self._span(k0, k1).split()
             try:
                 if any(b"_" in t for t in chunk):
                     raise ValueError
@@ -186,7 +202,7 @@ class _Tokens:
         self._need(n, field, f"{n} tokens")
         arr = np.empty(n, dtype=object)
         if n:
-            arr[:] = self.data[self.starts[self.pos]:self.ends[self.pos + n - 1]].split()
+            arr[:] = self._span(self.pos, self.pos + n).split()
         self.pos += n
         return arr
 
@@ -195,12 +211,13 @@ class _Tokens:
         """Whether a newline separates token *k* from token *k - 1* (file ends count)."""
         if k <= 0 or k >= len(self):
             return True
-        return b"\n" in self.data[self.ends[k - 1]:self.starts[k]]
+        return b"\n" in self._span(k - 1, k)
 
     def _layouts(self, k0: int, n: int) -> set:
         """Layouts of tokens ``k0..k0+n-1``: ``"row"`` (one line), ``"column"`` (one per line)."""
         a = int(self.starts[k0])
-        span = self.buf[a:self.ends[k0 + n - 1]]
+        last = k0 + n - 1
+        span = self.buf[a:int(self.starts[last]) + len(self.tok(last))]
         breaks = np.flatnonzero(span == 10)
         if breaks.size == 0:
             return {"row", "column"} if n == 1 else {"row"}
@@ -269,12 +286,29 @@ def _read_matrix(t: _Tokens, name: str) -> tuple[sp.spmatrix | np.ndarray, int]:
 
 
 def _read_dense(t, name, size0, size1):
+    """Dense column-major values, kept as a sparse matrix of their nonzeros.
+
+    Converted a few columns at a time, so a dense matrix of zeros written as
+    ``0`` tokens does not cost 8 bytes per token.
+    """
     d0 = t.int(f"{name}.size0")
     d1 = t.int(f"{name}.size1")
     if (d0, d1) != (size0, size1):
         raise t._err(name, f"dense header {d0} x {d1} disagrees with matrix header {size0} x {size1}")
-    vals = t.floats(size0 * size1, name)
-    return vals.reshape(size1, size0).T  # column-major storage
+    t._need(size0 * size1, name, f"{size0 * size1} numbers")
+    per_chunk = max(1, _CONVERT_CHUNK // max(size0, 1))
+    rows, cols, vals = [], [], []
+    for j0 in range(0, size1, per_chunk):
+        nj = min(per_chunk, size1 - j0)
+        block = t.floats(nj * size0, name).reshape(nj, size0)  # one column per row
+        jj, ii = np.nonzero(block)
+        rows.append(ii.astype(np.int32))
+        cols.append((jj + j0).astype(np.int32))
+        vals.append(block[jj, ii])
+    if not vals:
+        return sp.coo_matrix((size0, size1))
+    return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(size0, size1))
 
 
 def _read_sbm(t, name, size0, size1):
