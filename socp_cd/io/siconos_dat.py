@@ -405,38 +405,11 @@ def _read_csparse(t, name, size0, size1):
     if nnz < 0:
         raise t._err(f"{name}.nnz", f"negative number of entries {nnz}")
     if is_triplet:
-        body = _words(t, 4 * nnz, f"{name} triplet entries").reshape(nnz, 4)
-        if nnz and not np.all(body[:, 2] == b":"):
-            raise t._err(f"{name} triplet entries", "expected lines 'i j : x'")
-        rows = _to_int(t, body[:, 0], f"{name} row indices")
-        cols = _to_int(t, body[:, 1], f"{name} column indices")
-        vals = _to_float(t, body[:, 3], f"{name} values")
+        rows, cols, vals = _csparse_triplets(t, name, nnz)
     else:
         _expect(t, b"1-norm:", name)
         t.word(f"{name}.1-norm")
-        body = _words(t, 7 * n + 3 * nnz, f"{name} columns")
-        heads = np.flatnonzero(body == b"col")
-        if heads.size != n or np.any(heads[1:] - heads[:-1] < 7) or (n and heads[0] != 0):
-            raise t._err(f"{name} columns", f"expected {n} 'col j : locations a to b' headers")
-        hdr = body[heads[:, None] + np.arange(7)]
-        if n and not (np.all(hdr[:, 2] == b":") and np.all(hdr[:, 3] == b"locations")
-                      and np.all(hdr[:, 5] == b"to")):
-            raise t._err(f"{name} columns", "malformed 'col j : locations a to b' header")
-        if not np.array_equal(_to_int(t, hdr[:, 1], f"{name} column numbers"), np.arange(n)):
-            raise t._err(f"{name} columns", "column headers are not numbered 0..n-1")
-        is_entry = np.ones(body.size, dtype=bool)
-        is_entry[(heads[:, None] + np.arange(7)).ravel()] = False
-        entries = body[is_entry].reshape(-1, 3)
-        if nnz and not np.all(entries[:, 1] == b":"):
-            raise t._err(f"{name} entries", "expected lines 'i : x'")
-        per_col = (np.diff(np.append(heads, body.size)) - 7) // 3
-        first = _to_int(t, hdr[:, 4], f"{name} column pointers")
-        last = _to_int(t, hdr[:, 6], f"{name} column pointers")
-        if not np.array_equal(last - first + 1, per_col):
-            raise t._err(f"{name} column pointers", "'locations a to b' disagree with the entries listed")
-        cols = np.repeat(np.arange(n), per_col)
-        rows = _to_int(t, entries[:, 0], f"{name} row indices")
-        vals = _to_float(t, entries[:, 2], f"{name} values")
+        rows, cols, vals = _csparse_columns(t, name, n, nnz)
         if origin == NSM_CSR:  # Siconos prints CSR storage with the same 'col' headers: they are rows
             rows, cols = cols, rows
     if rows.size and (rows.min() < 0 or rows.max() >= m or cols.min() < 0 or cols.max() >= n):
@@ -444,14 +417,74 @@ def _read_csparse(t, name, size0, size1):
     return sp.coo_matrix((vals, (rows, cols)), shape=(m, n))
 
 
+def _csparse_triplets(t, name, nnz):
+    """``nnz`` lines ``i j : x``, converted ``_CONVERT_CHUNK`` tokens at a time."""
+    t._need(4 * nnz, f"{name} triplet entries", f"{4 * nnz} tokens")
+    rows, cols, vals = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
+    per_chunk = _CONVERT_CHUNK // 4
+    for e in range(0, nnz, per_chunk):
+        body = t.words(4 * min(per_chunk, nnz - e), f"{name} triplet entries").reshape(-1, 4)
+        if not np.all(body[:, 2] == b":"):
+            raise t._err(f"{name} triplet entries", "expected lines 'i j : x'")
+        rows.append(_to_int(t, body[:, 0], f"{name} row indices"))
+        cols.append(_to_int(t, body[:, 1], f"{name} column indices"))
+        vals.append(_to_float(t, body[:, 3], f"{name} values"))
+    return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+
+
+#: Tokens of a ``col j : locations a to b`` header.
+_COL_HEADER = 7
+
+
+def _csparse_columns(t, name, n, nnz):
+    """*n* ``col j : locations a to b`` headers, each followed by its ``i : x`` lines.
+
+    Column boundaries are found from the first byte of every token (only
+    ``col`` starts with ``c``), then whole columns are converted about
+    ``_CONVERT_CHUNK`` tokens at a time.
+    """
+    total = _COL_HEADER * n + 3 * nnz
+    t._need(total, f"{name} columns", f"{total} tokens")
+    k0 = t.pos
+    heads = np.flatnonzero(t.buf[t.starts[k0:k0 + total]] == ord("c"))
+    bounds = np.append(heads, total)
+    sizes = np.diff(bounds) - _COL_HEADER
+    if heads.size != n or (n and heads[0] != 0) or np.any(sizes < 0) or np.any(sizes % 3):
+        raise t._err(f"{name} columns", f"expected {n} 'col j : locations a to b' headers, "
+                                        "each followed by 'i : x' lines")
+    per_col = sizes // 3
+    rows, vals = [np.zeros(0, np.int64)], [np.zeros(0)]
+    j = 0
+    while j < n:
+        j2 = min(n, max(j + 1, int(np.searchsorted(bounds, bounds[j] + _CONVERT_CHUNK, "right")) - 1))
+        body = t.words(int(bounds[j2] - bounds[j]), f"{name} columns")
+        local = heads[j:j2] - heads[j]
+        hdr = body[local[:, None] + np.arange(_COL_HEADER)]
+        if not (np.all(hdr[:, 2] == b":") and np.all(hdr[:, 3] == b"locations")
+                and np.all(hdr[:, 5] == b"to") and np.all(hdr[:, 0] == b"col")):
+            raise t._err(f"{name} columns", "malformed 'col j : locations a to b' header")
+        if not np.array_equal(_to_int(t, hdr[:, 1], f"{name} column numbers"), np.arange(j, j2)):
+            raise t._err(f"{name} columns", "column headers are not numbered 0..n-1")
+        first = _to_int(t, hdr[:, 4], f"{name} column pointers")
+        last = _to_int(t, hdr[:, 6], f"{name} column pointers")
+        if not np.array_equal(last - first + 1, per_col[j:j2]):
+            raise t._err(f"{name} column pointers", "'locations a to b' disagree with the entries listed")
+        is_entry = np.ones(body.size, dtype=bool)
+        is_entry[(local[:, None] + np.arange(_COL_HEADER)).ravel()] = False
+        entries = body[is_entry].reshape(-1, 3)
+        if not np.all(entries[:, 1] == b":"):
+            raise t._err(f"{name} entries", "expected lines 'i : x'")
+        rows.append(_to_int(t, entries[:, 0], f"{name} row indices"))
+        vals.append(_to_float(t, entries[:, 2], f"{name} values"))
+        j = j2
+    cols = np.repeat(np.arange(n), per_col)
+    return np.concatenate(rows), cols, np.concatenate(vals)
+
+
 def _expect(t, word, name):
     tok = t.word(f"{name} CSparse header")
     if tok != word:
         raise t._err(f"{name} CSparse header", f"expected {word.decode()!r}, got {quote_token(tok)}")
-
-
-def _words(t, n, field):
-    return t.words(n, field)
 
 
 def _is_int_token(tok: bytes) -> bool:
