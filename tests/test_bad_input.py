@@ -10,6 +10,8 @@ from socp_cd import FrictionContactProblem, GlobalFrictionContactProblem
 from socp_cd.errors import InvalidProblemError, ProblemFormatError, SocpCdError
 from socp_cd.io import read_problem, write_fclib
 
+from _hostile import read_capped, siconos_dense_text
+
 # A valid local problem: dim 3, one contact, dense W = identity (column-major).
 GOOD = ["3", "1", "0", "3", "3", "3", "3",
         "1", "0", "0", "0", "1", "0", "0", "0", "1",
@@ -407,19 +409,6 @@ def test_hdf5_solution_wrong_length(good_h5):
 
 
 # ------------------------------------------- Siconos text: shifted values, odd tokens
-def siconos_dense_text(W, q, mu, dim, trailing=None):
-    """A local problem laid out as Siconos ``frictionContact_printInFile`` writes it."""
-    W = np.asarray(W, dtype=float)
-    m = W.shape[0]
-    vals = W.T.reshape(-1)  # column-major
-    rows = [" ".join(f"{v:32.24e}" for v in vals[k:k + m]) for k in range(0, vals.size, m)]
-    lines = [str(dim), str(len(mu)), "0", str(m), str(m), f"{m}\t{m}", *rows,
-             " ".join(f"{v:32.24e}" for v in q), " ".join(f"{v:32.24e}" for v in mu)]
-    if trailing is not None:
-        lines.append(trailing)
-    return "\n".join(lines) + "\n"
-
-
 def drop_token(text, index):
     """*text* without its whitespace-separated token number *index*, line layout kept."""
     lines, seen = text.split("\n"), 0
@@ -536,7 +525,6 @@ def test_hdf5_inflated_dataset_rejected_before_reading(good_h5, name, n, kw):
     Run under a 1 GB address-space cap, so that reading it (16 GB, 3.2 GB)
     would end in a raw MemoryError instead of a format error.
     """
-    from _capped import read_capped
     mutate(good_h5, lambda h: declare_unwritten(h, name, n, "i4" if name.endswith("/i") else "f8", **kw))
     assert good_h5.stat().st_size < 100_000
     out = read_capped(good_h5)
