@@ -150,3 +150,47 @@ def read_many_capped(paths, cap_mb: int = DEFAULT_CAP_MB, per_case: int = 20,
 def read_capped(path, cap_mb: int = DEFAULT_CAP_MB, timeout: float = 60.0) -> dict:
     """:func:`read_many_capped` for one file."""
     return read_many_capped([path], cap_mb, per_case=int(timeout), timeout=timeout + 30)[0]
+
+
+_TRACE_CHILD = r"""
+import json, resource, sys, tracemalloc
+from socp_cd.io import read_problem
+import h5py, scipy.sparse  # imported before measuring
+rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+tracemalloc.start()
+p = read_problem(sys.argv[1])
+peak = tracemalloc.get_traced_memory()[1]
+tracemalloc.stop()
+rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(json.dumps({"traced_peak": peak, "maxrss_delta": (rss1 - rss0) * 1024, "m": int(p.m)}))
+"""
+
+
+def read_memory(path, python=sys.executable, pythonpath=None, timeout: float = 300.0) -> dict:
+    """Memory needed to read *path*, measured in a fresh subprocess.
+
+    Returns
+    -------
+    dict
+        ``traced_peak``: peak bytes allocated while reading (tracemalloc, which
+        NumPy reports to); ``maxrss_delta``: growth of the peak resident size
+        (bytes, noisier: allocator caching); ``m``: unknowns of the problem.
+    """
+    repo = str(Path(__file__).resolve().parent.parent) if pythonpath is None else pythonpath
+    env = dict(os.environ, PYTHONPATH=repo)
+    proc = subprocess.run([python, "-c", _TRACE_CHILD, str(path)], capture_output=True, text=True,
+                          timeout=timeout, env=env, check=True)
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def dense_zeros_text(m: int) -> str:
+    """A Siconos dense local problem whose W is diagonal, zeros written ``0``: short tokens."""
+    nc = m // 3
+    zeros = ["0"] * m
+    lines = [str(3), str(nc), "0", str(m), str(m), f"{m}\t{m}"]
+    for j in range(m):
+        col = list(zeros)
+        col[j] = "2"
+        lines.append(" ".join(col))
+    lines += [" ".join(["-1"] * m), " ".join(["0.3"] * nc)]
+    return "\n".join(lines) + "\n"

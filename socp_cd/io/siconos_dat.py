@@ -58,7 +58,7 @@ _SIZE_RE = re.compile(rb"^(\d+)-by-(\d+),?$")
 _IS_SPACE = np.zeros(256, dtype=bool)
 _IS_SPACE[[9, 10, 11, 12, 13, 32]] = True
 #: Bytes of the file scanned at once when locating tokens (bounds temporaries).
-_SCAN_CHUNK = 1 << 20
+_SCAN_CHUNK = 1 << 18
 #: Tokens converted to numbers at once (bounds the Python objects alive at a time).
 _CONVERT_CHUNK = 1 << 15
 #: Longest token text quoted in an error message.
