@@ -134,7 +134,7 @@ def read_many_capped(paths, cap_mb: int = DEFAULT_CAP_MB, per_case: int = 20,
     try:
         proc = subprocess.run([sys.executable, "-c", _CHILD, str(cap_mb), str(per_case)],
                               input="\n".join(paths) + "\n", capture_output=True, text=True,
-                              timeout=timeout, env=env)
+                              timeout=timeout, env=env, cwd=repo)
         stdout, stderr, rc = proc.stdout, proc.stderr, proc.returncode
     except subprocess.TimeoutExpired as exc:
         stdout = exc.stdout.decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
@@ -153,16 +153,33 @@ def read_capped(path, cap_mb: int = DEFAULT_CAP_MB, timeout: float = 60.0) -> di
 
 
 _TRACE_CHILD = r"""
-import json, resource, sys, tracemalloc
+import json, sys, tracemalloc
 from socp_cd.io import read_problem
 import h5py, scipy.sparse  # imported before measuring
-rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+
+def status(key):
+    with open("/proc/self/status") as fh:
+        return next(int(line.split()[1]) * 1024 for line in fh if line.startswith(key))
+
+try:  # reset the peak RSS (VmHWM) to the current RSS
+    with open("/proc/self/clear_refs", "w") as fh:
+        fh.write("5")
+except OSError:
+    pass
+rss0 = status("VmRSS:")
 tracemalloc.start()
 p = read_problem(sys.argv[1])
 peak = tracemalloc.get_traced_memory()[1]
 tracemalloc.stop()
-rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-print(json.dumps({"traced_peak": peak, "maxrss_delta": (rss1 - rss0) * 1024, "m": int(p.m)}))
+hwm = status("VmHWM:")
+import time
+times = []
+for _ in range(2):
+    t0 = time.perf_counter()
+    read_problem(sys.argv[1])
+    times.append(time.perf_counter() - t0)
+print(json.dumps({"traced_peak": peak, "maxrss_delta": hwm - rss0, "m": int(p.m), "time": min(times),
+                  "module": read_problem.__module__, "file": sys.modules["socp_cd"].__file__}))
 """
 
 
@@ -174,12 +191,15 @@ def read_memory(path, python=sys.executable, pythonpath=None, timeout: float = 3
     dict
         ``traced_peak``: peak bytes allocated while reading (tracemalloc, which
         NumPy reports to); ``maxrss_delta``: growth of the peak resident size
-        (bytes, noisier: allocator caching); ``m``: unknowns of the problem.
+        (bytes, noisier: allocator caching); ``m``: unknowns of the problem;
+        ``file``: the ``socp_cd/__init__.py`` that was imported; ``time``: min of two
+        more reads, untraced (seconds).
     """
     repo = str(Path(__file__).resolve().parent.parent) if pythonpath is None else pythonpath
     env = dict(os.environ, PYTHONPATH=repo)
-    proc = subprocess.run([python, "-c", _TRACE_CHILD, str(path)], capture_output=True, text=True,
-                          timeout=timeout, env=env, check=True)
+    proc = subprocess.run([python, "-c", _TRACE_CHILD, str(Path(path).resolve())],
+                          capture_output=True, text=True, timeout=timeout, env=env, check=True,
+                          cwd=repo)  # "-c" puts the working directory first on sys.path
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 

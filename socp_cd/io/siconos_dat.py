@@ -179,11 +179,12 @@ class _Tokens:
         out = np.empty(n, dtype=np.float64)
         for c in range(0, n, _CONVERT_CHUNK):
             k0, k1 = self.pos + c, self.pos + min(c + _CONVERT_CHUNK, n)
-            chunk = self._span(k0, k1).split()
+            span = self._span(k0, k1)
+            chunk = span.split()
             try:
-                if any(b"_" in t for t in chunk):
+                if b"_" in span:
                     raise ValueError
-                out[c:c + len(chunk)] = list(map(float, chunk))
+                out[c:c + len(chunk)] = np.fromiter(map(float, chunk), np.float64, len(chunk))
             except ValueError:
                 k = next(k for k, t in enumerate(chunk) if not _is_float(t))
                 raise self._err(field, f"non-numeric token {quote_token(chunk[k])} at "
@@ -496,17 +497,25 @@ _INT_RE = re.compile(rb"^[+-]?[0-9]{1,18}$")
 
 
 def _to_int(t, arr, field):
-    bad = [tok for tok in arr if not _is_int_token(tok)]
-    if bad:
-        raise t._err(field, f"non-integer token {quote_token(bad[0])}")
-    return np.array(list(map(int, arr)), dtype=np.int64)
+    """Integers from an object array of tokens (decimal digits, optional sign)."""
+    try:
+        if b"_" in b"".join(arr):
+            raise ValueError
+        return np.fromiter(map(int, arr), np.int64, len(arr))
+    except (ValueError, OverflowError):
+        bad = next((tok for tok in arr if not _is_int_token(tok)), arr[0])
+        raise t._err(field, f"non-integer token {quote_token(bad)}") from None
 
 
 def _to_float(t, arr, field):
-    bad = [tok for tok in arr if not _is_float(tok)]
-    if bad:
-        raise t._err(field, f"non-numeric token {quote_token(bad[0])}")
-    return np.array(list(map(float, arr)), dtype=np.float64)
+    """Floats from an object array of tokens (Python syntax, no ``_`` digit groups)."""
+    try:
+        if b"_" in b"".join(arr):
+            raise ValueError
+        return np.fromiter(map(float, arr), np.float64, len(arr))
+    except ValueError:
+        bad = next(tok for tok in arr if not _is_float(tok))
+        raise t._err(field, f"non-numeric token {quote_token(bad)}") from None
 
 
 # ---------------------------------------------------------------- problems
