@@ -7,6 +7,16 @@ can catch one type.  Messages name the *source* (file or argument), the *field*
 from __future__ import annotations
 
 
+#: Longest reason kept in a message (input echoed by a library can be megabytes).
+MAX_REASON = 500
+
+
+def clip(text: str, limit: int = MAX_REASON) -> str:
+    """*text* cut to *limit* characters, saying how long it was."""
+    text = str(text)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+
+
 class SocpCdError(Exception):
     """Base class of every socp_cd exception."""
 
@@ -26,7 +36,7 @@ class InvalidProblemError(SocpCdError, ValueError):
 
     def __init__(self, field: str, reason: str, source: str | None = None):
         self.field = field
-        self.reason = reason
+        self.reason = reason = clip(reason)
         self.source = source
         where = f"{source}: " if source else ""
         super().__init__(f"{where}field '{field}': {reason}")
@@ -49,7 +59,7 @@ class InvalidArgumentError(SocpCdError, TypeError, ValueError):
 
     def __init__(self, argument: str, reason: str):
         self.argument = argument
-        self.reason = reason
+        self.reason = reason = clip(reason)
         super().__init__(f"argument '{argument}': {reason}")
 
 

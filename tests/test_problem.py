@@ -274,3 +274,11 @@ def test_check_reaction():
     assert info.value.field == "r"
     with pytest.raises(InvalidProblemError):
         p.check_reaction(_nan_at(np.ones(9), 3))
+
+
+def test_error_message_does_not_echo_megabytes():
+    """NumPy's conversion error quotes the whole string; the message keeps 500 characters."""
+    with pytest.raises(InvalidProblemError) as info:
+        FrictionContactProblem(W9, ["7" * 2_000_000 + "x"] * 9, MU3)
+    assert info.value.field == "q"
+    assert len(str(info.value)) < 700 and "characters)" in str(info.value)

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import InvalidProblemError, ProblemFormatError
+from ..errors import InvalidArgumentError, InvalidProblemError, ProblemFormatError
 from .paths import source_name
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
 
@@ -574,6 +574,8 @@ def read_siconos_dat(path, data: bytes | None = None, *, global_problem: bool | 
         NaN/Inf values, negative mu (raised by the problem constructor).
     """
     path = source_name(path)
+    if data is not None and not isinstance(data, (bytes, bytearray, memoryview)):
+        raise InvalidArgumentError("data", f"expected the file content as bytes, got {type(data).__name__}")
     if data is None:
         try:
             data = Path(path).read_bytes()
