@@ -32,7 +32,20 @@ A NumericsMatrix is ``storage size0 size1`` followed by
   CSparse prints values with ``%g`` (6 significant digits).
 
 Many files end with one extra integer (a legacy flag); Siconos ignores it and
-so does this reader.  More than one trailing token is reported as an error.
+so does this reader.  More than one trailing token, or one that is not an
+integer, is reported as an error.
+
+Line layout.  Whitespace alone cannot tell a missing value from a shifted
+one: a dense ``W`` short of one value followed by the flag ``1`` parses, with
+every later value moved by one.  Siconos prints each vector on a line of its
+own (``q``, ``mu``; for a global problem ``q b`` on one line, then ``mu``),
+older files one value per line; so the vectors that end a file must fill
+whole lines, all in the same layout (one line each, or one value per line
+without blank lines; a global ``q`` and ``b`` may also take a line each).
+A file whose ``q`` and ``mu`` share a line is rejected.
+
+Numbers use Python's ``float`` syntax without ``_`` digit groups (``1_4`` is
+rejected); error messages quote at most ``MAX_QUOTED`` characters of a token.
 """
 from __future__ import annotations
 
