@@ -1,13 +1,14 @@
-"""Command-line interface: ``socp-cd {info,demo,solve,validate,bench}``.
+"""Command-line interface: ``socp-cd {info,demo,solve,validate,bench,simulate}``.
 
-``validate`` and ``bench`` forward their arguments to
-:mod:`socp_cd.dynamics.validate` and :mod:`socp_cd.bench.cli`.  Every
+``validate``, ``bench`` and ``simulate`` forward their arguments to the
+``main(argv)`` of the module named in :data:`FORWARDED`.  Every
 subcommand runs through :func:`run`, the one place that turns exceptions into
 a one-line message on stderr and an exit code (:data:`EXIT_CODES`).
 """
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 import traceback
@@ -131,17 +132,17 @@ def cmd_demo(args) -> int:
     return run_demo(Path(data))
 
 
+#: Subcommands that parse their own arguments: name -> (module with ``main(argv)``, help).
+FORWARDED = {
+    "validate": ("socp_cd.dynamics.validate", "exact-solution validation table (dynamics)"),
+    "bench": ("socp_cd.bench.cli", "solver comparison campaigns"),
+    "simulate": ("socp_cd.scenes.simulate", "run a TOML scene file (docs/scenes.md)"),
+}
+
+
 def _forwarded(name: str):
-    """Entry point of a subcommand whose parser lives in its own module."""
-    if name == "validate":
-        from .dynamics.validate import main
-    else:
-        from .bench.cli import main
-    return main
-
-
-#: Subcommands that parse their own arguments.
-FORWARDED = ("validate", "bench")
+    """Entry point ``main(argv)`` of a subcommand whose parser lives in its own module."""
+    return importlib.import_module(FORWARDED[name][0]).main
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -165,8 +166,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-iter", type=int, default=None)
     p.add_argument("--crosscheck", default=None)
     p.set_defaults(func=cmd_solve)
-    for name, text in zip(FORWARDED, ("exact-solution validation table (dynamics)",
-                                      "solver comparison campaigns")):
+    for name, (_, text) in FORWARDED.items():
         sp.add_parser(name, help=text, add_help=False)
     return ap
 
