@@ -14,6 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
+from .errors import ProblemFormatError
+
 #: Environment variable naming the problems directory.
 DATA_ENV = "SOCP_CD_DATA"
 
@@ -97,6 +99,11 @@ def shared_problems(kind: Optional[str] = None, dim: Optional[int] = None) -> li
     -------
     list of SharedProblem
         Sorted by file name; empty when the data directory is absent.
+
+    Raises
+    ------
+    ProblemFormatError
+        A manifest row lacks a column or holds a non-numeric dim/contacts/mu.
     """
     directory = shared_problems_dir()
     if directory is None:
@@ -105,13 +112,17 @@ def shared_problems(kind: Optional[str] = None, dim: Optional[int] = None) -> li
     if manifest is None:
         return []
     out = []
-    with open(manifest, newline="", encoding="utf-8") as fh:
-        for row in csv.DictReader(fh, delimiter="\t"):
-            kind_text = row["kind"].strip()
-            entry = SharedProblem(
-                path=directory / row["file"], file=row["file"], format=row["format"].strip(),
-                kind=kind_text.split()[0], dim=int(row["dim"]), contacts=int(row["contacts"]),
-                mu=_parse_mu(row.get("mu", "")), has_solution="solution" in kind_text)
+    with open(manifest, newline="", encoding="utf-8", errors="replace") as fh:
+        for line, row in enumerate(csv.DictReader(fh, delimiter="\t"), start=2):
+            try:
+                kind_text = row["kind"].strip()
+                entry = SharedProblem(
+                    path=directory / row["file"], file=row["file"], format=row["format"].strip(),
+                    kind=kind_text.split()[0], dim=int(row["dim"]), contacts=int(row["contacts"]),
+                    mu=_parse_mu(row.get("mu", "")), has_solution="solution" in kind_text)
+            except (KeyError, ValueError, IndexError, AttributeError, TypeError) as exc:
+                raise ProblemFormatError(f"line {line}", f"malformed manifest row ({type(exc).__name__}: "
+                                                         f"{exc})", str(manifest)) from None
             if kind is not None and entry.kind != kind:
                 continue
             if dim is not None and entry.dim != dim:

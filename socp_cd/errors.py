@@ -7,6 +7,16 @@ can catch one type.  Messages name the *source* (file or argument), the *field*
 from __future__ import annotations
 
 
+#: Longest reason kept in a message (input echoed by a library can be megabytes).
+MAX_REASON = 500
+
+
+def clip(text: str, limit: int = MAX_REASON) -> str:
+    """*text* cut to *limit* characters, saying how long it was."""
+    text = str(text)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+
+
 class SocpCdError(Exception):
     """Base class of every socp_cd exception."""
 
@@ -26,7 +36,7 @@ class InvalidProblemError(SocpCdError, ValueError):
 
     def __init__(self, field: str, reason: str, source: str | None = None):
         self.field = field
-        self.reason = reason
+        self.reason = reason = clip(reason)
         self.source = source
         where = f"{source}: " if source else ""
         super().__init__(f"{where}field '{field}': {reason}")
@@ -34,6 +44,27 @@ class InvalidProblemError(SocpCdError, ValueError):
 
 class ProblemFormatError(InvalidProblemError):
     """A file is malformed, truncated, or misses a required group/field."""
+
+
+class InvalidArgumentError(SocpCdError, TypeError, ValueError):
+    """A function argument of the wrong type or value (not problem data).
+
+    Parameters
+    ----------
+    argument : str
+        Name of the argument (``"path"``, ``"tol"``...).
+    reason : str
+        Human-readable explanation.
+    """
+
+    def __init__(self, argument: str, reason: str):
+        self.argument = argument
+        self.reason = reason = clip(reason)
+        super().__init__(f"argument '{argument}': {reason}")
+
+
+class InputTooLargeError(ProblemFormatError, MemoryError):
+    """A file whose content does not fit in the memory available for reading it."""
 
 
 class UnsupportedError(SocpCdError, ValueError):
@@ -48,6 +79,8 @@ __all__ = [
     "SocpCdError",
     "InvalidProblemError",
     "ProblemFormatError",
+    "InvalidArgumentError",
+    "InputTooLargeError",
     "UnsupportedError",
     "SolverError",
 ]

@@ -30,14 +30,18 @@ from typing import Optional
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
 from .errors import InvalidProblemError
+from .residuals import error
 
 #: Relative threshold (w.r.t. max |W|) below which W - W^T counts as round-off.
 SYMMETRY_RTOL = 1e-10
-#: Largest size for which a dense rank computation is attempted.
-DENSE_RANK_LIMIT = 6000
+#: Largest block (rows or columns) of a matrix factorized densely for its rank.
+DENSE_RANK_LIMIT = 2000
+#: Default tolerance of the "trivial at this tol" flag of ``summary()``.
+TRIVIAL_TOL = 1e-8
 
 
 @dataclass
@@ -57,8 +61,22 @@ class Solution:
     v: Optional[np.ndarray] = None
 
 
+def _reject_complex(x, name: str, source: str | None):
+    """Raise when *x* holds complex numbers (NumPy would drop their imaginary part)."""
+    dtype = x.dtype if sp.issparse(x) or isinstance(x, np.ndarray) else None
+    if dtype is None:
+        try:
+            dtype = np.asarray(x).dtype
+        except (TypeError, ValueError):
+            return  # ragged or odd input: the float conversion reports it
+    if dtype.kind == "c":
+        raise InvalidProblemError(name, f"has complex dtype {dtype}; real values expected "
+                                        "(the imaginary part is not dropped silently)", source)
+
+
 def _as_sparse(A, name: str, source: str | None) -> sp.csr_matrix:
     """Convert *A* (dense or sparse) to float64 CSR, checking finiteness."""
+    _reject_complex(A, name, source)
     try:
         if sp.issparse(A):
             A = sp.csr_matrix(A, dtype=np.float64)
@@ -80,6 +98,7 @@ def _as_sparse(A, name: str, source: str | None) -> sp.csr_matrix:
 
 def _as_vector(x, name: str, n: int, source: str | None) -> np.ndarray:
     """Convert *x* to a finite float64 vector of length *n*."""
+    _reject_complex(x, name, source)
     try:
         arr = np.asarray(x, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -103,6 +122,7 @@ def _check_dim(dim, source):
 
 def _as_mu(mu, n_contacts: int, source: str | None) -> np.ndarray:
     """Broadcast *mu* to one finite, non-negative coefficient per contact."""
+    _reject_complex(mu, "mu", source)
     try:
         arr = np.asarray(mu, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError) as exc:
@@ -127,11 +147,96 @@ def _n_contacts(m: int, dim: int, field_name: str, source) -> int:
     return m // dim
 
 
-def _numerical_rank(A: sp.spmatrix) -> Optional[int]:
-    """Numerical rank of a sparse matrix (dense SVD); None when too large."""
-    if max(A.shape) > DENSE_RANK_LIMIT:
-        return None
-    return int(np.linalg.matrix_rank(A.toarray()))
+@dataclass(frozen=True)
+class RankReport:
+    """Numerical rank of a sparse matrix and how it was obtained.
+
+    Attributes
+    ----------
+    rank : int or None
+        Number of singular values above ``max(shape) * eps * sigma_max`` (the
+        NumPy ``matrix_rank`` rule on the whole matrix); None when not computed.
+    structural : int
+        Structural rank (maximum matching of the sparsity pattern): an upper
+        bound of the numerical rank, always computed (cheap).
+    method : str
+        One line saying how ``rank`` was computed, or why it was not.
+    """
+
+    rank: Optional[int]
+    structural: int
+    method: str
+
+
+#: Bytes of dense blocks factorized in one batched SVD call.
+_RANK_BATCH_BYTES = 64 << 20
+
+
+def _dense_blocks(coo, row_lab, col_lab, rows_per, cols_per, blocks):
+    """Yield ``(block ids, stack)``: the listed blocks as dense arrays, batched by shape.
+
+    ``stack[k]`` is block ``ids[k]`` (its rows and columns in increasing order),
+    so that ``np.linalg.svd`` factorizes all blocks of one shape in one call.
+    """
+    def local_index(labels, per):
+        order = np.argsort(labels, kind="stable")
+        start = np.concatenate(([0], np.cumsum(per)))
+        pos = np.empty(labels.size, dtype=np.int64)
+        pos[order] = np.arange(labels.size) - start[labels[order]]
+        return pos
+
+    row_pos, col_pos = local_index(row_lab, rows_per), local_index(col_lab, cols_per)
+    entry_block = row_lab[coo.row]
+    shapes = np.stack([rows_per[blocks], cols_per[blocks]], axis=1)
+    for r, c in np.unique(shapes, axis=0):
+        same = blocks[(shapes[:, 0] == r) & (shapes[:, 1] == c)]
+        per_batch = max(1, _RANK_BATCH_BYTES // (8 * int(r) * int(c)))
+        for k in range(0, same.size, per_batch):
+            ids = same[k:k + per_batch]
+            slot = np.full(rows_per.size, -1, dtype=np.int64)
+            slot[ids] = np.arange(ids.size)
+            sel = slot[entry_block] >= 0
+            stack = np.zeros((ids.size, r, c))
+            np.add.at(stack, (slot[entry_block[sel]], row_pos[coo.row[sel]], col_pos[coo.col[sel]]),
+                      coo.data[sel])
+            yield ids, stack
+
+
+def numerical_rank(A: sp.spmatrix, limit: int = DENSE_RANK_LIMIT) -> RankReport:
+    """Numerical rank of *A*, by dense SVDs of its independent blocks.
+
+    Rows and columns are grouped into the connected components of the
+    bipartite graph of the nonzeros (contacts coupled through shared bodies);
+    up to a permutation *A* is block diagonal in these groups, so its singular
+    values are those of the blocks.  Each block is factorized densely; when
+    the largest one exceeds *limit* rows or columns the rank is not computed
+    (only the structural rank is reported).  A diagonal 6000 x 6000 matrix
+    thus costs 6000 SVDs of size 1, not one of size 6000.
+    """
+    A = sp.csr_matrix(A)
+    m, n = A.shape
+    structural = int(csgraph.structural_rank(A)) if A.nnz else 0
+    pattern = sp.csr_matrix((np.ones(A.nnz), A.indices, A.indptr), shape=A.shape)
+    graph = sp.bmat([[None, pattern], [pattern.T, None]], format="csr")
+    n_blocks, labels = csgraph.connected_components(graph, directed=False)
+    row_lab, col_lab = labels[:m], labels[m:]
+    rows_per = np.bincount(row_lab, minlength=n_blocks)
+    cols_per = np.bincount(col_lab, minlength=n_blocks)
+    coupled = (rows_per > 0) & (cols_per > 0) & (np.bincount(row_lab, weights=np.diff(A.indptr),
+                                                             minlength=n_blocks) > 0)
+    big = int(np.max(np.maximum(rows_per, cols_per)[coupled], initial=0))
+    if big > limit:
+        return RankReport(None, structural,
+                          f"not computed: largest coupled block has {big} rows/columns > {limit} "
+                          f"(structural rank {structural} is an upper bound)")
+    sigmas = [np.zeros(0)]
+    for shape_blocks, stack in _dense_blocks(A.tocoo(), row_lab, col_lab, rows_per, cols_per,
+                                             np.flatnonzero(coupled)):
+        sigmas.append(np.linalg.svd(stack, compute_uv=False).reshape(-1))
+    sv = np.concatenate(sigmas)
+    tol = (sv.max() if sv.size else 0.0) * max(m, n) * np.finfo(np.float64).eps
+    return RankReport(int(np.count_nonzero(sv > tol)), structural,
+                      f"dense SVD of {int(coupled.sum())} independent blocks (largest {big})")
 
 
 class _ProblemBase:
@@ -165,6 +270,33 @@ class _ProblemBase:
     def reshape(self, x: np.ndarray) -> np.ndarray:
         """View a stacked contact vector as an ``(n_contacts, dim)`` array."""
         return np.asarray(x, dtype=np.float64).reshape(self.n_contacts, self.dim)
+
+    def trivial_error(self) -> Optional[float]:
+        """Siconos error of ``r = 0`` (None when ``M`` is singular)."""
+        try:
+            return error(self, np.zeros(self.m))
+        except InvalidProblemError:
+            return None
+
+    def _summary_common(self, tol: float) -> dict:
+        """Summary entries shared by local and global problems.
+
+        ``trivial`` is True when ``r = 0`` already meets *tol* (``error(r=0) <= tol``):
+        with ``||q||`` about 1e-18 any solver "converges" at once, so a study
+        must not count such problems as wins.  ``rank_method`` says how
+        ``rank`` was obtained (or why not); ``structural_rank`` bounds it.
+        """
+        err0 = self.trivial_error()
+        report = self.rank_report
+        return {
+            "rank": report.rank,
+            "structural_rank": report.structural,
+            "rank_method": report.method,
+            "rank_deficient": self.is_rank_deficient,
+            "error(r=0)": err0,
+            f"trivial@{tol:g}": None if err0 is None else bool(err0 <= tol),
+            "has_solution": self.solution is not None,
+        }
 
     def check_reaction(self, r, name: str = "r") -> np.ndarray:
         """Validate a candidate reaction vector (length, finiteness)."""
@@ -253,9 +385,14 @@ class FrictionContactProblem(_ProblemBase):
         return ((self.W - self.W.T) * 0.5).tocsr()
 
     @cached_property
+    def rank_report(self) -> RankReport:
+        """Numerical and structural rank of ``W`` (see :func:`numerical_rank`)."""
+        return numerical_rank(self.W)
+
+    @property
     def rank(self) -> Optional[int]:
-        """Numerical rank of ``W`` (None when ``m`` exceeds DENSE_RANK_LIMIT)."""
-        return _numerical_rank(self.W)
+        """Numerical rank of ``W`` (None when a coupled block exceeds DENSE_RANK_LIMIT)."""
+        return self.rank_report.rank
 
     @property
     def is_rank_deficient(self) -> Optional[bool]:
@@ -280,8 +417,11 @@ class FrictionContactProblem(_ProblemBase):
         args.update(changes)
         return FrictionContactProblem(**args)
 
-    def summary(self) -> dict:
-        """Properties users inspect first (sizes, mu range, symmetry, rank)."""
+    def summary(self, tol: float = TRIVIAL_TOL) -> dict:
+        """Properties users inspect first (sizes, mu range, symmetry, rank, triviality).
+
+        See :meth:`_ProblemBase._summary_common` for the rank and ``trivial`` entries.
+        """
         return {
             "name": self.name,
             "type": "local",
@@ -294,9 +434,7 @@ class FrictionContactProblem(_ProblemBase):
             "symmetric": self.is_symmetric,
             "max|W-W^T|": self.asymmetry,
             "max|W|": self.scale,
-            "rank": self.rank,
-            "rank_deficient": self.is_rank_deficient,
-            "has_solution": self.solution is not None,
+            **self._summary_common(tol),
         }
 
     def __repr__(self) -> str:
@@ -395,9 +533,14 @@ class GlobalFrictionContactProblem(_ProblemBase):
                                       guesses=[Solution(r=g.r, u=g.u) for g in self.guesses])
 
     @cached_property
+    def rank_report(self) -> RankReport:
+        """Numerical and structural rank of ``H`` (see :func:`numerical_rank`)."""
+        return numerical_rank(self.H)
+
+    @property
     def rank(self) -> Optional[int]:
-        """Numerical rank of ``H`` (None when too large for a dense SVD)."""
-        return _numerical_rank(self.H)
+        """Numerical rank of ``H`` (None when a coupled block exceeds DENSE_RANK_LIMIT)."""
+        return self.rank_report.rank
 
     @property
     def is_rank_deficient(self) -> Optional[bool]:
@@ -416,8 +559,11 @@ class GlobalFrictionContactProblem(_ProblemBase):
         scale = float(np.max(np.abs(self.M.data))) if self.M.nnz else 0.0
         return self.asymmetry <= SYMMETRY_RTOL * max(scale, np.finfo(float).tiny)
 
-    def summary(self) -> dict:
-        """Properties users inspect first (sizes, mu range, symmetry, rank)."""
+    def summary(self, tol: float = TRIVIAL_TOL) -> dict:
+        """Properties users inspect first (sizes, mu range, symmetry, rank, triviality).
+
+        See :meth:`_ProblemBase._summary_common` for the rank and ``trivial`` entries.
+        """
         return {
             "name": self.name,
             "type": "global",
@@ -430,9 +576,7 @@ class GlobalFrictionContactProblem(_ProblemBase):
             "mu": (float(self.mu.min()), float(self.mu.max())),
             "symmetric": self.is_symmetric,
             "max|M-M^T|": self.asymmetry,
-            "rank": self.rank,
-            "rank_deficient": self.is_rank_deficient,
-            "has_solution": self.solution is not None,
+            **self._summary_common(tol),
         }
 
     def __repr__(self) -> str:

@@ -10,6 +10,8 @@ from socp_cd import FrictionContactProblem, GlobalFrictionContactProblem
 from socp_cd.errors import InvalidProblemError, ProblemFormatError, SocpCdError
 from socp_cd.io import read_problem, write_fclib
 
+from _hostile import read_capped, siconos_dense_text
+
 # A valid local problem: dim 3, one contact, dense W = identity (column-major).
 GOOD = ["3", "1", "0", "3", "3", "3", "3",
         "1", "0", "0", "0", "1", "0", "0", "0", "1",
@@ -359,14 +361,14 @@ def test_hdf5_csc_pointer_beyond_entries(good_h5):
     mutate(good_h5, fn)
     with pytest.raises(ProblemFormatError) as ei:
         read_problem(good_h5)
-    assert "pointer array ends at" in check(ei, good_h5, "/fclib_local/W/i")
+    assert "at least 86 expected" in check(ei, good_h5, "/fclib_local/W/i")
 
 
 def test_hdf5_csc_too_few_pointers(good_h5):
     mutate(good_h5, lambda h: replace_ds(h, "/fclib_local/W/p", h["/fclib_local/W/p"][()][:5]))
     with pytest.raises(ProblemFormatError) as ei:
         read_problem(good_h5)
-    assert "expected 10" in check(ei, good_h5, "/fclib_local/W/p")
+    assert "at least 10 expected" in check(ei, good_h5, "/fclib_local/W/p")
 
 
 def test_hdf5_unknown_storage_code(good_h5):
@@ -404,3 +406,237 @@ def test_hdf5_solution_wrong_length(good_h5):
     with pytest.raises(ProblemFormatError) as ei:
         read_problem(good_h5)
     assert "expected 9" in check(ei, good_h5, "/solution/r")
+
+
+# ------------------------------------------- Siconos text: shifted values, odd tokens
+def drop_token(text, index):
+    """*text* without its whitespace-separated token number *index*, line layout kept."""
+    lines, seen = text.split("\n"), 0
+    for li, line in enumerate(lines):
+        toks = line.split()
+        if seen + len(toks) > index:
+            del toks[index - seen]
+            lines[li] = " ".join(toks)
+            return "\n".join(lines)
+        seen += len(toks)
+    raise IndexError(index)
+
+
+W2D = np.array([[2.0, 0.5, 0.1, 0.0], [0.5, 1.0, 0.0, 0.2], [0.1, 0.0, 3.0, 0.4], [0.0, 0.2, 0.4, 2.0]])
+
+
+def test_siconos_layout_helper_reads_back(tmp_path):
+    path = tmp_path / "ok.dat"
+    path.write_text(siconos_dense_text(W2D, [-1, 0.5, -2, 0.25], [0.3, 0.6], 2, trailing="1"))
+    p = read_problem(path)
+    np.testing.assert_array_equal(p.W.toarray(), W2D)
+    np.testing.assert_array_equal(p.mu, [0.3, 0.6])
+
+
+def test_dense_missing_W_value_with_trailing_flag_is_rejected(tmp_path):
+    """One W value lost: q and mu would shift by one and the flag '1' become a mu."""
+    text = siconos_dense_text(W2D, [-1, 0.5, -2, 0.25], [0.3, 0.6], 2, trailing="1")
+    path = tmp_path / "missing_w.dat"
+    path.write_text(drop_token(text, 7 + 5))  # 7 header tokens, then W
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "new line" in check(ei, path, "q")
+
+
+def test_old_layout_missing_W_value_is_rejected(tmp_path):
+    """Old files: one value per line, blank lines between sections."""
+    toks = ["3", "1", "", "0", "3", "3", "", "3", "3", "", "1", "0", "0", "", "0", "1", "0", "",
+            "0", "0", "1", "", "-1", "0", "0", "", "0.5", "1"]
+    del toks[toks.index("1", 10)]  # first W value
+    path = tmp_path / "old.dat"
+    path.write_text("\n".join(toks))
+    with pytest.raises(ProblemFormatError):
+        read_problem(path)
+
+
+def test_2d_missing_mu_value_followed_by_flag_is_rejected(tmp_path):
+    text = siconos_dense_text(W2D, [-1, 0.5, -2, 0.25], [0.3, 0.6], 2, trailing="0")
+    path = tmp_path / "missing_mu.dat"
+    path.write_text(drop_token(text, 7 + 16 + 4 + 1))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    check(ei, path, "mu")
+
+
+def test_2d_one_mu_too_many_is_rejected(tmp_path):
+    text = siconos_dense_text(W2D, [-1, 0.5, -2, 0.25], [0.3, 0.6, 0.9], 2)
+    assert text.startswith("2\n3\n")
+    text = "2\n2\n" + text[4:]  # header keeps 2 contacts
+    path = tmp_path / "extra_mu.dat"
+    path.write_text(text)
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert "line goes on" in check(ei, path, "mu")
+
+
+def test_huge_token_is_not_echoed_whole(tmp_path):
+    path = write_tokens(tmp_path, replaced(W_FIRST + 4, "7" * 2_000_000 + "x"))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    msg = check(ei, path, "W")
+    assert len(msg) < 500
+    assert "2000001 bytes" in msg
+
+
+@pytest.mark.parametrize("index, value, field", [(W_FIRST + 4, "1_4", "W"), (Q_FIRST, "1_0", "q"),
+                                                 (1, "0_1", "n_contacts")])
+def test_underscore_digit_groups_are_rejected(tmp_path, index, value, field):
+    path = write_tokens(tmp_path, replaced(index, value))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    assert value in check(ei, path, field)
+
+
+def test_trailing_token_must_be_an_integer_flag(tmp_path):
+    path = write_tokens(tmp_path, GOOD + ["0.5"])
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path)
+    check(ei, path, "end of file")
+
+
+def test_declared_size_beyond_the_file_fails_before_allocating(tmp_path):
+    """An all-zero sparse-block W declared 10^9 x 10^9 must not allocate its row pointers."""
+    path = write_tokens(tmp_path, ["2", str(10**9 // 2), "1", str(10**9), str(10**9), "0", "0.5"])
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(path, global_problem=False)
+    assert "exceeds" in check(ei, path, "W")
+
+
+# ------------------------------------------- FCLib HDF5: sizes declared, never stored
+def declare_unwritten(h, name, n, dtype="f8", **kw):
+    """Replace dataset *name* by one declaring *n* values and storing none."""
+    del h[name]
+    h.create_dataset(name, shape=(n,), dtype=dtype, **kw)
+
+
+@pytest.mark.parametrize("name, n, kw", [
+    ("/fclib_local/vectors/q", 2 * 10**9, {}),
+    ("/fclib_local/W/x", 2 * 10**9, {}),
+    ("/fclib_local/W/i", 4 * 10**8, {"compression": "gzip", "chunks": (10**6,)}),
+], ids=["q-2e9", "W.x-2e9", "W.i-gzip-4e8"])
+def test_hdf5_inflated_dataset_rejected_before_reading(good_h5, name, n, kw):
+    """A small file declaring gigabytes: rejected from the declared size, nothing read.
+
+    Run under a 1 GB address-space cap, so that reading it (16 GB, 3.2 GB)
+    would end in a raw MemoryError instead of a format error.
+    """
+    mutate(good_h5, lambda h: declare_unwritten(h, name, n, "i4" if name.endswith("/i") else "f8", **kw))
+    assert good_h5.stat().st_size < 100_000
+    out = read_capped(good_h5)
+    assert out["status"] == "error", out
+    assert out["type"] == "ProblemFormatError"
+    assert f"field '{name}'" in out["message"]
+    assert out["maxrss_kb"] < 400_000
+
+
+def test_hdf5_unwritten_small_dataset_reads_as_fill_value(good_h5):
+    """Real files hold small datasets never written (Box_Stacks /solution/r): zeros, not an error."""
+    def add(h):
+        h.create_group("solution").create_dataset("r", shape=(9,), dtype="f8")
+    mutate(good_h5, add)
+    np.testing.assert_array_equal(read_problem(good_h5).solution.r, np.zeros(9))
+
+
+def test_hdf5_size_field_with_many_values_rejected(good_h5):
+    mutate(good_h5, lambda h: replace_ds(h, "/fclib_local/W/m", np.array([9, 9], dtype=np.int32)))
+    with pytest.raises(ProblemFormatError) as ei:
+        read_problem(good_h5)
+    assert "expected 1" in check(ei, good_h5, "/fclib_local/W/m")
+
+
+# ------------------------------------------------------------------ path arguments
+@pytest.mark.parametrize("path", [None, 3, 2.5, b"\xff\xfe.dat", "", object()],
+                         ids=["None", "int", "float", "non-utf8-bytes", "empty", "object"])
+@pytest.mark.parametrize("reader", ["read_problem", "read_fclib", "read_siconos_dat"])
+def test_non_path_argument_raises_socp_cd_error(path, reader):
+    import socp_cd.io
+    from socp_cd.errors import InvalidArgumentError
+    with pytest.raises(InvalidArgumentError) as ei:
+        getattr(socp_cd.io, reader)(path)
+    assert isinstance(ei.value, SocpCdError) and ei.value.argument == "path"
+    assert "path" in str(ei.value)
+
+
+def test_utf8_bytes_path_is_accepted(tmp_path):
+    path = write_tokens(tmp_path, GOOD, "good.dat")
+    assert read_problem(str(path).encode()).n_contacts == 1
+
+
+# ------------------------------------------------------------------ command line
+def run_cli(argv, capsys):
+    from socp_cd.cli import main
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def good_dat(tmp_path):
+    return write_tokens(tmp_path, GOOD, "good.dat")
+
+
+@pytest.mark.parametrize("argv", [
+    ["solve", "MISSING"], ["info", "MISSING"], ["solve", "GOOD", "--solver", "foo"],
+    ["solve", "GOOD", "--tol", "0"], ["solve", "GOOD", "--tol", "abc"], ["bogus"], ["solve"],
+    ["info", "BAD"],
+], ids=["solve-missing", "info-missing", "solver-foo", "tol-0", "tol-abc", "bogus-cmd",
+        "no-file", "bad-file"])
+def test_cli_bad_input_is_one_line_and_code_2(argv, good_dat, tmp_path, capsys):
+    from socp_cd.cli import EXIT_BAD_INPUT
+    bad = write_tokens(tmp_path, GOOD[:-1], "bad.dat")
+    names = {"MISSING": tmp_path / "missing.dat", "GOOD": good_dat, "BAD": bad}
+    code, out, err = run_cli([names.get(a, a) for a in argv], capsys)
+    assert code == EXIT_BAD_INPUT
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("socp-cd") and "error:" in lines[0]
+    assert "Traceback" not in err
+
+
+def test_cli_codes_are_distinct_and_documented(capsys):
+    from socp_cd import cli
+    codes = [cli.EXIT_OK, cli.EXIT_NOT_CONVERGED, cli.EXIT_BAD_INPUT, cli.EXIT_INTERNAL]
+    assert len(set(codes)) == 4
+    with pytest.raises(SystemExit) as ei:
+        cli.main(["--help"])
+    assert ei.value.code == 0
+    out = capsys.readouterr().out
+    for code in codes:
+        assert f"{code:3d}  {cli.EXIT_CODES[code]}" in out
+
+
+def test_cli_internal_error_is_one_line_and_code_3(good_dat, capsys, monkeypatch):
+    import socp_cd
+    from socp_cd.cli import EXIT_INTERNAL
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("boom\nsecond line")
+    monkeypatch.setattr(socp_cd, "read_problem", broken)
+    monkeypatch.delenv("SOCP_CD_DEBUG", raising=False)
+    code, out, err = run_cli(["info", good_dat], capsys)
+    assert code == EXIT_INTERNAL
+    assert err.strip().splitlines() == ["socp-cd info: internal error: ZeroDivisionError: boom second line "
+                                        "(set SOCP_CD_DEBUG=1 for the traceback)"]
+
+
+def test_cli_not_converged_is_code_1(tmp_path, capsys):
+    from socp_cd.cli import EXIT_NOT_CONVERGED
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((12, 12))
+    p = FrictionContactProblem(A @ A.T + np.eye(12), -rng.random(12), 0.8, 3)
+    path = write_fclib(p, tmp_path / "p.hdf5")
+    code, out, err = run_cli(["solve", path, "--max-iter", "1", "--tol", "1e-14"], capsys)
+    assert code == EXIT_NOT_CONVERGED, out + err
+    assert "converged      False" in out
+
+
+def test_cli_info_states_rank_method_and_triviality(good_dat, capsys):
+    code, out, err = run_cli(["info", good_dat, "--tol", "1e-8"], capsys)
+    assert code == 0
+    assert "rank_method      dense SVD of" in out
+    assert "trivial@1e-08    False" in out

@@ -497,3 +497,35 @@ def test_shared_problems_filters():
     two = shared_problems(dim=2)
     assert two and all(e.dim == 2 for e in two)
     assert isinstance(ENTRIES[0], SharedProblem)
+
+
+def test_text_reader_memory_is_a_small_multiple_of_the_file(tmp_path):
+    """Worst case for a token-list reader: a 3 MB dense W of '0' tokens (2 bytes each).
+
+    Reading cost 30x the file size (tracemalloc; 79x in peak RSS) with a list
+    of tokens; the bound is 5x.  validation/reader_memory.py measures 8 MB files.
+    """
+    from _hostile import dense_zeros_text, read_memory
+    path = tmp_path / "zeros.dat"
+    path.write_text(dense_zeros_text(1224))
+    size = path.stat().st_size
+    assert size > 2_900_000
+    mem = read_memory(path)
+    assert mem["m"] == 1224
+    assert mem["traced_peak"] <= 5 * size, mem
+
+
+@pytest.mark.parametrize("row", ["a.dat\tsiconos-dat\tlocal\tthree\t1\t0.1\n",
+                                 "a.dat\tsiconos-dat\tlocal\n",
+                                 "a.dat\tsiconos-dat\t\t3\t1\t0.1\n",
+                                 "a.dat\tsiconos-dat\tlocal\t3\t1\t0.1..x\n"],
+                         ids=["dim-text", "short-row", "empty-kind", "bad-mu"])
+def test_malformed_manifest_row_names_the_line(tmp_path, monkeypatch, row):
+    from socp_cd.errors import ProblemFormatError
+    manifest = tmp_path / "MANIFEST.tsv"
+    manifest.write_text("file\tformat\tkind\tdim\tcontacts\tmu\n"
+                        "ok.dat\tsiconos-dat\tlocal\t3\t1\t0.1\n" + row)
+    monkeypatch.setenv("SOCP_CD_DATA", str(tmp_path))
+    with pytest.raises(ProblemFormatError) as ei:
+        shared_problems()
+    assert ei.value.field == "line 3" and ei.value.source == str(manifest)

@@ -1,6 +1,8 @@
 """Problem construction, validation and algebra (socp_cd.problem)."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -42,10 +44,17 @@ def _nan_at(a, index, value=np.nan):
     (dict(W=np.ones(9), q=Q9, mu=MU3), "W"),                      # 1-D W
     (dict(W=W9, q=Q9.reshape(3, 3), mu=MU3), "q"),                # q not a vector
     (dict(W=[["a"] * 9] * 9, q=Q9, mu=MU3), "W"),                 # not numbers
+    (dict(W=W9 + 1e-3j, q=Q9, mu=MU3), "W"),                      # complex W
+    (dict(W=sp.csr_matrix(W9 + 0j), q=Q9, mu=MU3), "W"),          # complex sparse W
+    (dict(W=W9, q=Q9 + 1j, mu=MU3), "q"),                         # complex q
+    (dict(W=W9, q=list(Q9[:8]) + [1j], mu=MU3), "q"),             # complex in a list
+    (dict(W=W9, q=Q9, mu=MU3 + 0j), "mu"),                        # complex mu
 ])
 def test_local_validation_names_the_field(kwargs, field):
-    with pytest.raises(InvalidProblemError) as info:
-        FrictionContactProblem(**kwargs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no ComplexWarning on the way
+        with pytest.raises(InvalidProblemError) as info:
+            FrictionContactProblem(**kwargs)
     assert info.value.field == field
     assert f"'{field}'" in str(info.value)
 
@@ -90,13 +99,19 @@ def _global_data(n=7, nc=2, dim=3, seed=1):
     (lambda d: d.update(mu=np.array([0.3, -1.0])), "mu"),
     (lambda d: d.update(dim=1), "dim"),
     (lambda d: d.update(M=np.zeros((0, 0)), H=np.zeros((0, 6)), f=np.zeros(0)), "M"),
+    (lambda d: d.update(M=d["M"] + 0j), "M"),
+    (lambda d: d.update(H=sp.csr_matrix(d["H"] * 1j)), "H"),
+    (lambda d: d.update(f=d["f"] + 1e-9j), "f"),
+    (lambda d: d.update(w=d["w"] + 1j), "w"),
 ])
 def test_global_validation_names_the_field(change, field):
     M, H, f, w, mu = _global_data()
     d = dict(M=M, H=H, f=f, w=w, mu=mu)
     change(d)
-    with pytest.raises(InvalidProblemError) as info:
-        GlobalFrictionContactProblem(**d)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no ComplexWarning on the way
+        with pytest.raises(InvalidProblemError) as info:
+            GlobalFrictionContactProblem(**d)
     assert info.value.field == field
 
 
@@ -133,6 +148,61 @@ def test_rank_of_redundant_contacts():
     assert p.rank == 3 and p.is_rank_deficient
     full = FrictionContactProblem(W9, Q9, MU3)
     assert full.rank == 9 and not full.is_rank_deficient
+
+
+def _block_diagonal_shuffled(seed=0):
+    """Random blocks of several shapes and ranks, rows and columns permuted."""
+    rng = np.random.default_rng(seed)
+    blocks = []
+    for r, c, k in [(1, 1, 1), (3, 3, 2), (3, 3, 3), (6, 6, 4), (2, 4, 2), (5, 2, 1), (1, 1, 0)]:
+        blocks.append(rng.standard_normal((r, k)) @ rng.standard_normal((k, c)))
+    A = sp.block_diag(blocks).toarray()
+    return A[rng.permutation(A.shape[0])][:, rng.permutation(A.shape[1])]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_blockwise_rank_equals_dense_rank(seed):
+    from socp_cd.problem import numerical_rank
+    A = _block_diagonal_shuffled(seed)
+    report = numerical_rank(sp.csr_matrix(A))
+    assert report.rank == np.linalg.matrix_rank(A) == 13
+    assert report.structural >= report.rank
+    assert "independent blocks" in report.method
+
+
+def test_rank_of_a_large_diagonal_is_cheap_and_exact():
+    """m = 6000, diagonal: 6000 blocks of size 1 (a dense SVD took 54 s and 647 MB)."""
+    d = np.ones(6000)
+    d[::7] = 0.0
+    p = FrictionContactProblem(sp.diags(d).tocsr(), np.ones(6000), 0.3)
+    assert p.rank == np.count_nonzero(d)
+    assert p.summary()["rank_method"].startswith("dense SVD of")
+
+
+def test_rank_not_computed_beyond_the_block_limit():
+    from socp_cd.problem import numerical_rank
+    A = sp.csr_matrix(np.triu(np.ones((30, 30))))
+    report = numerical_rank(A, limit=20)
+    assert report.rank is None and report.structural == 30
+    assert "not computed" in report.method and "30" in report.method
+    assert numerical_rank(A, limit=30).rank == 30
+
+
+@pytest.mark.parametrize("scale, tol, trivial", [(1e-18, 1e-8, True), (1.0, 1e-8, False),
+                                                 (1e-10, 1e-8, False), (1e-18, 1e-20, False)])
+def test_summary_flags_problems_trivial_at_tol(scale, tol, trivial):
+    """r = 0 meets tol when q is tiny (||q|| ~ 1e-18): flagged so a study does not count it."""
+    from socp_cd import error
+    q = scale * np.tile([-1.0, 0.5, 0.0], 3)  # approaching contacts: r = 0 is not a solution
+    p = FrictionContactProblem(W9, q, MU3)
+    summary = p.summary(tol=tol)
+    assert summary["error(r=0)"] == pytest.approx(error(p, np.zeros(9)))
+    assert summary[f"trivial@{tol:g}"] is trivial
+
+
+def test_summary_default_tol_is_1e_8():
+    p = FrictionContactProblem(W9, -1e-18 * np.ones(9), MU3)
+    assert p.summary()["trivial@1e-08"] is True
 
 
 # ------------------------------------------------------------------ algebra
@@ -204,3 +274,11 @@ def test_check_reaction():
     assert info.value.field == "r"
     with pytest.raises(InvalidProblemError):
         p.check_reaction(_nan_at(np.ones(9), 3))
+
+
+def test_error_message_does_not_echo_megabytes():
+    """NumPy's conversion error quotes the whole string; the message keeps 500 characters."""
+    with pytest.raises(InvalidProblemError) as info:
+        FrictionContactProblem(W9, ["7" * 2_000_000 + "x"] * 9, MU3)
+    assert info.value.field == "q"
+    assert len(str(info.value)) < 700 and "characters)" in str(info.value)

@@ -12,8 +12,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import ProblemFormatError
+from ..errors import InputTooLargeError, ProblemFormatError
 from .fclib import read_fclib, write_fclib
+from .paths import as_path, source_name
 from .siconos_dat import read_siconos_dat
 
 #: Signature at the start of every HDF5 file without user block.
@@ -28,8 +29,8 @@ def detect_format(path) -> str:
     ProblemFormatError
         If the file does not exist, is not a regular file or is empty.
     """
-    source = str(path)
-    p = Path(path)
+    p = as_path(path)
+    source = source_name(path)
     if not p.exists():
         raise ProblemFormatError("file", "does not exist", source)
     if not p.is_file():
@@ -71,17 +72,28 @@ def read_problem(path, *, global_problem: bool | None = None):
 
     Raises
     ------
+    InvalidArgumentError
+        *path* is not a path (``None``, a number, non-UTF-8 bytes).
     ProblemFormatError
         Missing, empty, truncated or malformed file; the message names the
-        file and the field.
+        file and the field.  :class:`~socp_cd.errors.InputTooLargeError` (a
+        subclass) when reading runs out of memory.
     InvalidProblemError
         Inconsistent data (NaN/Inf, negative mu, ...), also naming the file.
     """
     fmt = detect_format(path)
-    if fmt == "fclib-hdf5":
-        return read_fclib(path)
-    return read_siconos_dat(path, global_problem=global_problem)
+    path = source_name(path)
+    try:
+        if fmt == "fclib-hdf5":
+            return read_fclib(path)
+        return read_siconos_dat(path, global_problem=global_problem)
+    except MemoryError as exc:
+        if isinstance(exc, InputTooLargeError):
+            raise
+        raise InputTooLargeError("file", "does not fit in the memory available for reading it "
+                                         f"({Path(path).stat().st_size} bytes on disk)",
+                                 str(path)) from None
 
 
-__all__ = ["read_problem", "write_fclib", "detect_format", "read_fclib", "read_siconos_dat",
+__all__ = ["read_problem", "as_path", "write_fclib", "detect_format", "read_fclib", "read_siconos_dat",
            "HDF5_MAGIC"]

@@ -31,7 +31,17 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InvalidProblemError, ProblemFormatError
+from .paths import source_name
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem, Solution
+
+#: Largest ratio of declared to stored bytes accepted for a filtered (compressed)
+#: dataset: deflate cannot expand data more than about 1032 times.
+MAX_EXPANSION = 1100
+#: Bytes a dataset may declare beyond what it stores (times MAX_EXPANSION when
+#: filtered), besides the size of the file: HDF5 returns the fill value (0) for
+#: what was never written, and real files hold such datasets (an unwritten
+#: ``/solution/r`` in Box_Stacks), but a few kilobytes cannot declare gigabytes.
+UNSTORED_SLACK = 1 << 20
 
 #: Errors h5py/numpy may raise on corrupt or unexpected content.
 _H5_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexError, AttributeError)
@@ -43,6 +53,10 @@ class _Reader:
     def __init__(self, h5, source: str):
         self.h5 = h5
         self.source = source
+        try:
+            self.file_size = Path(source).stat().st_size
+        except OSError:
+            self.file_size = 0
 
     def err(self, field, reason):
         return ProblemFormatError(field, reason, self.source)
@@ -60,33 +74,70 @@ class _Reader:
             raise self.err(path, f"is not a {kind}")
         return obj
 
-    def array(self, path: str) -> np.ndarray:
+    def dataset(self, path: str, *, size: int | None = None, at_least: int | None = None):
+        """The dataset at *path*, its declared size checked before anything is read.
+
+        Parameters
+        ----------
+        size, at_least : int, optional
+            Number of values required (exactly / at least), known from the
+            size fields (``m, n, nz``) read before.
+
+        Raises
+        ------
+        ProblemFormatError
+            Wrong declared size, or a declared size far beyond what the file
+            stores for the dataset (see ``UNSTORED_SLACK``).
+        """
         ds = self.node(path)
         try:
-            arr = np.asarray(ds[()])
+            declared = int(ds.size or 0)  # a null dataspace has size None
+            itemsize = ds.dtype.itemsize
+            stored = ds.id.get_storage_size()
+            filtered = bool(ds.compression or ds.id.get_create_plist().get_nfilters())
+        except _H5_ERRORS as exc:
+            raise self.err(path, f"cannot be read ({exc}); truncated or corrupt file?") from None
+        if size is not None and declared != size:
+            raise self.err(path, f"has length {declared}, expected {size}")
+        if at_least is not None and declared < at_least:
+            raise self.err(path, f"has {declared} entries, at least {at_least} expected "
+                                 "(from the size fields m, n, nz or the pointer array)")
+        nbytes = declared * itemsize
+        limit = (MAX_EXPANSION if filtered else 1) * stored + self.file_size + UNSTORED_SLACK
+        if nbytes > limit:
+            raise self.err(path, f"declares {declared} values ({nbytes} bytes), far more than the "
+                                 f"file ({self.file_size} bytes) stores for it ({stored} bytes): "
+                                 "truncated or inflated size")
+        return ds
+
+    def array(self, path: str, *, size: int | None = None, at_least: int | None = None,
+              count: int | None = None) -> np.ndarray:
+        """Read a dataset (its first *count* values only, when given) as a flat array."""
+        ds = self.dataset(path, size=size, at_least=at_least)
+        try:
+            if count is not None and ds.ndim == 1:
+                arr = np.asarray(ds[:count])
+            else:
+                arr = np.asarray(ds[()]).reshape(-1)[:count]
         except _H5_ERRORS as exc:
             raise self.err(path, f"cannot be read ({exc}); truncated or corrupt file?") from None
         return arr
 
-    def numeric(self, path: str, dtype=np.float64) -> np.ndarray:
-        arr = self.array(path)
+    def numeric(self, path: str, dtype=np.float64, **sizes) -> np.ndarray:
+        arr = self.array(path, **sizes)
         if arr.dtype.kind not in "biuf":
             raise self.err(path, f"must be numeric, got dtype {arr.dtype}")
         return arr.astype(dtype, copy=False).reshape(-1)
 
     def integer(self, path: str) -> int:
-        arr = self.numeric(path, np.float64)
-        if arr.size != 1:
-            raise self.err(path, f"must hold one integer, got {arr.size} values")
+        arr = self.numeric(path, np.float64, size=1)
         val = arr[0]
         if not np.isfinite(val) or val != int(val):
             raise self.err(path, f"must be an integer, got {val!r}")
         return int(val)
 
     def vector(self, path: str, n: int | None = None) -> np.ndarray:
-        arr = self.numeric(path)
-        if n is not None and arr.size != n:
-            raise self.err(path, f"has length {arr.size}, expected {n}")
+        arr = self.numeric(path, size=n)
         if not np.all(np.isfinite(arr)):
             raise self.err(path, f"contains {int(np.count_nonzero(~np.isfinite(arr)))} NaN/Inf entries")
         return np.ascontiguousarray(arr, dtype=np.float64)
@@ -96,7 +147,7 @@ class _Reader:
         parent, _, key = path.rpartition("/")
         try:
             if path in self.h5:
-                arr = self.array(path)
+                arr = self.array(path, count=1)
             elif parent in self.h5 and key in self.h5[parent].attrs:
                 arr = np.asarray(self.h5[parent].attrs[key])
             else:
@@ -117,39 +168,32 @@ class _Reader:
         self.integer(f"{path}/nzmax")
         if m < 0 or n < 0:
             raise self.err(path, f"negative size {m} x {n}")
-        p = self.numeric(f"{path}/p", np.float64)
-        i = self.numeric(f"{path}/i", np.float64)
-        x = self.numeric(f"{path}/x", np.float64)
-        for name, arr in (("p", p), ("i", i)):
-            if arr.size and (not np.all(np.isfinite(arr)) or np.any(arr != np.round(arr))):
-                raise self.err(f"{path}/{name}", "index array holds non-integer values")
-        p = p.astype(np.int64)
-        i = i.astype(np.int64)
-        if nz >= 0:  # triplet: i rows, p columns
-            for name, arr in (("i", i), ("p", p), ("x", x)):
-                if arr.size < nz:
-                    raise self.err(f"{path}/{name}", f"has {arr.size} entries, nz = {nz} expected")
-            rows, cols, vals = i[:nz], p[:nz], x[:nz]
-            self._check_range(f"{path}/i", rows, m, "row")
-            self._check_range(f"{path}/p", cols, n, "column")
-            return sp.coo_matrix((vals, (rows, cols)), shape=(m, n))
+        if nz >= 0:  # triplet: i rows, p columns, nz entries each
+            i = self._indices(f"{path}/i", nz)
+            p = self._indices(f"{path}/p", nz)
+            x = self.numeric(f"{path}/x", at_least=nz, count=nz)
+            self._check_range(f"{path}/i", i, m, "row")
+            self._check_range(f"{path}/p", p, n, "column")
+            return sp.coo_matrix((x, (i, p)), shape=(m, n))
         if nz not in (-1, -2):
             raise self.err(f"{path}/nz", f"unknown storage code {nz} (-1 CSC, -2 CSR, >= 0 triplet)")
         outer, inner, kind = (n, m, "column") if nz == -1 else (m, n, "row")
-        if p.size < outer + 1:
-            raise self.err(f"{path}/p", f"has {p.size} pointers, expected {outer + 1} "
-                                        f"({'CSC' if nz == -1 else 'CSR'} with {outer} {kind}s)")
-        p = p[:outer + 1]
+        p = self._indices(f"{path}/p", outer + 1)
         if p[0] != 0 or np.any(np.diff(p) < 0):
             raise self.err(f"{path}/p", f"{kind} pointers must start at 0 and be non-decreasing")
         nnz = int(p[-1])
-        for name, arr in (("i", i), ("x", x)):
-            if arr.size < nnz:
-                raise self.err(f"{path}/{name}", f"has {arr.size} entries, pointer array ends at {nnz}")
-        idx = i[:nnz]
+        idx = self._indices(f"{path}/i", nnz)
+        x = self.numeric(f"{path}/x", at_least=nnz, count=nnz)
         self._check_range(f"{path}/i", idx, inner, "row" if nz == -1 else "column")
         cls = sp.csc_matrix if nz == -1 else sp.csr_matrix
-        return cls((x[:nnz], idx, p), shape=(m, n))
+        return cls((x, idx, p), shape=(m, n))
+
+    def _indices(self, path: str, count: int) -> np.ndarray:
+        """The first *count* values of an index array (the dataset must declare that many)."""
+        arr = self.numeric(path, np.float64, at_least=count, count=count)
+        if arr.size and (not np.all(np.isfinite(arr)) or np.any(arr != np.round(arr))):
+            raise self.err(path, "index array holds non-integer values")
+        return arr.astype(np.int64)
 
     def _check_range(self, field, idx, bound, what):
         if idx.size and (idx.min() < 0 or idx.max() >= bound):
@@ -185,7 +229,7 @@ def read_fclib(path) -> FrictionContactProblem | GlobalFrictionContactProblem:
         Inconsistent problem data (raised by the problem constructor, with the file as source).
     """
     import h5py
-    source = str(path)
+    source = source_name(path)
     try:
         h5 = h5py.File(source, "r")
     except _H5_ERRORS as exc:
