@@ -184,11 +184,13 @@ def test_progress_bar_only_on_a_terminal_and_not_with_quiet(tmp_path, capsys):
     assert capsys.readouterr().out == ""
 
 
-def test_cli_reports_a_bad_scene_file(tmp_path):
-    from socp_cd.scenes import SceneFileError
+def test_cli_reports_a_bad_scene_file(tmp_path, capsys):
+    from socp_cd.cli import EXIT_BAD_INPUT
     p = _scene(tmp_path, SMALL_2D.replace("radius = 0.05", "radius = -0.05"))
-    with pytest.raises(SceneFileError, match=r"s.toml: bodies\[0\].radius: must be positive"):
-        cli_main(["simulate", str(p)])
+    assert cli_main(["simulate", str(p)]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert re.search(r"s.toml: bodies\[0\].radius: must be positive", err)
 
 
 # ----------------------------------------------------------------------------- examples
