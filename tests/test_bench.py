@@ -69,7 +69,7 @@ def _registered_fakes():
         registry.register(name, ("coulomb",), description="test double")(fn)
     yield
     for name in _FAKES:
-        registry._REGISTRY.pop(name, None)
+        registry.unregister(name)
 
 
 def _ref(n=3, dim=3, seed=0):

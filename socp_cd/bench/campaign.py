@@ -424,8 +424,8 @@ def warm_up(solver: SolverChoice, dim: int) -> None:
     if key in _WARM or solver.is_siconos:
         return
     _WARM.add(key)
-    from ..solvers.registry import _REGISTRY
-    spec = _REGISTRY.get(solver.name)
+    from ..solvers.registry import solver_spec
+    spec = solver_spec(solver.name)
     if spec is None or not spec.func.__module__.startswith("socp_cd.solvers."):
         return  # only socp_cd's own backends are trusted to run outside the isolation
     from .generators import manufactured

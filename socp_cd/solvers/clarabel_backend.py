@@ -16,7 +16,7 @@ Global problems are solved natively (for ``associated`` and ``coulomb``) in
 the velocities ``v``: ``min ½ vᵀMv − fᵀv s.t. Hᵀv + w + shift ∈ K*_mu``; the
 constraint multipliers are the impulses ``r`` and ``W`` is never formed.
 Small ones (at most ``DENSE_CONDENSE_MAX`` dofs) are condensed instead by one
-dense LU of ``M`` (:func:`condense_dense`, ``info["condensed_dense"]``): the
+dense LU of ``M`` (:func:`socp_cd.condensation.condense_dense`, ``info["condensed_dense"]``): the
 local path then runs the compiled residuals and Newton polish.  Local problems
 with at most ``TINY_MAX`` unknowns and default outer options take the first
 outer iteration on a short path (:func:`_tiny_first_iteration`: one SOCP, one
@@ -25,7 +25,7 @@ did not converge.
 
 Options (all keyword arguments of :func:`socp_cd.solve`)
 ---------------------------------------------------------
-settings : dict
+inner_settings : dict
     Clarabel settings passed through (e.g. ``{"static_regularization_constant":
     1e-7, "direct_solve_method": "qdldl"}``), applied after socp_cd's defaults
     (``DEFAULT_SETTINGS``, plus ``SMALL_PROBLEM_SETTINGS`` in the De Saxcé
@@ -62,10 +62,16 @@ import clarabel
 
 from .conic_data import (clarabel_upper, coulomb_constraint, dense_to_csr, global_conic_data,
                          local_conic_data)
-from .desaxce import (DENSE_MAX, NSGS_POLISH_SWEEPS, OUTER_DEFAULTS, _polish,
-                      desaxce_fixed_point, natural_map_newton)
-from .registry import register
+from ..condensation import DENSE_CONDENSE_MAX, condense_dense
+from ..errors import UnsupportedError
+from .desaxce import DENSE_MAX, OUTER_DEFAULTS, desaxce_fixed_point, inner_tolerance
+from .kernels.cone import LAW_COULOMB
+from .kernels.dense import dense_error, dense_split
+from .kernels.polish import error_then_newton
+from .options import check_unknown
+from .polish import NSGS_POLISH_SWEEPS, natural_map_newton, nsgs_polish
 from .result import SolverResult
+from .spec import SolverSpec
 
 #: Clarabel status string -> provisional socp_cd status
 STATUS_MAP = {
@@ -147,7 +153,7 @@ def _build_settings(tol, settings, *, time_limit, verbose, max_iter):
     vals.update(settings or {})
     for key, val in vals.items():
         if not hasattr(s, key):
-            raise TypeError(f"unknown Clarabel setting {key!r}")
+            raise UnsupportedError(f"unknown Clarabel setting {key!r} (inner_settings)")
         setattr(s, key, val)
     return s
 
@@ -235,7 +241,7 @@ class ClarabelInner:
 
 def _single_socp(problem, formulation, tol, options):
     """One Clarabel solve of the associated / Tresca / frictionless program."""
-    itol = options.get("inner_tol", min(1e-10, tol * 1e-2))
+    itol = options.get("inner_tol", inner_tolerance(tol))
     s = make_settings(itol, options.get("settings"), time_limit=options.get("time_limit"),
                       verbose=options.get("verbose", False),
                       max_iter=options.get("clarabel_max_iter"))
@@ -264,7 +270,7 @@ def _single_socp(problem, formulation, tol, options):
         # global problems), keep the polished point only if its residual is lower
         from ..laws import LAW_RESIDUALS
         if polish != "newton":
-            raise TypeError(f"polish must be 'newton' or None for {formulation!r}")
+            raise UnsupportedError(f"polish must be 'newton' or None for {formulation!r}")
         law_err = LAW_RESIDUALS[formulation]
         e0 = law_err(problem, r)
         if e0 > tol:
@@ -285,11 +291,36 @@ def _single_socp(problem, formulation, tol, options):
 _OUTER_KEYS = tuple(OUTER_DEFAULTS)
 
 
-@register("clarabel", ("coulomb", "associated", "tresca", "frictionless"),
-          global_native=("associated", "coulomb"),
-          description="Clarabel interior point: SOCP relaxations; Coulomb by the De Saxcé fixed point")
-def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **options):
-    """Backend entry point (see the module docstring for options and statuses)."""
+#: solver-specific options (name -> description)
+OPTIONS = {
+    "threshold": "Tresca thresholds (formulation 'tresca')",
+    "inner_tol": "Clarabel tolerance of the single-SOCP formulations (default min(1e-10, tol/100))",
+    "accel": "outer acceleration: 'anderson' (default) or None",
+    "memory": "Anderson memory (default 5)",
+    "adaptive_tol": "inner tolerance follows the outer error (default False)",
+    "kappa": "adaptive inner tolerance factor (default 1e-2)",
+    "inner_tol_max": "loosest adaptive inner tolerance (default 1e-4)",
+    "inner_tol_min": "tightest inner tolerance (default min(1e-10, tol/100))",
+    "polish": "'newton' (default), 'nsgs', None or a callable polish(problem, r, tol, options)",
+    "polish_max_iter": "Newton polish steps per call (default 15)",
+    "polish_switch": "error below which the polish is tried (default: per problem size)",
+    "patience": "outer iterations without 10 % progress before 'stalled' (default 8)",
+}
+
+
+def clarabel_solve(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
+                   time_limit=None, verbose=False, inner_settings=None, **options):
+    """Backend entry point (see the module docstring for options and statuses).
+
+    ``inner_settings`` are Clarabel settings (its ``max_iter`` caps each
+    interior-point solve); ``max_iter`` caps the outer iterations of the fixed
+    point (default 100), or Clarabel's iterations for the single-SOCP laws.
+    """
+    check_unknown("clarabel", options, OPTIONS)
+    inner_settings = dict(inner_settings or {})
+    cap = inner_settings.pop("max_iter", None)
+    options.update(settings=inner_settings or None, time_limit=time_limit, verbose=verbose,
+                   clarabel_max_iter=cap)
     condensed = False
     if problem.is_global and problem.n_dofs <= DENSE_CONDENSE_MAX:
         problem, condensed = condense_dense(problem), True
@@ -297,13 +328,12 @@ def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **option
         problem = problem.to_local()  # the SOCP needs a symmetric M; the local path handles skew W
     skew_assoc = formulation == "associated" and not problem.is_global and not problem.is_symmetric
     if formulation != "coulomb" and not skew_assoc:
-        known = {"settings", "time_limit", "verbose", "threshold", "inner_tol", "clarabel_max_iter",
-                 "polish", "polish_max_iter"}
-        extra = set(options) - known
-        if extra:
-            raise TypeError(f"unknown Clarabel options {sorted(extra)}")
+        check_unknown("clarabel", options, {"settings", "time_limit", "verbose", "threshold",
+                                            "inner_tol", "clarabel_max_iter", "polish",
+                                            "polish_max_iter"})
         if max_iter is not None:  # one SOCP: max_iter caps Clarabel's interior-point iterations
-            options.setdefault("clarabel_max_iter", max_iter)
+            if options.get("clarabel_max_iter") is None:
+                options["clarabel_max_iter"] = max_iter
         res = _single_socp(problem, formulation, tol, options)
         if condensed:
             res.info["condensed_dense"] = True
@@ -312,10 +342,7 @@ def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **option
     if skew_assoc:  # asymmetric W: the skew part goes to an outer fixed point, no friction shift
         outer["law"] = "associated"
         options.pop("inner_tol", None)
-    known = {"settings", "time_limit", "verbose", "clarabel_max_iter"}
-    extra = set(options) - known
-    if extra:
-        raise TypeError(f"unknown Clarabel options {sorted(extra)}")
+    check_unknown("clarabel", options, {"settings", "time_limit", "verbose", "clarabel_max_iter"})
     if options.get("time_limit") is not None:
         outer.setdefault("time_limit", options["time_limit"])
 
@@ -374,12 +401,11 @@ def _tiny_first_iteration(problem, tol, options):
     generic loop with ``r0``), or None when Clarabel's unrefined solve did not end
     "Solved" (the generic loop then starts afresh, with iterative refinement).
     """
-    from .desaxce_kernels import LAW_COULOMB, dense_error, dense_split, error_then_newton
     W = problem.W
     m, dim = problem.m, problem.dim
     Wd, Ws, _, _, _, dsum = dense_split(W.indptr, W.indices, W.data, m)
     A, b, cones = coulomb_constraint(problem.mu, dim)
-    itol = min(1e-10, tol * 1e-2)
+    itol = inner_tolerance(tol)
     settings = make_settings(itol, {**SMALL_PROBLEM_SETTINGS, **(options.get("settings") or {})},
                              time_limit=options.get("time_limit"),
                              verbose=options.get("verbose", False),
@@ -402,9 +428,10 @@ def _tiny_first_iteration(problem, tol, options):
     errors, nsgs_sweeps = [err], None
     if err > tol:
         if e_pol > tol:   # stalled Newton: warm-started NSGS sweeps, as the generic loop
-            r_ns, sweeps, ok = _polish(problem, r_pol, tol, "nsgs", NSGS_POLISH_SWEEPS, "coulomb")
-            if ok and r_ns is not None:
-                nsgs_sweeps = sweeps
+            r_ns, ns = nsgs_polish(problem, r_pol, tol,
+                                   {"max_iter": NSGS_POLISH_SWEEPS, "law": "coulomb"})
+            if ns.get("available"):
+                nsgs_sweeps = ns["iterations"]
                 e_ns = float(dense_error(Wd, q, r_ns, mu, dim, LAW_COULOMB,
                                          float(np.sqrt(q @ q)), np.empty(m)))
                 if e_ns < e_pol:
@@ -433,29 +460,14 @@ def _merge_first(res, first):
         res.history = fi["errors"] + res.history
 
 
-#: global problems with at most this many dofs are condensed densely (``W = Hᵀ M⁻¹ H``)
-DENSE_CONDENSE_MAX = 200
+SPEC = SolverSpec(
+    "clarabel", clarabel_solve, ("coulomb", "associated", "tresca", "frictionless"),
+    global_native=("associated", "coulomb"),
+    description="Clarabel interior point: SOCP relaxations; Coulomb by the De Saxcé fixed point",
+    default_max_iter=100, options=OPTIONS,
+    inner_settings="Clarabel settings (clarabel.DefaultSettings fields; max_iter caps each SOCP)")
 
 
-def condense_dense(problem):
-    """Local form of a small global problem by one dense LU of ``M`` (compiled).
-
-    Same result as :meth:`~socp_cd.problem.GlobalFrictionContactProblem.to_local`
-    (``W = Hᵀ M⁻¹ H``, ``q = Hᵀ M⁻¹ f + w``) without the sparse factorization
-    and conversion overhead, which dominates a one-contact solve.  A singular ``M`` falls back
-    to ``to_local()`` (which raises :class:`~socp_cd.errors.InvalidProblemError`).
-    """
-    from ..problem import FrictionContactProblem
-    from .desaxce_kernels import dense_condense
-    W, q, ok = dense_condense(np.ascontiguousarray(problem.M.toarray()),
-                              np.ascontiguousarray(problem.H.toarray()),
-                              np.ascontiguousarray(problem.f), np.ascontiguousarray(problem.w))
-    if not ok:
-        return problem.to_local()
-    return FrictionContactProblem(dense_to_csr(W), q, problem.mu, problem.dim, source=problem.source,
-                                  name=problem.name, info=problem.info)
-
-
-__all__ = ["clarabel_solve", "ClarabelInner", "condense_dense", "DENSE_CONDENSE_MAX",
+__all__ = ["SPEC", "OPTIONS", "clarabel_solve", "ClarabelInner",
            "SMALL_PROBLEM_SETTINGS", "STATUS_MAP", "map_status", "make_settings",
            "DEFAULT_SETTINGS"]
