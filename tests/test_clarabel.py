@@ -438,8 +438,8 @@ def test_tiny_first_iteration_continues_when_polish_fails(monkeypatch):
         e = kd.dense_error(W, q, r, mu, dim, law, np.linalg.norm(q), np.empty(r.shape[0]))
         return r.copy(), 0, e, e
 
-    monkeypatch.setattr(dk, "error_then_newton", no_polish)
-    monkeypatch.setattr(cb, "_polish", lambda *a, **k: (None, 0, False))   # no NSGS either
+    monkeypatch.setattr(cb, "error_then_newton", no_polish)
+    monkeypatch.setattr(cb, "nsgs_polish", lambda p, r, *a, **k: (r, {"available": False}))   # no NSGS either
     p = one_contact((-1.0, 2.0, 0.0))
     res = solve(p, "clarabel", "coulomb", tol=1e-10, history=True)
     assert res.converged and res.iterations >= 2

@@ -319,8 +319,9 @@ def clarabel_solve(problem, formulation, *, tol, max_iter=None, r0=None, history
     check_unknown("clarabel", options, OPTIONS)
     inner_settings = dict(inner_settings or {})
     cap = inner_settings.pop("max_iter", None)
-    options.update(settings=inner_settings or None, time_limit=time_limit, verbose=verbose,
-                   clarabel_max_iter=cap)
+    native = dict(settings=inner_settings or None, time_limit=time_limit, verbose=verbose or None,
+                  clarabel_max_iter=cap)
+    options.update({k: v for k, v in native.items() if v is not None})
     condensed = False
     if problem.is_global and problem.n_dofs <= DENSE_CONDENSE_MAX:
         problem, condensed = condense_dense(problem), True

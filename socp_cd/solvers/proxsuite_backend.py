@@ -288,6 +288,7 @@ def solve_proxsuite(problem, formulation, *, tol, max_iter=None, r0=None, histor
         res = _solve_law(problem, cone_qp(problem, None, nf, placement, qp_max_iter), tol,
                          outer_cap, residual)
         if formulation == "faceted":
+            res.info["law_residual"] = residual(res.r)
             res.info.update(facets=nf if problem.dim == 3 else 2, placement=placement)
         return res
     # 2D coulomb: De Saxcé fixed point, every inner problem a QP on the exact wedge
