@@ -94,7 +94,7 @@ def _load(ref: ProblemRef):
         return read_problem(ref.path)
     kw = json.loads(ref.generator)
     if kw.pop("_builder", "generate") == "extremes":
-        from .extremes import build
+        from .extreme_cases import build
         return build(**kw)
     from .generators import generate
     return generate(**kw)
@@ -633,7 +633,7 @@ def run_campaign(problems, solvers=None, tolerances=None, time_limit: float = 30
         tasks = [t for t in tasks if key_of(_base_record(t)) not in done]
     if dask is not None and dask is not False:
         from .distributed import run_tasks_dask
-        records = run_tasks_dask(tasks, dask, n_workers=n_workers, verbose=verbose)
+        records = run_tasks_dask(tasks, run_one, dask, n_workers=n_workers, verbose=verbose)
     else:
         records = run_tasks(tasks, isolation=isolation, verbose=verbose)
     if csv_path is not None:

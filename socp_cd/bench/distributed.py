@@ -1,13 +1,12 @@
 """Run campaign tasks on dask.distributed, one dask task per run.
 
-Each dask task calls :func:`socp_cd.bench.campaign.run_one`, which loads (or
+Each dask task calls ``run_one`` (the caller passes
+:func:`socp_cd.bench.campaign.run_one`), which loads (or
 regenerates, deterministically from its seed) the problem inside the worker
 and isolates the solve with the same time limit as a serial campaign, so the
 records agree with a serial run except for the timing columns.
 """
 from __future__ import annotations
-
-from .campaign import run_one
 
 
 def _client(spec, n_workers: int = 2, threads: bool = False):
@@ -28,7 +27,7 @@ def _client(spec, n_workers: int = 2, threads: bool = False):
     return Client(cluster), cluster, True
 
 
-def run_tasks_dask(tasks, dask=True, *, n_workers: int = 2, threads: bool = False,
+def run_tasks_dask(tasks, run_one, dask=True, *, n_workers: int = 2, threads: bool = False,
                    verbose: bool = False) -> list[dict]:
     """Run :class:`~socp_cd.bench.campaign.RunTask` objects on dask; records in task order.
 
