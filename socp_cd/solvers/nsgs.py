@@ -86,11 +86,21 @@ def _option(options, name, default):
     return default if v is None else v
 
 
+_DEFAULT_SETTINGS: dict = {}
+
+
 def _settings(problem, options, inner_settings):
     """Checked NSGS settings (every bad value raises ``InvalidProblemError`` naming it)."""
-    check_unknown("nsgs (inner_settings)", inner_settings, LOCAL_SETTINGS)
-    options = {**options, **inner_settings}
     d = problem.dim
+    if not inner_settings and not (set(options) - {"threshold"}):
+        if d not in _DEFAULT_SETTINGS:        # defaults checked once per dimension
+            _DEFAULT_SETTINGS[d] = _checked_settings(d, {})
+        return _DEFAULT_SETTINGS[d]
+    check_unknown("nsgs (inner_settings)", inner_settings, LOCAL_SETTINGS)
+    return _checked_settings(d, {**options, **inner_settings})
+
+
+def _checked_settings(d, options):
     ls_name = _option(options, "local_solver", "exact" if d == 2 else "ac_newton")
     check_choice("local_solver", ls_name, _KINDS)
     if ls_name == "exact" and d == 3:

@@ -43,6 +43,9 @@ SOLVE_ARGUMENTS = ("problem", "solver", "formulation", "history", "crosscheck")
 def check_real(name, value, *, positive=False, minimum=None, maximum=None,
                open_interval=False) -> float:
     """``value`` as a finite float, or :class:`InvalidProblemError` naming ``name``."""
+    if type(value) is float and math.isfinite(value) and not (positive or minimum is not None
+                                                             or maximum is not None):
+        return value                                    # fast path (every solve passes tol)
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise InvalidProblemError(name, f"must be a real number, got {value!r} "
                                         f"({type(value).__name__})")
@@ -62,6 +65,8 @@ def check_real(name, value, *, positive=False, minimum=None, maximum=None,
 
 def check_int(name, value, *, minimum=None) -> int:
     """``value`` as an int (no bool, no str, no non-integral float) or ``InvalidProblemError``."""
+    if type(value) is int and (minimum is None or value >= minimum):
+        return value                                    # fast path
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         if isinstance(value, numbers.Real) and not isinstance(value, bool) \
                 and math.isfinite(float(value)) and float(value).is_integer():
@@ -86,12 +91,13 @@ def check_common(tol, max_iter, time_limit, verbose, inner_settings):
     """Validated common options; returns ``(tol, max_iter, time_limit, verbose, inner_settings)``."""
     if tol is None:
         raise InvalidProblemError("tol", "must be a positive finite number, got None")
-    tol = check_real("tol", tol, positive=True)
+    if not (type(tol) is float and 0.0 < tol < math.inf):   # fast path: a positive float
+        tol = check_real("tol", tol, positive=True)
     # None stays None: the solver applies its documented default (SolverSpec.default_max_iter)
     max_iter = None if max_iter is None else check_int("max_iter", max_iter, minimum=1)
     if time_limit is not None:
         time_limit = check_real("time_limit", time_limit, positive=True)
-    if not isinstance(verbose, (bool, int)) or isinstance(verbose, float):
+    if type(verbose) is not bool and not isinstance(verbose, numbers.Integral):
         raise InvalidProblemError("verbose", f"must be a bool, got {verbose!r}")
     if inner_settings is not None and not isinstance(inner_settings, dict):
         raise InvalidProblemError("inner_settings", f"must be a dict, got "
@@ -101,6 +107,8 @@ def check_common(tol, max_iter, time_limit, verbose, inner_settings):
 
 def check_unknown(solver_name, options, declared):
     """Raise :class:`UnsupportedError` when ``options`` holds a name not in ``declared``."""
+    if not options:
+        return
     unknown = set(options) - set(declared)
     if unknown:
         valid = sorted(set(COMMON_OPTIONS) | set(declared))

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, check_threshold, law_parameters
-from ..residuals import error as coulomb_error
+from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
 from .options import COMMON_OPTIONS, check_common, check_unknown
 from .result import STATUSES, SolverResult
 from .spec import SolverSpec
@@ -26,16 +26,17 @@ from .spec import SolverSpec
 FORMULATIONS = ("coulomb", "associated", "tresca", "frictionless", "faceted")
 
 _TABLE: dict = {}
+_LOADED = [False]
 
 
 def _table() -> dict:
     """Name -> spec: the built-in table (imported on first use) plus registered solvers."""
-    if not _TABLE.get("__loaded__"):
+    if not _LOADED[0]:
         from .table import BUILTIN
         for spec in BUILTIN:
             _TABLE.setdefault(spec.name, spec)
-        _TABLE["__loaded__"] = True
-    return {k: v for k, v in _TABLE.items() if k != "__loaded__"}
+        _LOADED[0] = True
+    return _TABLE
 
 
 def register(name: str, formulations, *, global_native=(), dims=(2, 3), description="",
@@ -55,7 +56,7 @@ def register(name: str, formulations, *, global_native=(), dims=(2, 3), descript
 def unregister(name: str) -> None:
     """Remove a solver registered with :func:`register` (a built-in comes back from the table)."""
     _TABLE.pop(name, None)
-    _TABLE.pop("__loaded__", None)
+    _LOADED[0] = False
 
 
 def solver_spec(name: str):
@@ -102,8 +103,10 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) 
         res.u = problem.velocity(r)
         if problem.is_global and res.v is None:
             res.v = problem.global_velocity(r)
-        res.coulomb_error = coulomb_error(problem, r, res.u)
-        law = law_residual(problem, formulation, r, res.u, **params)
+        # the law's residual and Siconos' Coulomb error, each computed once (one when equal)
+        judged = {name: law_residual(problem, name, r, res.u, **params)
+                  for name in {formulation, "coulomb"}}
+    res.coulomb_error, law = judged["coulomb"], judged[formulation]
     if not np.isfinite(res.coulomb_error):
         res.coulomb_error = float("inf")
     if not np.isfinite(law):      # overflow (e.g. r0 = 1e300): never report error = nan
@@ -125,7 +128,6 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) 
 
 
 def _check_problem(problem):
-    from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
     if not isinstance(problem, (FrictionContactProblem, GlobalFrictionContactProblem)):
         hint = (" (read a file with socp_cd.read_problem(path) first)"
                 if isinstance(problem, (str, bytes)) or hasattr(problem, "__fspath__") else "")
