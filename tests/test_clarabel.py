@@ -333,7 +333,7 @@ def test_real_problem_reaches_siconos_tolerance():
 
 
 # ------------------------------------------------- small-problem fast path
-def test_clarabel_upper_is_the_upper_triangle():
+def test_upper_csc_arrays_is_the_upper_triangle():
     rng = np.random.default_rng(11)
     for n in (4, cd.DENSE_P_MAX + 5):
         S = rng.normal(size=(n, n))
@@ -343,7 +343,7 @@ def test_clarabel_upper_is_the_upper_triangle():
             U = cd.upper_csc(M)
             assert U.has_sorted_indices
             assert np.array_equal(U.toarray(), np.triu(S))
-            assert np.array_equal(cd.CscArrays.of(cd.clarabel_upper(M)).toarray(), np.triu(S))
+            assert np.array_equal(cd.CscArrays.of(cd.upper_csc_arrays(M)).toarray(), np.triu(S))
 
 
 def test_clarabel_reads_csc_arrays():

@@ -60,7 +60,7 @@ import numpy as np
 
 import clarabel
 
-from .conic_data import (clarabel_upper, coulomb_constraint, dense_to_csr, global_conic_data,
+from .conic_data import (upper_csc_arrays, coulomb_constraint, dense_to_csr, global_conic_data,
                          local_conic_data)
 from ..condensation import DENSE_CONDENSE_MAX, condense_dense
 from ..errors import UnsupportedError
@@ -108,6 +108,22 @@ DEFAULT_SETTINGS = dict(
 #: which then stays on (:class:`ClarabelInner`, ``refine_on_failure``); the short path
 #: hands such a problem to the generic loop.
 SMALL_PROBLEM_SETTINGS = dict(iterative_refinement_enable=False)
+
+
+_CLARABEL_CONES = {"zero": clarabel.ZeroConeT, "nonneg": clarabel.NonnegativeConeT,
+                   "soc": clarabel.SecondOrderConeT}
+_CONE_CACHE: dict = {}
+
+
+def clarabel_cones(cones) -> list:
+    """Clarabel cone objects of neutral ``(kind, size)`` cones (:mod:`.conic_data`)."""
+    out = []
+    for c in cones:
+        obj = _CONE_CACHE.get(c)
+        if obj is None:
+            obj = _CONE_CACHE[c] = _CLARABEL_CONES[c[0]](c[1])
+        out.append(obj)
+    return out
 
 
 def map_status(clarabel_status) -> str:
@@ -186,7 +202,7 @@ class ClarabelInner:
             self.data = global_conic_data(problem)
         else:
             self.data = local_conic_data(problem, "associated", W_sym=W_sym)
-        self.cones = self.data.cones
+        self.cones = clarabel_cones(self.data.cones)
         self.solver = None
         self.tol = None
         self.last_v = None
@@ -249,7 +265,7 @@ def _single_socp(problem, formulation, tol, options):
         d = global_conic_data(problem)
     else:
         d = local_conic_data(problem, formulation, threshold=options.get("threshold"))
-    solver = clarabel.DefaultSolver(d.P, d.q, d.A, d.b, d.cones, s)
+    solver = clarabel.DefaultSolver(d.P, d.q, d.A, d.b, clarabel_cones(d.cones), s)
     sol = solver.solve()
     status = str(sol.status)
     v = None
@@ -412,7 +428,8 @@ def _tiny_first_iteration(problem, tol, options):
                              verbose=options.get("verbose", False),
                              max_iter=options.get("clarabel_max_iter"))
     q = problem.q
-    sol = clarabel.DefaultSolver(clarabel_upper(Ws), q, A, b, cones, settings).solve()
+    sol = clarabel.DefaultSolver(upper_csc_arrays(Ws), q, A, b, clarabel_cones(cones),
+                                 settings).solve()
     status = str(sol.status)
     if status != "Solved" and "iterative_refinement_enable" not in (options.get("settings") or {}):
         return None   # unrefined solve in trouble: the generic loop re-solves with refinement
@@ -469,6 +486,6 @@ SPEC = SolverSpec(
     inner_settings="Clarabel settings (clarabel.DefaultSettings fields; max_iter caps each SOCP)")
 
 
-__all__ = ["SPEC", "OPTIONS", "clarabel_solve", "ClarabelInner",
+__all__ = ["SPEC", "OPTIONS", "clarabel_solve", "ClarabelInner", "clarabel_cones",
            "SMALL_PROBLEM_SETTINGS", "STATUS_MAP", "map_status", "make_settings",
            "DEFAULT_SETTINGS"]
