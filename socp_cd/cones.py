@@ -65,19 +65,19 @@ def project_cone(x, mu, dim: int = 3) -> np.ndarray:
     In 2D ``K_mu`` is the wedge ``|x_T| <= mu x_N`` and the formulas coincide.
     """
     X = _blocks(x, dim)
-    mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), (X.shape[0],))
+    mu = np.asarray(mu, dtype=np.float64)
     xn = X[:, 0]
     xt = X[:, 1:]
     t = np.sqrt(np.einsum("ij,ij->i", xt, xt)) if dim == 3 else np.abs(xt[:, 0])
-    out = X.copy()
+    # boundary ray (side region; there t > 0: t = 0 is inside or polar)
+    pn = (xn + mu * t) / (1.0 + mu * mu)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale_t = np.where(t > 0.0, mu * pn / t, 0.0)
     polar = mu * t <= -xn
     inside = (t <= mu * xn) & ~polar
-    side = ~(polar | inside)
-    out[polar] = 0.0
-    pn = (xn[side] + mu[side] * t[side]) / (1.0 + mu[side] ** 2)
-    out[side, 0] = pn
-    # side implies t > 0 (t = 0 with x_N >= 0 is inside, with x_N < 0 polar)
-    out[side, 1:] = (mu[side] * pn / t[side])[:, None] * xt[side]
+    out = np.empty_like(X)
+    out[:, 0] = np.where(inside, xn, np.where(polar, 0.0, pn))
+    out[:, 1:] = np.where(inside[:, None], xt, np.where(polar, 0.0, scale_t)[:, None] * xt)
     return _restore(out, x)
 
 

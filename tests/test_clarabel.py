@@ -419,7 +419,7 @@ def test_small_problem_polish_from_first_iterate():
     assert np.allclose(res.r, [1.0, -0.5, 0.0], atol=1e-8)
 
 
-def test_tiny_first_iteration_agrees_with_generic_loop():
+def test_small_problem_with_default_and_explicit_outer_options_agree():
     rng = np.random.default_rng(16)
     mu = np.array([0.3, 0.5, 0.2, 0.4])
     r_s, u_s = law_pair(["slide", "stick", "sep", "slide"], mu, 3, rng)
@@ -432,14 +432,19 @@ def test_tiny_first_iteration_agrees_with_generic_loop():
     assert fast.iterations == 1 and np.isclose(fast.history[-1], fast.error, rtol=1e-6)
 
 
-def test_tiny_first_iteration_continues_when_polish_fails(monkeypatch):
-    # the short path's polishes are disabled: the generic loop must continue from its iterate
-    def no_polish(W, q, mu, dim, law, r, tol, max_iter, rho):
-        e = kd.dense_error(W, q, r, mu, dim, law, np.linalg.norm(q), np.empty(r.shape[0]))
-        return r.copy(), 0, e, e
+def test_small_problem_loop_continues_when_first_polish_fails(monkeypatch):
+    # the first polish is disabled: the loop must continue from its iterate
+    from socp_cd.solvers import polish as pol
+    calls = []
+    real = pol.POLISHES["newton"]
 
-    monkeypatch.setattr(cb, "error_then_newton", no_polish)
-    monkeypatch.setattr(cb, "nsgs_polish", lambda p, r, *a, **k: (r, {"available": False}))   # no NSGS either
+    def fails_first(problem, r, tol, options):
+        calls.append(1)
+        if len(calls) == 1:
+            return r.copy(), {"iterations": 0, "error": np.inf}
+        return real(problem, r, tol, options)
+
+    monkeypatch.setitem(pol.POLISHES, "newton", fails_first)
     p = one_contact((-1.0, 2.0, 0.0))
     res = solve(p, "clarabel", "coulomb", tol=1e-10, history=True)
     assert res.converged and res.iterations >= 2

@@ -17,11 +17,8 @@ the velocities ``v``: ``min ½ vᵀMv − fᵀv s.t. Hᵀv + w + shift ∈ K*_mu
 constraint multipliers are the impulses ``r`` and ``W`` is never formed.
 Small ones (at most ``DENSE_CONDENSE_MAX`` dofs) are condensed instead by one
 dense LU of ``M`` (:func:`socp_cd.condensation.condense_dense`, ``info["condensed_dense"]``): the
-local path then runs the compiled residuals and Newton polish.  Local problems
-with at most ``TINY_MAX`` unknowns and default outer options take the first
-outer iteration on a short path (:func:`_tiny_first_iteration`: one SOCP, one
-compiled error + Newton call) and continue in the generic loop only if that
-did not converge.
+local path then runs the compiled residuals and Newton polish.  Every problem,
+tiny ones included, goes through the one De Saxcé loop.
 
 Options (all keyword arguments of :func:`socp_cd.solve`)
 ---------------------------------------------------------
@@ -60,16 +57,12 @@ import numpy as np
 
 import clarabel
 
-from .conic_data import (upper_csc_arrays, coulomb_constraint, dense_to_csr, global_conic_data,
-                         local_conic_data)
 from ..condensation import DENSE_CONDENSE_MAX, condense_dense
 from ..errors import UnsupportedError
+from .conic_data import global_conic_data, local_conic_data
 from .desaxce import DENSE_MAX, OUTER_DEFAULTS, desaxce_fixed_point, inner_tolerance
-from .kernels.cone import LAW_COULOMB
-from .kernels.dense import dense_error, dense_split
-from .kernels.polish import error_then_newton
 from .options import check_unknown
-from .polish import NSGS_POLISH_SWEEPS, natural_map_newton, nsgs_polish
+from .polish import natural_map_newton
 from .result import SolverResult
 from .spec import SolverSpec
 
@@ -105,8 +98,7 @@ DEFAULT_SETTINGS = dict(
 #: iterative refinement buys nothing there (measured: 5-30 % faster, same outcome on the
 #: shared data; see validation/conic_vs_siconos.py).  A solve that does not end "Solved"
 #: (rank-deficient ``W``: unbounded relaxation; large ``mu``) is redone with refinement,
-#: which then stays on (:class:`ClarabelInner`, ``refine_on_failure``); the short path
-#: hands such a problem to the generic loop.
+#: which then stays on (:class:`ClarabelInner`, ``refine_on_failure``).
 SMALL_PROBLEM_SETTINGS = dict(iterative_refinement_enable=False)
 
 
@@ -377,105 +369,12 @@ def clarabel_solve(problem, formulation, *, tol, max_iter=None, r0=None, history
 
     factory.accepts_dense = True   # ClarabelInner takes a dense W_sym for small problems
     max_iter = max_iter or 100
-    first = None
-    if (not skew_assoc and r0 is None and not problem.is_global and problem.m <= TINY_MAX
-            and not outer and max_iter > 1):
-        first = _tiny_first_iteration(problem, tol, options)
-        if first is not None and first.status == "converged":
-            res = first
-        elif first is not None:   # continue the fixed point from the first iterate
-            r0 = first.r
-            max_iter -= 1
-    if first is None or first.status != "converged":
-        res = desaxce_fixed_point(problem, factory, tol=tol, max_iter=max_iter, r0=r0,
-                                  history=history, **outer)
-        if first is not None:
-            _merge_first(res, first)
-    elif history:
-        res.history = list(res.info.pop("errors"))
-    res.info.pop("errors", None)
+    res = desaxce_fixed_point(problem, factory, tol=tol, max_iter=max_iter, r0=r0,
+                              history=history, **outer)
     res.info["clarabel_status"] = res.info.get("inner_status")
     if condensed:
         res.info["condensed_dense"] = True
     return res
-
-
-#: local problems with at most this many unknowns take the first outer iteration on a
-#: short path (:func:`_tiny_first_iteration`)
-TINY_MAX = 30
-
-
-def _tiny_first_iteration(problem, tol, options):
-    """First De Saxcé iteration of a tiny local problem, without the generic loop's overhead.
-
-    Exactly what :func:`~socp_cd.solvers.desaxce.desaxce_fixed_point` does first
-    with default outer options (SOCP with zero shift, inner tolerance
-    ``min(1e-10, tol/100)``, compiled error, compiled Newton polish, NSGS sweeps
-    when Newton stalls), with the Python bookkeeping cut to a few calls: on a
-    one-contact problem the generic loop's glue costs more than Clarabel's own solve.  Returns a
-    :class:`SolverResult` (status ``converged`` when the recomputed error is
-    below ``tol``, else ``max_iter`` with the best iterate, to be continued by the
-    generic loop with ``r0``), or None when Clarabel's unrefined solve did not end
-    "Solved" (the generic loop then starts afresh, with iterative refinement).
-    """
-    W = problem.W
-    m, dim = problem.m, problem.dim
-    Wd, Ws, _, _, _, dsum = dense_split(W.indptr, W.indices, W.data, m)
-    A, b, cones = coulomb_constraint(problem.mu, dim)
-    itol = inner_tolerance(tol)
-    settings = make_settings(itol, {**SMALL_PROBLEM_SETTINGS, **(options.get("settings") or {})},
-                             time_limit=options.get("time_limit"),
-                             verbose=options.get("verbose", False),
-                             max_iter=options.get("clarabel_max_iter"))
-    q = problem.q
-    sol = clarabel.DefaultSolver(upper_csc_arrays(Ws), q, A, b, clarabel_cones(cones),
-                                 settings).solve()
-    status = str(sol.status)
-    if status != "Solved" and "iterative_refinement_enable" not in (options.get("settings") or {}):
-        return None   # unrefined solve in trouble: the generic loop re-solves with refinement
-    if status not in USABLE:
-        return None
-    mu = problem.mu
-    r = np.asarray(sol.x, dtype=np.float64)
-    r_pol, its, err, e_pol = error_then_newton(Wd, q, mu, dim, LAW_COULOMB, r, tol,
-                                                OUTER_DEFAULTS["polish_max_iter"],
-                                                m / dsum if dsum > 0.0 else 1.0)
-    if err != err:        # NaN: non-finite interior-point iterate
-        return None
-    err, e_pol = float(err), float(e_pol)
-    errors, nsgs_sweeps = [err], None
-    if err > tol:
-        if e_pol > tol:   # stalled Newton: warm-started NSGS sweeps, as the generic loop
-            r_ns, ns = nsgs_polish(problem, r_pol, tol,
-                                   {"max_iter": NSGS_POLISH_SWEEPS, "law": "coulomb"})
-            if ns.get("available"):
-                nsgs_sweeps = ns["iterations"]
-                e_ns = float(dense_error(Wd, q, r_ns, mu, dim, LAW_COULOMB,
-                                         float(np.sqrt(q @ q)), np.empty(m)))
-                if e_ns < e_pol:
-                    r_pol, e_pol = r_ns, e_ns
-        if e_pol < err:
-            r, err = r_pol, e_pol
-            errors.append(err)
-    info = {"polish_iterations": int(its), "polish_calls": int(errors[0] > tol),
-            "inner_iterations": int(sol.iterations), "inner_status": status,
-            "outer_error": err, "anderson_restarts": 0, "errors": errors}
-    if nsgs_sweeps is not None:
-        info["nsgs_polish_sweeps"] = int(nsgs_sweeps)
-    return SolverResult(r=r, status="converged" if err <= tol else "max_iter", iterations=1,
-                        info=info, error=err,
-                        message="converged after polish" if len(errors) > 1 else "")
-
-
-def _merge_first(res, first):
-    """Fold the short-path first iteration into the generic loop's result."""
-    fi = first.info
-    res.iterations += 1
-    for key in ("polish_iterations", "polish_calls", "inner_iterations", "nsgs_polish_sweeps"):
-        if key in fi:
-            res.info[key] = res.info.get(key, 0) + fi[key]
-    if res.history is not None:
-        res.history = fi["errors"] + res.history
 
 
 SPEC = SolverSpec(
