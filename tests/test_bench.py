@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import socp_cd
-from socp_cd.bench import campaign as C
+from socp_cd import bench as C
 from socp_cd.bench import records as R
 from socp_cd.bench import reports as P
 from socp_cd.bench.generators import generate

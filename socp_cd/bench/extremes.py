@@ -16,9 +16,10 @@ import json
 import math
 from pathlib import Path
 
-import numpy as np
 
-from .campaign import ProblemRef, default_solvers, run_campaign
+from .campaign import run_campaign
+from .problem_refs import ProblemRef
+from .tasks import default_solvers
 from .extreme_cases import CASES, build
 
 def extreme_problems(size: int = 50, large: int = 10_000, dims=(3,), cases=None, seed: int = 0):
@@ -29,8 +30,9 @@ def extreme_problems(size: int = 50, large: int = 10_000, dims=(3,), cases=None,
             continue
         for dim in ((max(dims),) if case == "large" else dims):   # one large problem (3D)
             n = large if case == "large" else (0 if case == "zero_contacts" else size)
-            kw = dict(_builder="extremes", case=case, n_contacts=int(n), dim=int(dim), seed=seed)
-            out.append(ProblemRef(f"{case} ({dim}d, {n})", "extremes", generator=json.dumps(kw, sort_keys=True)))
+            kw = dict(case=case, n_contacts=int(n), dim=int(dim), seed=seed)
+            out.append(ProblemRef(f"{case} ({dim}d, {n})", "extremes",
+                                  generator=json.dumps(kw, sort_keys=True), builder="extremes"))
     return out
 
 
