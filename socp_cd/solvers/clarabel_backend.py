@@ -66,20 +66,21 @@ from .polish import natural_map_newton
 from .result import SolverResult
 from .spec import SolverSpec
 
-#: Clarabel status string -> provisional socp_cd status
+#: Clarabel status string -> (provisional socp_cd status, explanation); the same shape as
+#: every backend's ``STATUS_MAP``
 STATUS_MAP = {
-    "Solved": "converged",
-    "AlmostSolved": "stalled",
-    "InsufficientProgress": "stalled",
-    "MaxIterations": "max_iter",
-    "MaxTime": "time_limit",
-    "NumericalError": "numerical_error",
-    "PrimalInfeasible": "numerical_error",
-    "DualInfeasible": "numerical_error",
-    "AlmostPrimalInfeasible": "numerical_error",
-    "AlmostDualInfeasible": "numerical_error",
-    "Unsolved": "numerical_error",
-    "CallbackTerminated": "numerical_error",
+    "Solved": ("converged", ""),
+    "AlmostSolved": ("stalled", "Clarabel stopped at reduced accuracy"),
+    "InsufficientProgress": ("stalled", "Clarabel made insufficient progress"),
+    "MaxIterations": ("max_iter", "Clarabel hit its iteration cap"),
+    "MaxTime": ("time_limit", "Clarabel hit its time limit"),
+    "NumericalError": ("numerical_error", "Clarabel: numerical error"),
+    "PrimalInfeasible": ("numerical_error", "reported infeasible, impossible (r = 0 is feasible)"),
+    "DualInfeasible": ("numerical_error", "reported dual infeasible: the relaxation is unbounded"),
+    "AlmostPrimalInfeasible": ("numerical_error", "reported almost infeasible"),
+    "AlmostDualInfeasible": ("numerical_error", "reported almost dual infeasible"),
+    "Unsolved": ("numerical_error", "Clarabel did not run"),
+    "CallbackTerminated": ("numerical_error", "terminated by a callback"),
 }
 
 #: statuses whose iterate is a usable (possibly inaccurate) solution
@@ -120,7 +121,7 @@ def clarabel_cones(cones) -> list:
 
 def map_status(clarabel_status) -> str:
     """Provisional socp_cd status of a Clarabel status (string or ``SolverStatus``)."""
-    return STATUS_MAP.get(str(clarabel_status), "numerical_error")
+    return STATUS_MAP.get(str(clarabel_status), ("numerical_error", ""))[0]
 
 
 _SETTINGS_CACHE: dict = {}

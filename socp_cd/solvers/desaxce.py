@@ -261,6 +261,16 @@ class FixedPoint:
         r_pol = np.asarray(r_pol, dtype=np.float64)
         return r_pol, self.ws.error(r_pol) if not self.ws.dense else float(pinfo["error"])
 
+    @staticmethod
+    def keep_better(out, r_best, e_best, hist):
+        """The polished point ``out = (r, err)`` when it beats the best iterate (then recorded
+        in ``hist``), else the best iterate."""
+        if out is None or out[1] >= e_best:
+            return r_best, e_best
+        if hist is not None:
+            hist.append(out[1])
+        return out
+
     # ------------------------------------------------------------------ loop
     def run(self, max_iter, r0=None, history=False) -> SolverResult:
         """Iterate at most ``max_iter`` outer steps from ``r0``; see :func:`desaxce_fixed_point`."""
@@ -281,14 +291,6 @@ class FixedPoint:
         err_prev2 = np.inf
         itol = o["inner_tol_max"] if o["adaptive_tol"] else self.tmin
         since_improve, ref_err = 0, np.inf
-
-        def keep_better(out, r_best, e_best):
-            """The polished point when it beats the best iterate (recorded in the history)."""
-            if out is None or out[1] >= e_best:
-                return r_best, e_best
-            if hist is not None:
-                hist.append(out[1])
-            return out
 
         k = 0
         r = None
@@ -311,8 +313,8 @@ class FixedPoint:
                 break
             if self.polish is not None and err <= min(self.switch, self.retry_factor * polish_at):
                 polish_at = err
-                best_r, best_err = keep_better(self.polish_from(r, o["polish_max_iter"]),
-                                               best_r, best_err)
+                best_r, best_err = self.keep_better(self.polish_from(r, o["polish_max_iter"]),
+                                                    best_r, best_err, hist)
                 if best_err <= tol:
                     status, message = "converged", "converged after polish"
                     break
@@ -345,7 +347,8 @@ class FixedPoint:
             # hard-friction problems, e.g. mu = 10, the loop stalls near 1e-3 and
             # Newton needs ~100 steps)
             budget = (FINAL_POLISH_FACTOR if ws.dense else 3) * o["polish_max_iter"]
-            best_r, best_err = keep_better(self.polish_from(best_r, budget), best_r, best_err)
+            best_r, best_err = self.keep_better(self.polish_from(best_r, budget), best_r, best_err,
+                                                hist)
             if best_err <= tol:
                 status, message = "converged", "converged after polish"
         info = self.info

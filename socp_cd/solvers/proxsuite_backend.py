@@ -44,20 +44,19 @@ except ModuleNotFoundError:  # pragma: no cover - proxsuite is a declared depend
 DEFAULT_MAX_ITER = 50       #: outer De Saxcé iterations (2D coulomb)
 
 
-def _status_map():
-    S = proxqp.QPSolverOutput
-    return {
-        S.PROXQP_SOLVED: ("converged", ""),
-        S.PROXQP_MAX_ITER_REACHED: ("max_iter", "ProxQP hit its iteration cap "
-                                                "(also its symptom of an unbounded QP: no solution)"),
-        S.PROXQP_PRIMAL_INFEASIBLE: ("numerical_error", "ProxQP reported primal infeasibility, "
-                                                        "impossible (r = 0 is feasible)"),
-        S.PROXQP_DUAL_INFEASIBLE: ("numerical_error", "ProxQP reported dual infeasibility: the QP "
-                                                      "is unbounded below, the law has no solution"),
-        S.PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE: ("numerical_error", "ProxQP returned the closest "
-                                                                     "primal-feasible QP"),
-        S.PROXQP_NOT_RUN: ("numerical_error", "ProxQP did not run"),
-    }
+#: ProxQP status name -> (provisional socp_cd status, explanation)
+STATUS_MAP = {
+    "PROXQP_SOLVED": ("converged", ""),
+    "PROXQP_MAX_ITER_REACHED": ("max_iter", "ProxQP hit its iteration cap "
+                                            "(also its symptom of an unbounded QP: no solution)"),
+    "PROXQP_PRIMAL_INFEASIBLE": ("numerical_error", "ProxQP reported primal infeasibility, "
+                                                    "impossible (r = 0 is feasible)"),
+    "PROXQP_DUAL_INFEASIBLE": ("numerical_error", "ProxQP reported dual infeasibility: the QP "
+                                                  "is unbounded below, the law has no solution"),
+    "PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE": ("numerical_error", "ProxQP returned the closest "
+                                                                 "primal-feasible QP"),
+    "PROXQP_NOT_RUN": ("numerical_error", "ProxQP did not run"),
+}
 
 
 class ProxQPInner:
@@ -100,7 +99,6 @@ class ProxQPInner:
         self.scale = max(float(scale), np.finfo(float).tiny)
         self.n = n
         self.initialized = False
-        self.status_map = _status_map()
 
     def eps_abs(self, tol: float) -> float:
         """ProxQP's absolute tolerance (inf-norm of its residuals) for a relative ``tol``."""
@@ -120,7 +118,7 @@ class ProxQPInner:
             self.qp.update(g=g)
         self.qp.solve()
         res = self.qp.results
-        st, why = self.status_map.get(res.info.status, ("numerical_error", "unknown ProxQP status"))
+        st, why = STATUS_MAP.get(res.info.status.name, ("numerical_error", "unknown ProxQP status"))
         x = np.array(res.x, dtype=np.float64)
         r = x if self.E is None else self.E @ x
         return r, {"iterations": int(res.info.iter), "status": res.info.status.name,
@@ -315,5 +313,5 @@ SPEC = SolverSpec(
     default_max_iter=DEFAULT_MAX_ITER, options=OPTIONS,
     inner_settings="ProxQP settings: max_iter (per QP)")
 
-__all__ = ["SPEC", "OPTIONS", "ProxQPInner", "frictionless_qp", "cone_qp", "tresca_qp", "solve_proxsuite",
+__all__ = ["SPEC", "OPTIONS", "STATUS_MAP", "ProxQPInner", "frictionless_qp", "cone_qp", "tresca_qp", "solve_proxsuite",
            "DEFAULT_FACETS"]
