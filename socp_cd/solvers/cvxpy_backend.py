@@ -167,22 +167,23 @@ class CvxpyModel:
         self.prob.get_problem_data(cp.CLARABEL)
         return self
 
-    def solve(self, q_shift, tol: float):
-        """Solve for the linear term ``q_shift``; returns ``(r, info)``.
-
-        ``info`` has ``iterations`` (Clarabel's), ``status`` (cvxpy's),
-        ``ok`` (True for ``optimal``), ``objective`` and ``socp_status``
-        (the provisional socp_cd status from :data:`STATUS_MAP`).
-        """
+    def apply(self, q_shift) -> None:
+        """Step 1: put the data of this solve into the compiled model (the parameter ``q_shift``)."""
         self.q_shift.value = np.asarray(q_shift, dtype=np.float64)
+
+    def run(self, tol: float) -> str:
+        """Step 2: run Clarabel through cvxpy at tolerance ``tol``; returns cvxpy's status."""
         opts = {**clarabel_tolerances(tol), **self.solver_options}
         try:
             with warnings.catch_warnings():   # inaccuracy is reported through the status
                 warnings.filterwarnings("ignore", message="Solution may be inaccurate")
                 self.prob.solve(solver=cp.CLARABEL, warm_start=True, **opts)
-            status = self.prob.status
+            return self.prob.status
         except cp.error.SolverError:
-            status = "solver_error"
+            return "solver_error"
+
+    def invert(self, status: str):
+        """Step 3: the contact impulses and the ``info`` of the inner protocol from the solution."""
         r = self.r.value
         if r is None or status not in ("optimal", "optimal_inaccurate", "user_limit"):
             r = np.zeros(self.m)
@@ -195,6 +196,16 @@ class CvxpyModel:
             "objective": self.prob.value,
             "socp_status": STATUS_MAP.get(status, ("numerical_error", ""))[0],
         }
+
+    def solve(self, q_shift, tol: float):
+        """Solve for the linear term ``q_shift``: :meth:`apply`, :meth:`run`, :meth:`invert`.
+
+        Returns ``(r, info)``; ``info`` has ``iterations`` (Clarabel's),
+        ``status`` (cvxpy's), ``ok`` (True for ``optimal``), ``objective`` and
+        ``socp_status`` (the provisional socp_cd status from :data:`STATUS_MAP`).
+        """
+        self.apply(q_shift)
+        return self.invert(self.run(tol))
 
 
 def _result_from_inner(r, info) -> SolverResult:
