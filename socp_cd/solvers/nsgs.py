@@ -49,8 +49,8 @@ from ..errors import UnsupportedError
 from .block_storage import problem_blocks
 from .local_solvers import (KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION, LAW_ASSOCIATED,
                             LAW_COULOMB, LAW_TRESCA)
-from .nsgs_kernels import (STATUS_MAX_ITER, STATUS_NAMES, STATUS_NUMERICAL, full_error,
-                           local_parameters, nsgs_loop)
+from .nsgs_kernels import (STATUS_MAX_ITER, STATUS_NAMES, STATUS_NUMERICAL, BlockW, Law,
+                           LocalSolver, Sweeps, full_error, local_parameters, nsgs_loop)
 from .options import check_choice, check_int, check_real, check_unknown
 from .result import SolverResult
 from .spec import SolverSpec
@@ -153,16 +153,20 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                                     f"W_NN <= 0: one-contact problem ill-posed")
 
     hist = np.full(min(max_iter, HISTORY_CHUNK) if history else 1, np.nan)
+    W = BlockW(S.indptr, S.indices, S.blocks, S.diag)
+    law_t = Law(mu, g, int(law))
+    local = LocalSolver(int(_KINDS[st["ls_name"]]), rhoN, rhoT, rhoP, float(st["loc_tol"]),
+                        int(st["newton_maxit"]), int(st["proj_maxit"]))
     info["setup_time"] = time.perf_counter() - t_setup
     t0 = time.perf_counter()
     done, block = 0, (max_iter if time_limit is None else min(max_iter, TIME_CHECK_SWEEPS))
     hist_all = []
     while True:
-        status, iters, err, n_full, n_fail, light, hist = nsgs_loop(
-            d, nc, S.indptr, S.indices, S.blocks, S.diag, q, mu, g, law, _KINDS[st["ls_name"]],
-            rhoN, rhoT, rhoP, r, float(tol), block, st["omega"], st["ordering"] == "shuffled",
-            st["seed"] + done, st["error_every"], st["stall_window"], bool(history),
-            st["loc_tol"], st["newton_maxit"], st["proj_maxit"], hist)
+        sweeps = Sweeps(float(tol), int(block), float(st["omega"]), st["ordering"] == "shuffled",
+                        int(st["seed"] + done), int(st["error_every"]), int(st["stall_window"]),
+                        bool(history))
+        status, iters, err, n_full, n_fail, light, hist = nsgs_loop(d, W, q, law_t, local, sweeps,
+                                                                    r, hist)
         if history:
             hist_all.extend(hist[:iters].tolist())
         done += int(iters)

@@ -7,6 +7,8 @@ the outcome.
 """
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
@@ -64,11 +66,24 @@ def full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u):
     return law_error(r, u, mu, g, d, law, norm_q)
 
 
+#: The block-sparse ``W`` (:mod:`socp_cd.solvers.block_storage`): block-row pointers,
+#: block-column indices, the ``(nnzb, d, d)`` blocks and the ``(nc, d, d)`` diagonal blocks.
+BlockW = namedtuple("BlockW", "indptr indices blocks diag")
+#: The contact law: friction coefficients, Tresca thresholds (per contact) and the law code.
+Law = namedtuple("Law", "mu g code")
+#: One-contact solver: kind code, per-contact steps and its tolerance and caps.
+LocalSolver = namedtuple("LocalSolver", "kind rhoN rhoT rhoP tol newton_max_iter projection_max_iter")
+#: Sweep settings: tolerance, cap, relaxation, ordering, error policy, recording.
+Sweeps = namedtuple("Sweeps", "tol max_iter omega shuffle seed error_every stall_window record")
+
+
 @njit(cache=True)
-def nsgs_loop(d, nc, indptr, indices, blocks, diag, q, mu, g, law, kind, rhoN, rhoT, rhoP,
-              r, tol, max_iter, omega, shuffle, seed, error_every, stall_window, record,
-              loc_tol, newton_maxit, proj_maxit, hist):
+def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
     """Nonsmooth block Gauss–Seidel iterations, in place on ``r``.
+
+    ``W`` is a :data:`BlockW`, ``law`` a :data:`Law`, ``local`` a
+    :data:`LocalSolver`, ``sweeps`` a :data:`Sweeps` (numba takes these named
+    tuples as they are).
 
     Error policy (Siconos' ``LIGHT_WITH_FULL_FINAL`` plus a periodic check):
     after each sweep the light error ``||r_k+1 - r_k|| / ||r_k+1||`` is
@@ -84,6 +99,14 @@ def nsgs_loop(d, nc, indptr, indices, blocks, diag, q, mu, g, law, kind, rhoN, r
         ``hist`` holds the full error of every sweep when ``record`` (the buffer
         passed in, doubled whenever it is full: nothing is allocated up front).
     """
+    indptr, indices, blocks, diag = W.indptr, W.indices, W.blocks, W.diag
+    nc = diag.shape[0]
+    mu, g, law = law.mu, law.g, law.code
+    kind, rhoN, rhoT, rhoP = local.kind, local.rhoN, local.rhoT, local.rhoP
+    loc_tol, newton_maxit, proj_maxit = local.tol, local.newton_max_iter, local.projection_max_iter
+    tol, max_iter, omega, shuffle = sweeps.tol, sweeps.max_iter, sweeps.omega, sweeps.shuffle
+    seed, error_every, stall_window, record = (sweeps.seed, sweeps.error_every,
+                                               sweeps.stall_window, sweeps.record)
     order = np.arange(nc)
     if shuffle:
         np.random.seed(seed)
