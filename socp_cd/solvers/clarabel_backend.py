@@ -60,8 +60,8 @@ import clarabel
 from ..condensation import DENSE_CONDENSE_MAX, condense_dense
 from ..errors import UnsupportedError
 from .conic_data import global_conic_data, local_conic_data
-from .desaxce import DENSE_MAX, OUTER_DEFAULTS, desaxce_fixed_point, inner_tolerance
-from .options import check_unknown
+from .desaxce import DENSE_MAX, OUTER_DEFAULTS, desaxce_fixed_point
+from .options import check_unknown, inner_tolerance
 from .polish import natural_map_newton
 from .result import SolverResult
 from .spec import SolverSpec

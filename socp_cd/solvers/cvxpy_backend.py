@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import UnsupportedError
 from .desaxce import desaxce_fixed_point
-from .options import check_unknown
+from .options import check_unknown, inner_tolerance
 from .spec import SolverSpec
 from .result import SolverResult
 
@@ -88,7 +88,7 @@ def single_program_tol(tol: float) -> float:
     square root of its complementarity gap at contacts that are not strictly
     complementary, hence the margin (same default as the direct path).
     """
-    return min(1e-10, 0.01 * tol)
+    return inner_tolerance(tol)
 
 
 def law_constraints(r, problem, formulation: str, threshold=None) -> list:

@@ -70,6 +70,7 @@ from .anderson import Anderson
 from .conic_data import dense_to_csr
 from .kernels.cone import LAW_ASSOCIATED, LAW_COULOMB
 from .kernels.dense import matvec
+from .options import inner_tolerance
 from .polish import POLISHES, DenseSystem
 from .result import SolverResult
 
@@ -98,11 +99,6 @@ CHEAP_POLISH_MAX = 60
 FINAL_POLISH_FACTOR = 10
 #: ``polish_switch`` of the sparse path (used when ``polish_switch`` is None)
 SPARSE_POLISH_SWITCH = 1e-5
-
-
-def inner_tolerance(tol: float) -> float:
-    """Tolerance of an inner conic solve for an outer target ``tol``: ``min(1e-10, tol/100)``."""
-    return min(1e-10, tol * 1e-2)
 
 
 class _Workspace:
@@ -417,4 +413,4 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
 
 
 __all__ = ["desaxce_fixed_point", "desaxce_shift", "FixedPoint", "check_outer_options",
-           "inner_tolerance", "OUTER_DEFAULTS", "DENSE_MAX"]
+           "OUTER_DEFAULTS", "DENSE_MAX"]

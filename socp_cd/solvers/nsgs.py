@@ -34,8 +34,9 @@ threshold : array_like
     Tresca threshold per contact (formulation ``"tresca"``).
 
 Common options: ``max_iter`` counts sweeps (default 1000); ``time_limit`` is
-checked between blocks of sweeps (the sweeps then run in blocks of growing
-size); ``verbose`` prints a one-line summary; ``inner_settings`` holds the
+checked between blocks of sweeps (the sweeps then run in blocks of 10, 20,
+40, ... sweeps, each block restarting the light-error and stall bookkeeping
+and, for ``ordering="shuffled"``, reseeding with ``seed + sweeps done``); ``verbose`` prints a one-line summary; ``inner_settings`` holds the
 local solver's settings, nested: ``{"local_solver", "local_tol",
 "newton_max_iter", "projection_max_iter"}`` (the same names as the flat options).
 """

@@ -40,6 +40,15 @@ COMMON_OPTIONS = {
 SOLVE_ARGUMENTS = ("problem", "solver", "formulation", "history", "crosscheck")
 
 
+def inner_tolerance(tol: float) -> float:
+    """Tolerance of an inner conic solve for an outer target ``tol``: ``min(1e-10, tol/100)``.
+
+    The one inner-tolerance policy of the conic backends (fixed-point inner
+    SOCPs and single cone programs alike).
+    """
+    return min(1e-10, tol * 1e-2)
+
+
 def check_real(name, value, *, positive=False, minimum=None, maximum=None,
                open_interval=False) -> float:
     """``value`` as a finite float, or :class:`InvalidProblemError` naming ``name``."""
@@ -116,5 +125,5 @@ def check_unknown(solver_name, options, declared):
                                f"valid options: {valid}")
 
 
-__all__ = ["COMMON_OPTIONS", "SOLVE_ARGUMENTS", "check_common", "check_unknown", "check_real",
+__all__ = ["inner_tolerance", "COMMON_OPTIONS", "SOLVE_ARGUMENTS", "check_common", "check_unknown", "check_real",
            "check_int", "check_choice"]
