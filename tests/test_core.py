@@ -134,6 +134,16 @@ def test_bad_argument_named_before_any_work(kwargs, field, monkeypatch):
     assert exc.value.field == field
 
 
+def test_nsgs_options_checked_before_condensing_a_global_problem(monkeypatch):
+    from socp_cd.problem import GlobalFrictionContactProblem
+    g = GlobalFrictionContactProblem(np.eye(3), np.eye(3), -np.ones(3), np.zeros(3), 0.3, 3)
+    monkeypatch.setattr(GlobalFrictionContactProblem, "to_local",
+                        lambda self: pytest.fail("work started"))
+    with pytest.raises(InvalidProblemError) as exc:
+        socp_cd.solve(g, "nsgs", seed="abc")
+    assert exc.value.field == "seed"
+
+
 @pytest.mark.parametrize("bad", [None, "file.dat", 3.0])
 def test_solve_says_what_it_takes(bad):
     with pytest.raises(InvalidProblemError, match="FrictionContactProblem"):

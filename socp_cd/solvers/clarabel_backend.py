@@ -60,7 +60,7 @@ import clarabel
 from ..condensation import DENSE_CONDENSE_MAX, condense_dense
 from ..errors import UnsupportedError
 from .conic_data import global_conic_data, local_conic_data
-from .desaxce import DENSE_MAX, OUTER_DEFAULTS, desaxce_fixed_point
+from .desaxce import DENSE_MAX, OUTER_DEFAULTS, check_outer_options, desaxce_fixed_point
 from .options import check_unknown, inner_tolerance
 from .polish import natural_map_newton
 from .result import SolverResult
@@ -383,7 +383,9 @@ SPEC = SolverSpec(
     global_native=("associated", "coulomb"),
     description="Clarabel interior point: SOCP relaxations; Coulomb by the De Saxcé fixed point",
     default_max_iter=100, options=OPTIONS,
-    inner_settings="Clarabel settings (clarabel.DefaultSettings fields; max_iter caps each SOCP)")
+    inner_settings="Clarabel settings (clarabel.DefaultSettings fields; max_iter caps each SOCP)",
+    check=lambda problem, options, inner_settings: check_outer_options(
+        {k: v for k, v in options.items() if k in OUTER_DEFAULTS}))
 
 
 __all__ = ["SPEC", "OPTIONS", "clarabel_solve", "ClarabelInner", "clarabel_cones",

@@ -203,7 +203,8 @@ SPEC = SolverSpec(
     description="Moreau–Jean nonlinear block Gauss–Seidel (numba), exact 2D / "
                 "Alart–Curnier Newton 3D local solvers",
     default_max_iter=DEFAULT_MAX_ITER, options=OPTIONS,
-    inner_settings="the local solver's settings: " + ", ".join(LOCAL_SETTINGS))
+    inner_settings="the local solver's settings: " + ", ".join(LOCAL_SETTINGS),
+    check=lambda problem, options, inner_settings: _settings(problem, options, inner_settings))
 
 
 def warmup() -> float:

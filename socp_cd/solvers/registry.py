@@ -214,6 +214,8 @@ def solve(problem, solver="nsgs", formulation: str = "coulomb", *, tol: float = 
         check_unknown(name, options, spec.options)
     tol, max_iter, time_limit, verbose, inner_settings = check_common(
         tol, max_iter, time_limit, verbose, inner_settings)
+    if spec.check is not None:
+        spec.check(problem, options, inner_settings)
     if crosscheck is not None:
         cspec = _resolve(crosscheck, table)
         if formulation not in cspec.formulations or problem.dim not in cspec.dims:

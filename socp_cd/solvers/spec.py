@@ -33,6 +33,10 @@ class SolverSpec:
         Solver-specific options: ``name -> one-line description (with default)``.
     inner_settings : str
         What ``inner_settings=`` is passed to (the native solver's settings).
+    check : callable, optional
+        ``check(problem, options, inner_settings)`` raising on a bad option
+        value; :func:`socp_cd.solve` calls it before any work (e.g. before
+        condensing a global problem).
     """
 
     name: str
@@ -44,6 +48,7 @@ class SolverSpec:
     default_max_iter: int = 100
     options: dict = field(default_factory=dict)
     inner_settings: str = "not used"
+    check: Callable | None = None
 
 
 __all__ = ["SolverSpec"]
