@@ -2,7 +2,8 @@
 
 All functions act on *stacked* contact vectors (length ``dim * n_contacts``,
 normal first) or on ``(n_contacts, dim)`` arrays, and are vectorized over
-contacts.
+contacts.  They are the readable reference of the compiled kernels in
+:mod:`socp_cd.solvers.kernels.cone` (``tests/test_kernels.py`` holds them equal).
 
 Definitions
 -----------
@@ -64,20 +65,64 @@ def project_cone(x, mu, dim: int = 3) -> np.ndarray:
     In 2D ``K_mu`` is the wedge ``|x_T| <= mu x_N`` and the formulas coincide.
     """
     X = _blocks(x, dim)
-    mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), (X.shape[0],))
+    mu = np.asarray(mu, dtype=np.float64)
     xn = X[:, 0]
     xt = X[:, 1:]
     t = np.sqrt(np.einsum("ij,ij->i", xt, xt)) if dim == 3 else np.abs(xt[:, 0])
-    out = X.copy()
+    # boundary ray (side region; there t > 0: t = 0 is inside or polar)
+    pn = (xn + mu * t) / (1.0 + mu * mu)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale_t = np.where(t > 0.0, mu * pn / t, 0.0)
+    polar = mu * t <= -xn
+    inside = (t <= mu * xn) & ~polar
+    out = np.empty_like(X)
+    out[:, 0] = np.where(inside, xn, np.where(polar, 0.0, pn))
+    out[:, 1:] = np.where(inside[:, None], xt, np.where(polar, 0.0, scale_t)[:, None] * xt)
+    return _restore(out, x)
+
+
+def project_cone_jacobian(x, mu, dim: int = 3) -> np.ndarray:
+    """One element of the generalized Jacobian of :func:`project_cone`, per contact.
+
+    Parameters
+    ----------
+    x : array_like
+        Stacked vector (length ``dim * nc``) or ``(nc, dim)`` array.
+    mu : float or array_like, shape (nc,)
+    dim : {2, 3}
+
+    Returns
+    -------
+    ndarray, shape (nc, dim, dim)
+        ``0`` on the polar cone, ``I`` inside the cone, and on the side region,
+        with ``t = ||x_T||``, ``w = x_T / t``, ``a = 1 / (1 + mu²)``,
+        ``p_N = a (x_N + mu t)``:
+        ``[[a, mu a wᵀ], [mu a w, mu² a w wᵀ + (mu p_N / t)(I - w wᵀ)]]``.
+    """
+    X = _blocks(x, dim)
+    nc = X.shape[0]
+    mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), (nc,))
+    xn, xt = X[:, 0], X[:, 1:]
+    t = np.sqrt(np.einsum("ij,ij->i", xt, xt))
+    J = np.zeros((nc, dim, dim))
     polar = mu * t <= -xn
     inside = (t <= mu * xn) & ~polar
     side = ~(polar | inside)
-    out[polar] = 0.0
-    pn = (xn[side] + mu[side] * t[side]) / (1.0 + mu[side] ** 2)
-    out[side, 0] = pn
-    # side implies t > 0 (t = 0 with x_N >= 0 is inside, with x_N < 0 polar)
-    out[side, 1:] = (mu[side] * pn / t[side])[:, None] * xt[side]
-    return _restore(out, x)
+    J[inside] = np.eye(dim)
+    if np.any(side):
+        m_, ts = mu[side], t[side]
+        w = xt[side] / ts[:, None]
+        a = 1.0 / (1.0 + m_ ** 2)
+        pn = (xn[side] + m_ * ts) * a
+        Js = np.zeros((len(ts), dim, dim))
+        Js[:, 0, 0] = a
+        Js[:, 0, 1:] = (m_ * a)[:, None] * w
+        Js[:, 1:, 0] = (m_ * a)[:, None] * w
+        ww = np.einsum("ki,kj->kij", w, w)
+        eye = np.eye(dim - 1)[None]
+        Js[:, 1:, 1:] = (m_ ** 2 * a)[:, None, None] * ww + (m_ * pn / ts)[:, None, None] * (eye - ww)
+        J[side] = Js
+    return J
 
 
 def project_dual_cone(y, mu, dim: int = 3) -> np.ndarray:
@@ -205,6 +250,7 @@ def classify_contacts(r, u, mu, dim: int = 3, tol: float = 1e-8) -> np.ndarray:
 
 __all__ = [
     "project_cone",
+    "project_cone_jacobian",
     "project_dual_cone",
     "tangential_norm",
     "desaxce_velocity",

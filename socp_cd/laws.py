@@ -8,6 +8,8 @@ Each function returns a relative residual normalized like Siconos' error
   (the optimality system of ``min ½ rᵀWr + qᵀr, r ∈ K`` for symmetric W).
 * ``frictionless`` — Signorini only: ``0 <= u_N ⊥ r_N >= 0`` and ``r_T = 0``
   (the Coulomb residual with ``mu = 0``).
+* ``faceted``      — the associated law on a polyhedral cone inscribed in (or
+  circumscribing) ``K_mu`` (:mod:`socp_cd.faceted`, parameters ``facets``, ``placement``).
 * ``tresca``       — Signorini in the normal direction and, tangentially,
   ``r_T = P_{B(0, g)}(r_T - u_T)`` with a given threshold ``g`` per contact.
 """
@@ -17,7 +19,8 @@ import numpy as np
 
 from .cones import project_cone
 from .errors import InvalidProblemError
-from .residuals import _pair, error, error_normalization
+from .faceted import DEFAULT_FACETS, check_facets, faceted_error
+from .residuals import checked_pair, error, error_normalization
 
 
 def _relative(problem, r, u, F) -> float:
@@ -26,14 +29,14 @@ def _relative(problem, r, u, F) -> float:
 
 def associated_error(problem, r, u=None) -> float:
     """Relative residual of the associated law ``K* ∋ u ⊥ r ∈ K``."""
-    r, u = _pair(problem, r, u)
+    r, u = checked_pair(problem, r, u)
     F = r - project_cone(r - u, problem.mu, problem.dim)
     return _relative(problem, r, u, F)
 
 
 def frictionless_error(problem, r, u=None) -> float:
     """Relative residual of Signorini's law with ``r_T = 0``."""
-    r, u = _pair(problem, r, u)
+    r, u = checked_pair(problem, r, u)
     F = r - project_cone(r - u, np.zeros(problem.n_contacts), problem.dim)
     return _relative(problem, r, u, F)
 
@@ -64,7 +67,7 @@ def tresca_error(problem, r, u=None, threshold=None) -> float:
         raise InvalidProblemError("threshold", "the Tresca law needs a friction threshold per contact",
                                   problem.source)
     g = check_threshold(problem, threshold)
-    r, u = _pair(problem, r, u)
+    r, u = checked_pair(problem, r, u)
     R = r.reshape(-1, problem.dim)
     U = u.reshape(-1, problem.dim)
     F = np.empty_like(R)
@@ -73,13 +76,28 @@ def tresca_error(problem, r, u=None, threshold=None) -> float:
     return _relative(problem, r, u, F.reshape(-1))
 
 
+def faceted_law_error(problem, r, u=None, facets=DEFAULT_FACETS, placement="inscribed") -> float:
+    """Relative residual of the associated law on the faceted cone (see :mod:`socp_cd.faceted`)."""
+    nf, placement = check_facets(facets, placement)
+    return faceted_error(problem, r, u, nf, placement)
+
+
 #: formulation name -> residual function ``f(problem, r, u=None, **params)``
 LAW_RESIDUALS = {
     "coulomb": error,
     "associated": associated_error,
     "frictionless": frictionless_error,
     "tresca": tresca_error,
+    "faceted": faceted_law_error,
 }
 
-__all__ = ["associated_error", "frictionless_error", "tresca_error", "check_threshold",
-           "project_ball", "LAW_RESIDUALS"]
+#: formulation name -> names of its parameters (keyword arguments of its residual)
+LAW_PARAMETERS = {"tresca": ("threshold",), "faceted": ("facets", "placement")}
+
+
+def law_parameters(formulation, options) -> dict:
+    """The entries of ``options`` that parametrize ``formulation``'s law."""
+    return {k: options[k] for k in LAW_PARAMETERS.get(formulation, ()) if k in options}
+
+__all__ = ["associated_error", "frictionless_error", "tresca_error", "faceted_law_error",
+           "check_threshold", "project_ball", "LAW_RESIDUALS", "LAW_PARAMETERS", "law_parameters"]

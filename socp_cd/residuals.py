@@ -18,7 +18,8 @@ from .cones import (fenchel_young_gap, in_cone_violation, natural_map,
 _EPS = np.finfo(float).eps
 
 
-def _pair(problem, r, u=None):
+def checked_pair(problem, r, u=None):
+    """``(r, u)`` validated against ``problem``; ``u = W r + q`` recomputed when not given."""
     r = problem.check_reaction(r)
     u = problem.velocity(r) if u is None else problem.check_reaction(u, "u")
     return r, u
@@ -29,7 +30,7 @@ def absolute_error(problem, r, u=None) -> float:
 
     ``u`` is recomputed from ``r`` unless given.
     """
-    r, u = _pair(problem, r, u)
+    r, u = checked_pair(problem, r, u)
     F = natural_map(r, u, problem.mu, problem.dim)
     return float(np.sqrt(np.dot(F, F)))
 
@@ -58,14 +59,14 @@ def error(problem, r, u=None) -> float:
     float
         ``||r - P_K(r - û)|| / max(||q||, ||r||, ||u||)``.
     """
-    r, u = _pair(problem, r, u)
+    r, u = checked_pair(problem, r, u)
     F = natural_map(r, u, problem.mu, problem.dim)
     return float(np.sqrt(np.dot(F, F))) / error_normalization(problem, r, u)
 
 
 def contact_errors(problem, r, u=None) -> np.ndarray:
     """Per-contact norm of the natural map (absolute), shape ``(n_contacts,)``."""
-    r, u = _pair(problem, r, u)
+    r, u = checked_pair(problem, r, u)
     F = natural_map(r, u, problem.mu, problem.dim).reshape(-1, problem.dim)
     return np.sqrt(np.einsum("ij,ij->i", F, F))
 
@@ -78,7 +79,7 @@ def feasibility(problem, r, u=None) -> dict:
     dict
         ``{"cone": max distance of r to K_mu, "normal_velocity": max(0, -u_N)}``.
     """
-    r, u = _pair(problem, r, u)
+    r, u = checked_pair(problem, r, u)
     return {
         "cone": float(np.max(in_cone_violation(r, problem.mu, problem.dim))),
         "normal_velocity": float(np.max(normal_velocity_violation(u, problem.dim))),
@@ -94,7 +95,7 @@ def complementarity(problem, r, u=None) -> dict:
         ``{"max_gap": max_i |r_i·û_i|, "total_gap": sum_i r_i·û_i,
         "relative": total_gap / (||r|| ||u|| or 1)}``.
     """
-    r, u = _pair(problem, r, u)
+    r, u = checked_pair(problem, r, u)
     g = fenchel_young_gap(r, u, problem.mu, problem.dim)
     denom = float(np.linalg.norm(r) * np.linalg.norm(u))
     return {
@@ -104,5 +105,5 @@ def complementarity(problem, r, u=None) -> dict:
     }
 
 
-__all__ = ["error", "absolute_error", "error_normalization", "contact_errors",
+__all__ = ["error", "checked_pair", "absolute_error", "error_normalization", "contact_errors",
            "feasibility", "complementarity"]

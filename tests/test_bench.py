@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import socp_cd
-from socp_cd.bench import campaign as C
+from socp_cd import bench as C
 from socp_cd.bench import records as R
 from socp_cd.bench import reports as P
 from socp_cd.bench.generators import generate
@@ -69,7 +69,7 @@ def _registered_fakes():
         registry.register(name, ("coulomb",), description="test double")(fn)
     yield
     for name in _FAKES:
-        registry._REGISTRY.pop(name, None)
+        registry.unregister(name)
 
 
 def _ref(n=3, dim=3, seed=0):

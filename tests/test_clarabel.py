@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from socp_cd.errors import InvalidProblemError
+from socp_cd.condensation import condense_dense
+from socp_cd.errors import InvalidProblemError, UnsupportedError
 from socp_cd.cones import in_cone_violation, project_cone, project_dual_cone
 from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem
 from socp_cd.residuals import error
@@ -17,7 +18,7 @@ from socp_cd.solvers import solve
 from socp_cd.solvers import clarabel_backend as cb
 from socp_cd.solvers.conic_data import coulomb_cone_map, dual_cone_map, tresca_map
 from socp_cd.solvers import conic_data as cd
-from socp_cd.solvers import desaxce_kernels as dk
+from socp_cd.solvers.kernels import cone as kc, dense as kd, polish as kp
 from socp_cd.solvers.desaxce import desaxce_fixed_point
 
 TOL = 1e-8
@@ -305,15 +306,15 @@ def test_status_map_covers_clarabel():
 
 
 def test_unknown_option_rejected():
-    with pytest.raises(TypeError):
+    with pytest.raises(UnsupportedError):
         solve(one_contact((-1.0, 2.0, 0.0)), "clarabel", "coulomb", bogus=1)
-    with pytest.raises(TypeError):
-        solve(one_contact((-1.0, 2.0, 0.0)), "clarabel", "associated", settings={"no_such": 1})
+    with pytest.raises(UnsupportedError):
+        solve(one_contact((-1.0, 2.0, 0.0)), "clarabel", "associated", inner_settings={"no_such": 1})
 
 
 def test_settings_passthrough_changes_clarabel():
     p = one_contact((-1.0, 2.0, 0.0))
-    res = solve(p, "clarabel", "associated", tol=TOL, settings={"max_iter": 1}, polish=None)
+    res = solve(p, "clarabel", "associated", tol=TOL, inner_settings={"max_iter": 1}, polish=None)
     assert res.info["clarabel_status"] == "MaxIterations" and res.status == "max_iter"
 
 
@@ -332,7 +333,7 @@ def test_real_problem_reaches_siconos_tolerance():
 
 
 # ------------------------------------------------- small-problem fast path
-def test_clarabel_upper_is_the_upper_triangle():
+def test_upper_csc_arrays_is_the_upper_triangle():
     rng = np.random.default_rng(11)
     for n in (4, cd.DENSE_P_MAX + 5):
         S = rng.normal(size=(n, n))
@@ -342,7 +343,7 @@ def test_clarabel_upper_is_the_upper_triangle():
             U = cd.upper_csc(M)
             assert U.has_sorted_indices
             assert np.array_equal(U.toarray(), np.triu(S))
-            assert np.array_equal(cd.CscArrays.of(cd.clarabel_upper(M)).toarray(), np.triu(S))
+            assert np.array_equal(cd.CscArrays.of(cd.upper_csc_arrays(M)).toarray(), np.triu(S))
 
 
 def test_clarabel_reads_csc_arrays():
@@ -364,11 +365,11 @@ def test_dense_error_matches_residuals(law):
     mu = np.array([0.0, 0.4, 1.1, 0.3])
     S = rng.normal(size=(12, 12))
     p = FrictionContactProblem(spd(12, rng) + 0.1 * (S - S.T), rng.normal(size=12), mu, 3)
-    code = dk.LAW_COULOMB if law == "coulomb" else dk.LAW_ASSOCIATED
+    code = kc.LAW_COULOMB if law == "coulomb" else kc.LAW_ASSOCIATED
     ref = error if law == "coulomb" else associated_error
     for r in (rng.normal(size=12), np.zeros(12), project_cone(rng.normal(size=12), mu, 3)):
         u = np.empty(12)
-        e = dk.dense_error(p.W.toarray(), p.q, r, mu, 3, code, np.linalg.norm(p.q), u)
+        e = kd.dense_error(p.W.toarray(), p.q, r, mu, 3, code, np.linalg.norm(p.q), u)
         assert np.isclose(e, ref(p, r), rtol=1e-12, atol=1e-15)
         assert np.allclose(u, p.velocity(r))
 
@@ -377,24 +378,24 @@ def test_dense_split_and_matvec():
     rng = np.random.default_rng(13)
     W = rng.normal(size=(6, 6))
     Wc = sp.csr_matrix(W)
-    Wd, Ws, Wa, asym, scale, dsum = dk.dense_split(Wc.indptr, Wc.indices, Wc.data, 6)
+    Wd, Ws, Wa, asym, scale, dsum = kd.dense_split(Wc.indptr, Wc.indices, Wc.data, 6)
     assert np.array_equal(Wd, W) and np.allclose(Ws + Wa, W) and np.allclose(Ws, Ws.T)
     assert np.isclose(asym, np.abs(W - W.T).max()) and np.isclose(scale, np.abs(W).max())
     assert np.isclose(dsum, np.abs(np.diag(W)).sum())
     x = rng.normal(size=6)
-    assert np.allclose(dk.matvec(W, x), W @ x)
+    assert np.allclose(kd.matvec(W, x), W @ x)
 
 
 def test_dense_condense_matches_to_local():
     g = small_global(np.random.default_rng(14))
-    loc = cb.condense_dense(g)
+    loc = condense_dense(g)
     ref = g.to_local()
     assert np.allclose(loc.W.toarray(), ref.W.toarray(), atol=1e-12)
     assert np.allclose(loc.q, ref.q, atol=1e-12)
     # a singular M is not condensed densely: the sparse path reports it
     bad = GlobalFrictionContactProblem(np.zeros((8, 8)), g.H, g.f, g.w, g.mu, 3)
     with pytest.raises(InvalidProblemError):
-        cb.condense_dense(bad)
+        condense_dense(bad)
 
 
 def test_dense_newton_converges_from_perturbed_solution():
@@ -405,7 +406,7 @@ def test_dense_newton_converges_from_perturbed_solution():
     p = FrictionContactProblem(W, u_s - W @ r_s, mu, 3)
     r0 = r_s + 1e-3 * rng.normal(size=12)
     rho = np.full(4, 12 / np.abs(np.diag(W)).sum())
-    r, its, e = dk.dense_newton(W, p.q, mu, 3, dk.LAW_COULOMB, r0, 1e-12, 30, rho, np.linalg.norm(p.q))
+    r, its, e = kp.dense_newton(W, p.q, mu, 3, kc.LAW_COULOMB, r0, 1e-12, 30, rho, np.linalg.norm(p.q))
     assert e <= 1e-12 and np.isclose(e, error(p, r), atol=1e-15)
     assert np.allclose(r, r_s, atol=1e-9) and 1 <= its <= 30
 
@@ -418,7 +419,7 @@ def test_small_problem_polish_from_first_iterate():
     assert np.allclose(res.r, [1.0, -0.5, 0.0], atol=1e-8)
 
 
-def test_tiny_first_iteration_agrees_with_generic_loop():
+def test_small_problem_with_default_and_explicit_outer_options_agree():
     rng = np.random.default_rng(16)
     mu = np.array([0.3, 0.5, 0.2, 0.4])
     r_s, u_s = law_pair(["slide", "stick", "sep", "slide"], mu, 3, rng)
@@ -431,14 +432,19 @@ def test_tiny_first_iteration_agrees_with_generic_loop():
     assert fast.iterations == 1 and np.isclose(fast.history[-1], fast.error, rtol=1e-6)
 
 
-def test_tiny_first_iteration_continues_when_polish_fails(monkeypatch):
-    # the short path's polishes are disabled: the generic loop must continue from its iterate
-    def no_polish(W, q, mu, dim, law, r, tol, max_iter, rho):
-        e = dk.dense_error(W, q, r, mu, dim, law, np.linalg.norm(q), np.empty(r.shape[0]))
-        return r.copy(), 0, e, e
+def test_small_problem_loop_continues_when_first_polish_fails(monkeypatch):
+    # the first polish is disabled: the loop must continue from its iterate
+    from socp_cd.solvers import polish as pol
+    calls = []
+    real = pol.POLISHES["newton"]
 
-    monkeypatch.setattr(dk, "error_then_newton", no_polish)
-    monkeypatch.setattr(cb, "_polish", lambda *a, **k: (None, 0, False))   # no NSGS either
+    def fails_first(problem, r, tol, options):
+        calls.append(1)
+        if len(calls) == 1:
+            return r.copy(), {"iterations": 0, "error": np.inf}
+        return real(problem, r, tol, options)
+
+    monkeypatch.setitem(pol.POLISHES, "newton", fails_first)
     p = one_contact((-1.0, 2.0, 0.0))
     res = solve(p, "clarabel", "coulomb", tol=1e-10, history=True)
     assert res.converged and res.iterations >= 2

@@ -16,7 +16,7 @@ from socp_cd import read_problem
 from socp_cd.data import shared_problems_dir
 from socp_cd.errors import InvalidProblemError, UnsupportedError
 from socp_cd.problem import FrictionContactProblem
-from socp_cd.solvers.faceted import (cone_matrix, faceted_error, project_faceted_cone)
+from socp_cd.faceted import (cone_matrix, faceted_error, project_faceted_cone)
 from socp_cd.solvers.registry import solve, solvers
 
 pytest.importorskip("cvxpy")
@@ -120,7 +120,7 @@ def test_cvxpy_hand_solution_single_contact():
 
 def test_cvxpy_status_mapping_iteration_cap():
     P = synthetic(20, 3, seed=1)
-    res = solve(P, "cvxpy", "associated", tol=1e-8, solver_options={"max_iter": 1})
+    res = solve(P, "cvxpy", "associated", tol=1e-8, inner_settings={"max_iter": 1})
     assert res.info["cvxpy_status"] == "user_limit"
     assert res.status == "max_iter" and not res.converged
 
@@ -191,7 +191,7 @@ def test_proxsuite_frictionless_equals_clarabel_and_cvxpy(dim):
 
 def test_proxsuite_status_mapping_iteration_cap():
     P = synthetic(30, 3, seed=2)
-    res = solve(P, "proxsuite", "faceted", tol=1e-10, qp_max_iter=1)
+    res = solve(P, "proxsuite", "faceted", tol=1e-10, inner_settings={"max_iter": 1})
     assert res.info["proxqp_status"] == "PROXQP_MAX_ITER_REACHED"
     assert res.status == "max_iter" and not res.converged
 

@@ -77,8 +77,9 @@ def socp_floor(p, repeats=50):
 
     The floor of any method that starts with one Clarabel solve (fresh data each time).
     """
-    from socp_cd.solvers.clarabel_backend import (DENSE_CONDENSE_MAX, SMALL_PROBLEM_SETTINGS,
-                                                  condense_dense, make_settings)
+    from socp_cd.condensation import DENSE_CONDENSE_MAX, condense_dense
+    from socp_cd.solvers.clarabel_backend import (SMALL_PROBLEM_SETTINGS, clarabel_cones,
+                                                  make_settings)
     from socp_cd.solvers.conic_data import local_conic_data
     import clarabel
     if p.is_global and p.n_dofs <= DENSE_CONDENSE_MAX:
@@ -90,7 +91,7 @@ def socp_floor(p, repeats=50):
     for _ in range(repeats):
         d = local_conic_data(p, "associated")
         t0 = time.perf_counter()
-        clarabel.DefaultSolver(d.P, d.q, d.A, d.b, d.cones, s).solve()
+        clarabel.DefaultSolver(d.P, d.q, d.A, d.b, clarabel_cones(d.cones), s).solve()
         best = min(best, time.perf_counter() - t0)
     return best
 

@@ -13,9 +13,11 @@ manufactured(n_contacts, dim, mu, ...)
 run_extremes(...)
     Stability at the extremes (:mod:`.extremes`).
 """
-from .campaign import (PRESETS, SWEEP, ProblemRef, RunTask, SolverChoice, default_solvers,
-                       file_problems, generated_problems, make_tasks, parse_solver, run_campaign,
-                       run_one, shared_problems)
+from .campaign import run_campaign, run_one
+from .problem_refs import (BUILDERS, ProblemRef, file_problems, generated_problems,
+                           register_builder, shared_problems)
+from .tasks import (PRESETS, SWEEP, RunTask, SolverChoice, default_solvers, make_tasks,
+                    parse_solver, resolve_tolerances, siconos_ready)
 from .generators import coulomb_pairs, delassus, generate, manufactured
 from .records import FIELDS, append_records, read_records, write_records
 
@@ -32,7 +34,8 @@ def run_extremes(*args, **kwargs):
     return _r(*args, **kwargs)
 
 
-__all__ = ["PRESETS", "SWEEP", "ProblemRef", "RunTask", "SolverChoice", "default_solvers",
+__all__ = ["PRESETS", "SWEEP", "ProblemRef", "BUILDERS", "register_builder",
+           "resolve_tolerances", "siconos_ready", "RunTask", "SolverChoice", "default_solvers",
            "file_problems", "generated_problems", "make_tasks", "parse_solver", "run_campaign",
            "run_one", "shared_problems", "coulomb_pairs", "delassus", "generate", "manufactured",
            "FIELDS", "append_records", "read_records", "write_records", "write_report",

@@ -22,7 +22,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from . import campaign as C
+from .campaign import run_campaign
+from .problem_refs import file_problems, generated_problems, shared_problems
+from .tasks import PRESETS, default_solvers, parse_solver
 from .records import read_records
 
 #: Default output directory (relative to the current directory).
@@ -75,8 +77,8 @@ def build_parser() -> argparse.ArgumentParser:
 def _solvers(args):
     names = [s for part in args.solvers.split(";") for s in _split_specs(part)]
     if names:
-        return [C.parse_solver(s) for s in names]
-    return C.default_solvers(siconos=not args.no_siconos)
+        return [parse_solver(s) for s in names]
+    return default_solvers(siconos=not args.no_siconos)
 
 
 def _split_specs(text: str):
@@ -91,15 +93,15 @@ def _split_specs(text: str):
 
 
 def _problems(args):
-    refs = C.file_problems(args.problems) if args.problems else []
+    refs = file_problems(args.problems) if args.problems else []
     if args.data:
-        refs += C.file_problems([args.data])
+        refs += file_problems([args.data])
     for fam in args.family:
-        refs += C.generated_problems(fam, [int(s) for s in _csv_list(args.sizes)],
+        refs += generated_problems(fam, [int(s) for s in _csv_list(args.sizes)],
                                      [int(d) for d in _csv_list(args.dims)],
                                      [int(s) for s in _csv_list(args.seeds)])
     if not refs:
-        refs = C.shared_problems()
+        refs = shared_problems()
     return refs
 
 
@@ -112,7 +114,7 @@ def main(argv=None) -> int:
     if args.suite == "extremes":
         from .extremes import run_extremes
         ext_out = out if args.out != str(DEFAULT_OUT) else Path("validation/results")
-        tol = args.tol[0] if args.tol else C.PRESETS["mid"]
+        tol = args.tol[0] if args.tol else PRESETS["mid"]
         recs = run_extremes(_solvers(args), tol, args.time_limit, size=args.size, large=args.large,
                             large_time_limit=args.large_time_limit,
                             dims=tuple(int(d) for d in _csv_list(args.dims)),
@@ -127,7 +129,7 @@ def main(argv=None) -> int:
             print("no problems found (give files, --data, --family, or install the shared set)")
             return 2
         tols = list(args.tol) + ([args.preset] if args.preset else [])
-        recs = C.run_campaign(refs, _solvers(args), tols or None, args.time_limit,
+        recs = run_campaign(refs, _solvers(args), tols or None, args.time_limit,
                               max_iter=args.max_iter, csv_path=csv_path, resume=args.resume,
                               dask=dask, n_workers=args.n_workers, verbose=verbose)
         print(f"{len(recs)} runs appended to {csv_path}")

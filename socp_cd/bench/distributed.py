@@ -1,13 +1,14 @@
 """Run campaign tasks on dask.distributed, one dask task per run.
 
-Each dask task calls :func:`socp_cd.bench.campaign.run_one`, which loads (or
+Each dask task calls ``run_one`` (the caller passes
+:func:`socp_cd.bench.campaign.run_one`), which loads (or
 regenerates, deterministically from its seed) the problem inside the worker
 and isolates the solve with the same time limit as a serial campaign, so the
 records agree with a serial run except for the timing columns.
 """
 from __future__ import annotations
 
-from .campaign import run_one
+from .progress import Progress
 
 
 def _client(spec, n_workers: int = 2, threads: bool = False):
@@ -28,13 +29,15 @@ def _client(spec, n_workers: int = 2, threads: bool = False):
     return Client(cluster), cluster, True
 
 
-def run_tasks_dask(tasks, dask=True, *, n_workers: int = 2, threads: bool = False,
+def run_tasks_dask(tasks, run_one, dask=True, *, n_workers: int = 2, threads: bool = False,
                    verbose: bool = False) -> list[dict]:
-    """Run :class:`~socp_cd.bench.campaign.RunTask` objects on dask; records in task order.
+    """Run :class:`~socp_cd.bench.tasks.RunTask` objects on dask; records in task order.
 
     Parameters
     ----------
     tasks : list of RunTask
+    run_one : callable
+        ``run_one(task) -> record`` (:func:`socp_cd.bench.campaign.run_one`).
     dask : True, str or distributed.Client
         ``True``: a LocalCluster with ``n_workers`` workers (processes unless
         ``threads``); a string: scheduler address; a Client: used as is.
@@ -52,10 +55,10 @@ def run_tasks_dask(tasks, dask=True, *, n_workers: int = 2, threads: bool = Fals
             client.close()
         if cluster is not None:
             cluster.close()
-    if verbose:
-        for i, rec in enumerate(records, 1):
-            print(f"[{i:4d}/{len(records)}] {rec['problem'][:38]:38s} {rec['solver'][:22]:22s} "
-                  f"tol={rec['tol']:.0e} {rec['status']:15s} err={rec['error']:.2e}")
+    progress = Progress(len(records), verbose)
+    for rec in records:
+        progress.update(rec)
+    progress.close()
     return list(records)
 
 

@@ -16,48 +16,11 @@ import json
 import math
 from pathlib import Path
 
-import numpy as np
 
-from ..problem import FrictionContactProblem
-from .campaign import ProblemRef, default_solvers, run_campaign
-from .generators import manufactured
-
-#: name -> (description, keyword arguments of :func:`manufactured`).
-CASES = {
-    "mu=0": ("frictionless (mu = 0)", dict(mu=0.0)),
-    "mu=1e-8": ("almost frictionless (mu = 1e-8)", dict(mu=1e-8)),
-    "mu=10": ("high friction (mu = 10)", dict(mu=10.0)),
-    "mu=1e3": ("extreme friction (mu = 1e3)", dict(mu=1e3)),
-    "mass_ratio=1e6": ("body masses spanning 1 .. 1e6", dict(mass_ratio=1e6)),
-    "redundant": ("4 contacts per body: rank-deficient W",
-                  dict(structure="redundant", bodies_per_contact=0.25)),
-    "badly_scaled": ("W entries spanning 1e-6 .. 1e6, q scaled by 1e4",
-                     dict(contact_scale=1e6, q_scale=1e4)),
-    "grazing": ("70% grazing contacts (r = 0 and u = 0)", dict(mix=(0.1, 0.1, 0.1, 0.7))),
-    "all_grazing": ("every contact grazing: q = 0, solution r = 0", dict(mix=(0, 0, 0, 1))),
-    "zero_contacts": ("no contact at all (must be rejected)", None),
-    "large": ("10^4 contacts", dict()),
-}
-
-
-def build(case: str, n_contacts: int = 50, dim: int = 3, seed: int = 0) -> FrictionContactProblem:
-    """Build the problem of an extreme case (see :data:`CASES`).
-
-    Raises
-    ------
-    InvalidProblemError
-        For ``"zero_contacts"``, from the problem constructor itself.
-    """
-    if case not in CASES:
-        raise ValueError(f"unknown extreme case {case!r}; known: {sorted(CASES)}")
-    kw = CASES[case][1]
-    if kw is None:
-        return FrictionContactProblem(np.zeros((0, 0)), np.zeros(0), np.zeros(0), dim,
-                                      name="zero_contacts")
-    kw = dict(kw)
-    mu = kw.pop("mu", 0.3)
-    return manufactured(n_contacts, dim, mu, seed=seed, name=f"extreme[{case}]-{dim}d-{n_contacts}", **kw)
-
+from .campaign import run_campaign
+from .problem_refs import ProblemRef
+from .tasks import default_solvers
+from .extreme_cases import CASES, build
 
 def extreme_problems(size: int = 50, large: int = 10_000, dims=(3,), cases=None, seed: int = 0):
     """Problem refs of the suite (``large`` sets the size of the ``"large"`` case; 0 drops it)."""
@@ -67,8 +30,9 @@ def extreme_problems(size: int = 50, large: int = 10_000, dims=(3,), cases=None,
             continue
         for dim in ((max(dims),) if case == "large" else dims):   # one large problem (3D)
             n = large if case == "large" else (0 if case == "zero_contacts" else size)
-            kw = dict(_builder="extremes", case=case, n_contacts=int(n), dim=int(dim), seed=seed)
-            out.append(ProblemRef(f"{case} ({dim}d, {n})", "extremes", generator=json.dumps(kw, sort_keys=True)))
+            kw = dict(case=case, n_contacts=int(n), dim=int(dim), seed=seed)
+            out.append(ProblemRef(f"{case} ({dim}d, {n})", "extremes",
+                                  generator=json.dumps(kw, sort_keys=True), builder="extremes"))
     return out
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .campaign import PRESETS
+from .tasks import PRESETS
 
 #: Shift of the shifted geometric mean, seconds (qpbenchmark uses 10 ms).
 SGM_SHIFT = 0.01

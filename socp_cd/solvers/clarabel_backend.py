@@ -16,16 +16,13 @@ Global problems are solved natively (for ``associated`` and ``coulomb``) in
 the velocities ``v``: ``min ½ vᵀMv − fᵀv s.t. Hᵀv + w + shift ∈ K*_mu``; the
 constraint multipliers are the impulses ``r`` and ``W`` is never formed.
 Small ones (at most ``DENSE_CONDENSE_MAX`` dofs) are condensed instead by one
-dense LU of ``M`` (:func:`condense_dense`, ``info["condensed_dense"]``): the
-local path then runs the compiled residuals and Newton polish.  Local problems
-with at most ``TINY_MAX`` unknowns and default outer options take the first
-outer iteration on a short path (:func:`_tiny_first_iteration`: one SOCP, one
-compiled error + Newton call) and continue in the generic loop only if that
-did not converge.
+dense LU of ``M`` (:func:`socp_cd.condensation.condense_dense`, ``info["condensed_dense"]``): the
+local path then runs the compiled residuals and Newton polish.  Every problem,
+tiny ones included, goes through the one De Saxcé loop.
 
 Options (all keyword arguments of :func:`socp_cd.solve`)
 ---------------------------------------------------------
-settings : dict
+inner_settings : dict
     Clarabel settings passed through (e.g. ``{"static_regularization_constant":
     1e-7, "direct_solve_method": "qdldl"}``), applied after socp_cd's defaults
     (``DEFAULT_SETTINGS``, plus ``SMALL_PROBLEM_SETTINGS`` in the De Saxcé
@@ -60,27 +57,30 @@ import numpy as np
 
 import clarabel
 
-from .conic_data import (clarabel_upper, coulomb_constraint, dense_to_csr, global_conic_data,
-                         local_conic_data)
-from .desaxce import (DENSE_MAX, NSGS_POLISH_SWEEPS, OUTER_DEFAULTS, _polish,
-                      desaxce_fixed_point, natural_map_newton)
-from .registry import register
+from ..condensation import DENSE_CONDENSE_MAX, condense_dense
+from ..errors import UnsupportedError
+from .conic_data import global_conic_data, local_conic_data
+from .desaxce import DENSE_MAX, OUTER_DEFAULTS, check_outer_options, desaxce_fixed_point
+from .options import check_unknown, inner_tolerance
+from .polish import natural_map_newton
 from .result import SolverResult
+from .spec import SolverSpec
 
-#: Clarabel status string -> provisional socp_cd status
+#: Clarabel status string -> (provisional socp_cd status, explanation); the same shape as
+#: every backend's ``STATUS_MAP``
 STATUS_MAP = {
-    "Solved": "converged",
-    "AlmostSolved": "stalled",
-    "InsufficientProgress": "stalled",
-    "MaxIterations": "max_iter",
-    "MaxTime": "time_limit",
-    "NumericalError": "numerical_error",
-    "PrimalInfeasible": "numerical_error",
-    "DualInfeasible": "numerical_error",
-    "AlmostPrimalInfeasible": "numerical_error",
-    "AlmostDualInfeasible": "numerical_error",
-    "Unsolved": "numerical_error",
-    "CallbackTerminated": "numerical_error",
+    "Solved": ("converged", ""),
+    "AlmostSolved": ("stalled", "Clarabel stopped at reduced accuracy"),
+    "InsufficientProgress": ("stalled", "Clarabel made insufficient progress"),
+    "MaxIterations": ("max_iter", "Clarabel hit its iteration cap"),
+    "MaxTime": ("time_limit", "Clarabel hit its time limit"),
+    "NumericalError": ("numerical_error", "Clarabel: numerical error"),
+    "PrimalInfeasible": ("numerical_error", "reported infeasible, impossible (r = 0 is feasible)"),
+    "DualInfeasible": ("numerical_error", "reported dual infeasible: the relaxation is unbounded"),
+    "AlmostPrimalInfeasible": ("numerical_error", "reported almost infeasible"),
+    "AlmostDualInfeasible": ("numerical_error", "reported almost dual infeasible"),
+    "Unsolved": ("numerical_error", "Clarabel did not run"),
+    "CallbackTerminated": ("numerical_error", "terminated by a callback"),
 }
 
 #: statuses whose iterate is a usable (possibly inaccurate) solution
@@ -99,14 +99,29 @@ DEFAULT_SETTINGS = dict(
 #: iterative refinement buys nothing there (measured: 5-30 % faster, same outcome on the
 #: shared data; see validation/conic_vs_siconos.py).  A solve that does not end "Solved"
 #: (rank-deficient ``W``: unbounded relaxation; large ``mu``) is redone with refinement,
-#: which then stays on (:class:`ClarabelInner`, ``refine_on_failure``); the short path
-#: hands such a problem to the generic loop.
+#: which then stays on (:class:`ClarabelInner`, ``refine_on_failure``).
 SMALL_PROBLEM_SETTINGS = dict(iterative_refinement_enable=False)
+
+
+_CLARABEL_CONES = {"zero": clarabel.ZeroConeT, "nonneg": clarabel.NonnegativeConeT,
+                   "soc": clarabel.SecondOrderConeT}
+_CONE_CACHE: dict = {}
+
+
+def clarabel_cones(cones) -> list:
+    """Clarabel cone objects of neutral ``(kind, size)`` cones (:mod:`.conic_data`)."""
+    out = []
+    for c in cones:
+        obj = _CONE_CACHE.get(c)
+        if obj is None:
+            obj = _CONE_CACHE[c] = _CLARABEL_CONES[c[0]](c[1])
+        out.append(obj)
+    return out
 
 
 def map_status(clarabel_status) -> str:
     """Provisional socp_cd status of a Clarabel status (string or ``SolverStatus``)."""
-    return STATUS_MAP.get(str(clarabel_status), "numerical_error")
+    return STATUS_MAP.get(str(clarabel_status), ("numerical_error", ""))[0]
 
 
 _SETTINGS_CACHE: dict = {}
@@ -147,7 +162,7 @@ def _build_settings(tol, settings, *, time_limit, verbose, max_iter):
     vals.update(settings or {})
     for key, val in vals.items():
         if not hasattr(s, key):
-            raise TypeError(f"unknown Clarabel setting {key!r}")
+            raise UnsupportedError(f"unknown Clarabel setting {key!r} (inner_settings)")
         setattr(s, key, val)
     return s
 
@@ -180,7 +195,7 @@ class ClarabelInner:
             self.data = global_conic_data(problem)
         else:
             self.data = local_conic_data(problem, "associated", W_sym=W_sym)
-        self.cones = self.data.cones
+        self.cones = clarabel_cones(self.data.cones)
         self.solver = None
         self.tol = None
         self.last_v = None
@@ -235,7 +250,7 @@ class ClarabelInner:
 
 def _single_socp(problem, formulation, tol, options):
     """One Clarabel solve of the associated / Tresca / frictionless program."""
-    itol = options.get("inner_tol", min(1e-10, tol * 1e-2))
+    itol = options.get("inner_tol", inner_tolerance(tol))
     s = make_settings(itol, options.get("settings"), time_limit=options.get("time_limit"),
                       verbose=options.get("verbose", False),
                       max_iter=options.get("clarabel_max_iter"))
@@ -243,7 +258,7 @@ def _single_socp(problem, formulation, tol, options):
         d = global_conic_data(problem)
     else:
         d = local_conic_data(problem, formulation, threshold=options.get("threshold"))
-    solver = clarabel.DefaultSolver(d.P, d.q, d.A, d.b, d.cones, s)
+    solver = clarabel.DefaultSolver(d.P, d.q, d.A, d.b, clarabel_cones(d.cones), s)
     sol = solver.solve()
     status = str(sol.status)
     v = None
@@ -264,7 +279,7 @@ def _single_socp(problem, formulation, tol, options):
         # global problems), keep the polished point only if its residual is lower
         from ..laws import LAW_RESIDUALS
         if polish != "newton":
-            raise TypeError(f"polish must be 'newton' or None for {formulation!r}")
+            raise UnsupportedError(f"polish must be 'newton' or None for {formulation!r}")
         law_err = LAW_RESIDUALS[formulation]
         e0 = law_err(problem, r)
         if e0 > tol:
@@ -285,11 +300,37 @@ def _single_socp(problem, formulation, tol, options):
 _OUTER_KEYS = tuple(OUTER_DEFAULTS)
 
 
-@register("clarabel", ("coulomb", "associated", "tresca", "frictionless"),
-          global_native=("associated", "coulomb"),
-          description="Clarabel interior point: SOCP relaxations; Coulomb by the De Saxcé fixed point")
-def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **options):
-    """Backend entry point (see the module docstring for options and statuses)."""
+#: solver-specific options (name -> description)
+OPTIONS = {
+    "threshold": "Tresca thresholds (formulation 'tresca')",
+    "inner_tol": "Clarabel tolerance of the single-SOCP formulations (default min(1e-10, tol/100))",
+    "accel": "outer acceleration: 'anderson' (default) or None",
+    "memory": "Anderson memory (default 5)",
+    "adaptive_tol": "inner tolerance follows the outer error (default False)",
+    "kappa": "adaptive inner tolerance factor (default 1e-2)",
+    "inner_tol_max": "loosest adaptive inner tolerance (default 1e-4)",
+    "inner_tol_min": "tightest inner tolerance (default min(1e-10, tol/100))",
+    "polish": "'newton' (default), 'nsgs', None or a callable polish(problem, r, tol, options)",
+    "polish_max_iter": "Newton polish steps per call (default 15)",
+    "polish_switch": "error below which the polish is tried (default: per problem size)",
+    "patience": "outer iterations without 10 % progress before 'stalled' (default 8)",
+}
+
+
+def clarabel_solve(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
+                   time_limit=None, verbose=False, inner_settings=None, **options):
+    """Backend entry point (see the module docstring for options and statuses).
+
+    ``inner_settings`` are Clarabel settings (its ``max_iter`` caps each
+    interior-point solve); ``max_iter`` caps the outer iterations of the fixed
+    point (default 100), or Clarabel's iterations for the single-SOCP laws.
+    """
+    check_unknown("clarabel", options, OPTIONS)
+    inner_settings = dict(inner_settings or {})
+    cap = inner_settings.pop("max_iter", None)
+    native = dict(settings=inner_settings or None, time_limit=time_limit, verbose=verbose or None,
+                  clarabel_max_iter=cap)
+    options.update({k: v for k, v in native.items() if v is not None})
     condensed = False
     if problem.is_global and problem.n_dofs <= DENSE_CONDENSE_MAX:
         problem, condensed = condense_dense(problem), True
@@ -297,13 +338,12 @@ def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **option
         problem = problem.to_local()  # the SOCP needs a symmetric M; the local path handles skew W
     skew_assoc = formulation == "associated" and not problem.is_global and not problem.is_symmetric
     if formulation != "coulomb" and not skew_assoc:
-        known = {"settings", "time_limit", "verbose", "threshold", "inner_tol", "clarabel_max_iter",
-                 "polish", "polish_max_iter"}
-        extra = set(options) - known
-        if extra:
-            raise TypeError(f"unknown Clarabel options {sorted(extra)}")
+        check_unknown("clarabel", options, {"settings", "time_limit", "verbose", "threshold",
+                                            "inner_tol", "clarabel_max_iter", "polish",
+                                            "polish_max_iter"})
         if max_iter is not None:  # one SOCP: max_iter caps Clarabel's interior-point iterations
-            options.setdefault("clarabel_max_iter", max_iter)
+            if options.get("clarabel_max_iter") is None:
+                options["clarabel_max_iter"] = max_iter
         res = _single_socp(problem, formulation, tol, options)
         if condensed:
             res.info["condensed_dense"] = True
@@ -312,10 +352,7 @@ def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **option
     if skew_assoc:  # asymmetric W: the skew part goes to an outer fixed point, no friction shift
         outer["law"] = "associated"
         options.pop("inner_tol", None)
-    known = {"settings", "time_limit", "verbose", "clarabel_max_iter"}
-    extra = set(options) - known
-    if extra:
-        raise TypeError(f"unknown Clarabel options {sorted(extra)}")
+    check_unknown("clarabel", options, {"settings", "time_limit", "verbose", "clarabel_max_iter"})
     if options.get("time_limit") is not None:
         outer.setdefault("time_limit", options["time_limit"])
 
@@ -333,129 +370,24 @@ def clarabel_solve(problem, formulation, *, tol, max_iter, r0, history, **option
 
     factory.accepts_dense = True   # ClarabelInner takes a dense W_sym for small problems
     max_iter = max_iter or 100
-    first = None
-    if (not skew_assoc and r0 is None and not problem.is_global and problem.m <= TINY_MAX
-            and not outer and max_iter > 1):
-        first = _tiny_first_iteration(problem, tol, options)
-        if first is not None and first.status == "converged":
-            res = first
-        elif first is not None:   # continue the fixed point from the first iterate
-            r0 = first.r
-            max_iter -= 1
-    if first is None or first.status != "converged":
-        res = desaxce_fixed_point(problem, factory, tol=tol, max_iter=max_iter, r0=r0,
-                                  history=history, **outer)
-        if first is not None:
-            _merge_first(res, first)
-    elif history:
-        res.history = list(res.info.pop("errors"))
-    res.info.pop("errors", None)
+    res = desaxce_fixed_point(problem, factory, tol=tol, max_iter=max_iter, r0=r0,
+                              history=history, **outer)
     res.info["clarabel_status"] = res.info.get("inner_status")
     if condensed:
         res.info["condensed_dense"] = True
     return res
 
 
-#: local problems with at most this many unknowns take the first outer iteration on a
-#: short path (:func:`_tiny_first_iteration`)
-TINY_MAX = 30
+SPEC = SolverSpec(
+    "clarabel", clarabel_solve, ("coulomb", "associated", "tresca", "frictionless"),
+    global_native=("associated", "coulomb"),
+    description="Clarabel interior point: SOCP relaxations; Coulomb by the De Saxcé fixed point",
+    default_max_iter=100, options=OPTIONS,
+    inner_settings="Clarabel settings (clarabel.DefaultSettings fields; max_iter caps each SOCP)",
+    check=lambda problem, options, inner_settings: check_outer_options(
+        {k: v for k, v in options.items() if k in OUTER_DEFAULTS}))
 
 
-def _tiny_first_iteration(problem, tol, options):
-    """First De Saxcé iteration of a tiny local problem, without the generic loop's overhead.
-
-    Exactly what :func:`~socp_cd.solvers.desaxce.desaxce_fixed_point` does first
-    with default outer options (SOCP with zero shift, inner tolerance
-    ``min(1e-10, tol/100)``, compiled error, compiled Newton polish, NSGS sweeps
-    when Newton stalls), with the Python bookkeeping cut to a few calls: on a
-    one-contact problem the generic loop's glue costs more than Clarabel's own solve.  Returns a
-    :class:`SolverResult` (status ``converged`` when the recomputed error is
-    below ``tol``, else ``max_iter`` with the best iterate, to be continued by the
-    generic loop with ``r0``), or None when Clarabel's unrefined solve did not end
-    "Solved" (the generic loop then starts afresh, with iterative refinement).
-    """
-    from .desaxce_kernels import LAW_COULOMB, dense_error, dense_split, error_then_newton
-    W = problem.W
-    m, dim = problem.m, problem.dim
-    Wd, Ws, _, _, _, dsum = dense_split(W.indptr, W.indices, W.data, m)
-    A, b, cones = coulomb_constraint(problem.mu, dim)
-    itol = min(1e-10, tol * 1e-2)
-    settings = make_settings(itol, {**SMALL_PROBLEM_SETTINGS, **(options.get("settings") or {})},
-                             time_limit=options.get("time_limit"),
-                             verbose=options.get("verbose", False),
-                             max_iter=options.get("clarabel_max_iter"))
-    q = problem.q
-    sol = clarabel.DefaultSolver(clarabel_upper(Ws), q, A, b, cones, settings).solve()
-    status = str(sol.status)
-    if status != "Solved" and "iterative_refinement_enable" not in (options.get("settings") or {}):
-        return None   # unrefined solve in trouble: the generic loop re-solves with refinement
-    if status not in USABLE:
-        return None
-    mu = problem.mu
-    r = np.asarray(sol.x, dtype=np.float64)
-    r_pol, its, err, e_pol = error_then_newton(Wd, q, mu, dim, LAW_COULOMB, r, tol,
-                                                OUTER_DEFAULTS["polish_max_iter"],
-                                                m / dsum if dsum > 0.0 else 1.0)
-    if err != err:        # NaN: non-finite interior-point iterate
-        return None
-    err, e_pol = float(err), float(e_pol)
-    errors, nsgs_sweeps = [err], None
-    if err > tol:
-        if e_pol > tol:   # stalled Newton: warm-started NSGS sweeps, as the generic loop
-            r_ns, sweeps, ok = _polish(problem, r_pol, tol, "nsgs", NSGS_POLISH_SWEEPS, "coulomb")
-            if ok and r_ns is not None:
-                nsgs_sweeps = sweeps
-                e_ns = float(dense_error(Wd, q, r_ns, mu, dim, LAW_COULOMB,
-                                         float(np.sqrt(q @ q)), np.empty(m)))
-                if e_ns < e_pol:
-                    r_pol, e_pol = r_ns, e_ns
-        if e_pol < err:
-            r, err = r_pol, e_pol
-            errors.append(err)
-    info = {"polish_iterations": int(its), "polish_calls": int(errors[0] > tol),
-            "inner_iterations": int(sol.iterations), "inner_status": status,
-            "outer_error": err, "anderson_restarts": 0, "errors": errors}
-    if nsgs_sweeps is not None:
-        info["nsgs_polish_sweeps"] = int(nsgs_sweeps)
-    return SolverResult(r=r, status="converged" if err <= tol else "max_iter", iterations=1,
-                        info=info, error=err,
-                        message="converged after polish" if len(errors) > 1 else "")
-
-
-def _merge_first(res, first):
-    """Fold the short-path first iteration into the generic loop's result."""
-    fi = first.info
-    res.iterations += 1
-    for key in ("polish_iterations", "polish_calls", "inner_iterations", "nsgs_polish_sweeps"):
-        if key in fi:
-            res.info[key] = res.info.get(key, 0) + fi[key]
-    if res.history is not None:
-        res.history = fi["errors"] + res.history
-
-
-#: global problems with at most this many dofs are condensed densely (``W = Hᵀ M⁻¹ H``)
-DENSE_CONDENSE_MAX = 200
-
-
-def condense_dense(problem):
-    """Local form of a small global problem by one dense LU of ``M`` (compiled).
-
-    Same result as :meth:`~socp_cd.problem.GlobalFrictionContactProblem.to_local`
-    (``W = Hᵀ M⁻¹ H``, ``q = Hᵀ M⁻¹ f + w``) without the sparse factorization
-    and conversion overhead, which dominates a one-contact solve.  A singular ``M`` falls back
-    to ``to_local()`` (which raises :class:`~socp_cd.errors.InvalidProblemError`).
-    """
-    from ..problem import FrictionContactProblem
-    from .desaxce_kernels import dense_condense
-    W, q, ok = dense_condense(np.ascontiguousarray(problem.M.toarray()),
-                              np.ascontiguousarray(problem.H.toarray()),
-                              np.ascontiguousarray(problem.f), np.ascontiguousarray(problem.w))
-    if not ok:
-        return problem.to_local()
-    return FrictionContactProblem(dense_to_csr(W), q, problem.mu, problem.dim, source=problem.source,
-                                  name=problem.name, info=problem.info)
-
-
-__all__ = ["clarabel_solve", "ClarabelInner", "condense_dense", "DENSE_CONDENSE_MAX",
+__all__ = ["SPEC", "OPTIONS", "clarabel_solve", "ClarabelInner", "clarabel_cones",
            "SMALL_PROBLEM_SETTINGS", "STATUS_MAP", "map_status", "make_settings",
            "DEFAULT_SETTINGS"]

@@ -1,7 +1,9 @@
-"""Cone constraints of the contact laws in Clarabel's standard form.
+"""Cone constraints of the contact laws in the conic standard form (solver-neutral).
 
-Clarabel solves ``min ½ xᵀPx + qᵀx  s.t.  A x + s = b,  s ∈ C`` where ``C`` is a
-product of cones listed in row order.  Every contact law used by socp_cd asks a
+Conic solvers (Clarabel, SCS, ...) take ``min ½ xᵀPx + qᵀx  s.t.  A x + s = b,
+s ∈ C`` where ``C`` is a product of cones listed in row order; here a cone is
+a neutral ``(kind, size)`` pair with ``kind`` in :data:`CONE_KINDS` (the
+Clarabel backend turns them into Clarabel objects).  Every contact law used by socp_cd asks a
 stacked contact vector ``y`` (impulses ``r`` or velocities ``u``, normal first)
 to lie in a per-contact convex set; this module writes that membership as a
 *cone map*::
@@ -12,14 +14,14 @@ with ``G`` sparse (one block of rows per contact, rows regrouped by cone type)
 and ``g`` a constant offset (nonzero only for Tresca's ball).  A solver then
 uses ``A = -G`` (local unknowns ``r``) or ``A = -G Hᵀ`` (global unknowns ``v``)
 and ``b = g`` (+ ``G`` times any constant part of ``y``).  The multiplier
-attached to the constraint by Clarabel, ``z ∈ C*``, is mapped back to contact
+attached to the constraint by the solver, ``z ∈ C*``, is mapped back to contact
 variables by ``Gᵀ z`` (e.g. the velocities ``u`` of a local problem, or the
 impulses ``r`` of a global one).
 
 Sets
 ----
 * Coulomb cone ``K_mu = {||r_T|| <= mu r_N}``: ``G = diag(mu, 1, 1)`` per
-  contact and ``C`` = ``SecondOrderConeT(3)`` (3D); in 2D the wedge
+  contact and ``C`` = ``("soc", 3)`` (3D); in 2D the wedge
   ``|r_T| <= mu r_N`` is the two linear rows ``mu r_N ∓ r_T >= 0``;
   ``mu = 0`` contacts give ``r_N >= 0`` (nonnegative row) and ``r_T = 0``
   (zero-cone rows).
@@ -40,7 +42,11 @@ from functools import lru_cache
 import numpy as np
 import scipy.sparse as sp
 
-import clarabel
+
+
+#: cone kinds of the neutral ``(kind, size)`` cones: zero cone ``{0}^size``, nonnegative
+#: orthant ``R+^size``, second-order cone ``{x_0 >= ||x_1:||}`` of dimension ``size``
+CONE_KINDS = ("zero", "nonneg", "soc")
 
 
 class CscArrays:
@@ -125,13 +131,13 @@ class ConeMap:
         return self.csc.shape[0]
 
     def cones(self) -> list:
-        """Clarabel cone list matching the row order of ``G``."""
+        """Cones ``(kind, size)`` matching the row order of ``G`` (see :data:`CONE_KINDS`)."""
         out = []
         if self.n_zero:
-            out.append(clarabel.ZeroConeT(self.n_zero))
+            out.append(("zero", self.n_zero))
         if self.n_nonneg:
-            out.append(clarabel.NonnegativeConeT(self.n_nonneg))
-        out.extend([clarabel.SecondOrderConeT(self.soc_dim)] * self.n_soc)
+            out.append(("nonneg", self.n_nonneg))
+        out.extend([("soc", self.soc_dim)] * self.n_soc)
         return out
 
     def multiplier(self, z) -> np.ndarray:
@@ -235,7 +241,7 @@ def coulomb_cone_map(mu, dim: int) -> ConeMap:
 
 
 def coulomb_constraint(mu, dim: int):
-    """Clarabel ``(A, b, cones)`` of ``r ∈ K_mu``: ``A = -G``, ``b = g`` of :func:`coulomb_cone_map`.
+    """Standard-form ``(A, b, cones)`` of ``r ∈ K_mu``: ``A = -G``, ``b = g`` of :func:`coulomb_cone_map`.
 
     The common case (3D, every ``mu > 0``: ``A = -diag(mu, 1, 1, ...)``, one SOC
     per contact) is built directly as :class:`CscArrays`.
@@ -247,7 +253,7 @@ def coulomb_constraint(mu, dim: int):
         vals = np.full(m, -1.0)
         vals[0::3] = -mu
         return (CscArrays(vals, _arange32(m), _arange32(m + 1), (m, m)), np.zeros(m),
-                [clarabel.SecondOrderConeT(3)] * nc)
+                [("soc", 3)] * nc)
     cm = coulomb_cone_map(mu, dim)
     return -cm.csc, cm.g, cm.cones()
 
@@ -312,7 +318,7 @@ def law_cone_map(problem, formulation: str, threshold=None) -> ConeMap:
 
 @dataclass
 class ConicData:
-    """Clarabel standard-form data ``(P, q, A, b, cones)`` plus the cone map used.
+    """Standard-form data ``(P, q, A, b, cones)`` plus the cone map used (``P``: upper triangle).
 
     ``P`` and ``A`` are scipy CSC matrices, or :class:`CscArrays` for problems
     with at most :data:`DENSE_P_MAX` unknowns.
@@ -373,8 +379,8 @@ def dense_to_csr(D) -> sp.csr_matrix:
     return sp.csr_matrix((D[rows, cols], cols.astype(np.int32), indptr), shape=(n, k))
 
 
-def clarabel_upper(S):
-    """``P`` for Clarabel: :func:`upper_csc`, as bare :class:`CscArrays` for small matrices."""
+def upper_csc_arrays(S):
+    """``P`` of the standard form: :func:`upper_csc`, as bare :class:`CscArrays` for small matrices."""
     n = S.shape[0]
     if n <= DENSE_P_MAX:
         D = S.toarray() if sp.issparse(S) else np.asarray(S, dtype=np.float64)
@@ -393,7 +399,7 @@ def upper_csc(S) -> sp.csc_matrix:
     """
     n = S.shape[0]
     if n <= DENSE_P_MAX:
-        U = clarabel_upper(S)
+        U = upper_csc_arrays(S)
         return sp.csc_matrix((U.data, U.indices.copy(), U.indptr.copy()), shape=U.shape)
     C = S.tocoo() if sp.issparse(S) else sp.coo_matrix(np.asarray(S, dtype=np.float64))
     keep = (C.row <= C.col) & (C.data != 0.0)
@@ -425,7 +431,7 @@ def local_conic_data(problem, formulation: str = "associated", *, threshold=None
     Ws = problem.symmetric_part() if W_sym is None else W_sym
     q = problem.q if q_shift is None else np.asarray(q_shift, dtype=np.float64)
     A = -cm.csc if Ws.shape[0] <= DENSE_P_MAX else -cm.G
-    return ConicData(clarabel_upper(Ws), np.array(q, dtype=np.float64), A, cm.g.copy(), cm)
+    return ConicData(upper_csc_arrays(Ws), np.array(q, dtype=np.float64), A, cm.g.copy(), cm)
 
 
 def global_conic_data(problem, *, w_shift=None) -> ConicData:
@@ -452,5 +458,5 @@ def global_conic_data(problem, *, w_shift=None) -> ConicData:
     return ConicData(upper_csc(Ms), -np.array(problem.f, dtype=np.float64), A, b, cm)
 
 
-__all__ = ["CscArrays", "clarabel_upper", "dense_to_csr", "coulomb_constraint", "DENSE_P_MAX", "ConeMap", "ConicData", "coulomb_cone_map", "dual_cone_map", "frictionless_map",
+__all__ = ["CONE_KINDS", "CscArrays", "upper_csc_arrays", "dense_to_csr", "coulomb_constraint", "DENSE_P_MAX", "ConeMap", "ConicData", "coulomb_cone_map", "dual_cone_map", "frictionless_map",
            "tresca_map", "law_cone_map", "local_conic_data", "global_conic_data", "upper_csc"]

@@ -34,7 +34,8 @@ import numpy as np
 
 from ..errors import UnsupportedError
 from .desaxce import desaxce_fixed_point
-from .registry import register
+from .options import check_unknown, inner_tolerance
+from .spec import SolverSpec
 from .result import SolverResult
 
 try:
@@ -87,7 +88,7 @@ def single_program_tol(tol: float) -> float:
     square root of its complementarity gap at contacts that are not strictly
     complementary, hence the margin (same default as the direct path).
     """
-    return min(1e-10, 0.01 * tol)
+    return inner_tolerance(tol)
 
 
 def law_constraints(r, problem, formulation: str, threshold=None) -> list:
@@ -166,22 +167,23 @@ class CvxpyModel:
         self.prob.get_problem_data(cp.CLARABEL)
         return self
 
-    def solve(self, q_shift, tol: float):
-        """Solve for the linear term ``q_shift``; returns ``(r, info)``.
-
-        ``info`` has ``iterations`` (Clarabel's), ``status`` (cvxpy's),
-        ``ok`` (True for ``optimal``), ``objective`` and ``socp_status``
-        (the provisional socp_cd status from :data:`STATUS_MAP`).
-        """
+    def apply(self, q_shift) -> None:
+        """Step 1: put the data of this solve into the compiled model (the parameter ``q_shift``)."""
         self.q_shift.value = np.asarray(q_shift, dtype=np.float64)
+
+    def run(self, tol: float) -> str:
+        """Step 2: run Clarabel through cvxpy at tolerance ``tol``; returns cvxpy's status."""
         opts = {**clarabel_tolerances(tol), **self.solver_options}
         try:
             with warnings.catch_warnings():   # inaccuracy is reported through the status
                 warnings.filterwarnings("ignore", message="Solution may be inaccurate")
                 self.prob.solve(solver=cp.CLARABEL, warm_start=True, **opts)
-            status = self.prob.status
+            return self.prob.status
         except cp.error.SolverError:
-            status = "solver_error"
+            return "solver_error"
+
+    def invert(self, status: str):
+        """Step 3: the contact impulses and the ``info`` of the inner protocol from the solution."""
         r = self.r.value
         if r is None or status not in ("optimal", "optimal_inaccurate", "user_limit"):
             r = np.zeros(self.m)
@@ -195,6 +197,16 @@ class CvxpyModel:
             "socp_status": STATUS_MAP.get(status, ("numerical_error", ""))[0],
         }
 
+    def solve(self, q_shift, tol: float):
+        """Solve for the linear term ``q_shift``: :meth:`apply`, :meth:`run`, :meth:`invert`.
+
+        Returns ``(r, info)``; ``info`` has ``iterations`` (Clarabel's),
+        ``status`` (cvxpy's), ``ok`` (True for ``optimal``), ``objective`` and
+        ``socp_status`` (the provisional socp_cd status from :data:`STATUS_MAP`).
+        """
+        self.apply(q_shift)
+        return self.invert(self.run(tol))
+
 
 def _result_from_inner(r, info) -> SolverResult:
     status, why = STATUS_MAP.get(info["status"], ("numerical_error", "unknown cvxpy status"))
@@ -205,16 +217,27 @@ def _result_from_inner(r, info) -> SolverResult:
                         message=msg)
 
 
-@register("cvxpy", ("coulomb", "associated", "tresca", "frictionless"), dims=(2, 3),
-          description="cvxpy reference models solved by Clarabel (readable, slower than 'clarabel')")
-def solve_cvxpy(problem, formulation, *, tol, max_iter=None, r0=None, history=False, **options):
+#: solver-specific options: the De Saxcé outer options (coulomb) and the Tresca threshold
+OPTIONS = {
+    "threshold": "Tresca thresholds (formulation 'tresca')",
+    "accel": "outer acceleration (default 'anderson')", "memory": "Anderson memory (default 5)",
+    "adaptive_tol": "adaptive inner tolerance (default False)", "kappa": "(default 1e-2)",
+    "inner_tol_max": "(default 1e-4)", "inner_tol_min": "(default min(1e-10, tol/100))",
+    "polish": "'newton' (default), 'nsgs', None or a callable",
+    "polish_max_iter": "(default 15)", "polish_switch": "(default per problem size)",
+    "patience": "(default 8)",
+}
+
+
+def solve_cvxpy(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
+                time_limit=None, verbose=False, inner_settings=None, **options):
     """Backend ``"cvxpy"``.
 
     Options
     -------
     threshold : array_like
         Tresca thresholds (``formulation="tresca"``, validated by :func:`socp_cd.solve`).
-    solver_options : dict
+    inner_settings : dict
         Extra Clarabel settings passed through cvxpy (e.g. ``{"max_iter": 50}``).
     **outer_options
         For ``"coulomb"``: forwarded to the De Saxcé fixed point
@@ -236,7 +259,14 @@ def solve_cvxpy(problem, formulation, *, tol, max_iter=None, r0=None, history=Fa
     fixed point stalls around 1e-6 on some problems.
     """
     _require_cvxpy()
-    solver_options = options.pop("solver_options", None)
+    check_unknown("cvxpy", options, OPTIONS)
+    solver_options = dict(inner_settings or {})
+    if verbose:
+        solver_options.setdefault("verbose", True)
+    if time_limit is not None:
+        solver_options.setdefault("time_limit", float(time_limit))
+        if formulation == "coulomb":
+            options.setdefault("time_limit", float(time_limit))
     threshold = options.pop("threshold", None)
     # "coulomb", and "associated" with a non-symmetric W (skew part in an outer loop)
     outer_law = formulation if formulation == "coulomb" or (
@@ -250,11 +280,16 @@ def solve_cvxpy(problem, formulation, *, tol, max_iter=None, r0=None, history=Fa
         return desaxce_fixed_point(problem, factory, tol=tol,
                                    max_iter=DEFAULT_MAX_ITER if max_iter is None else max_iter,
                                    r0=r0, history=history, **options)
-    if options:
-        raise UnsupportedError(f"solver 'cvxpy' got unknown options {sorted(options)}")
+    check_unknown(f"cvxpy ({formulation})", options, ())
     model = CvxpyModel(problem, None, formulation, threshold, solver_options)
     r, info = model.solve(problem.q, single_program_tol(tol))
     return _result_from_inner(r, info)
 
 
-__all__ = ["CvxpyModel", "law_constraints", "clarabel_tolerances", "single_program_tol", "solve_cvxpy", "STATUS_MAP"]
+SPEC = SolverSpec(
+    "cvxpy", solve_cvxpy, ("coulomb", "associated", "tresca", "frictionless"), dims=(2, 3),
+    description="cvxpy reference models solved by Clarabel (readable, slower than 'clarabel')",
+    default_max_iter=DEFAULT_MAX_ITER, options=OPTIONS,
+    inner_settings="Clarabel settings passed through cvxpy's solve()")
+
+__all__ = ["SPEC", "OPTIONS", "CvxpyModel", "law_constraints", "clarabel_tolerances", "single_program_tol", "solve_cvxpy", "STATUS_MAP"]

@@ -1,6 +1,7 @@
 """One-contact solvers used inside NSGS (numba-compiled).
 
-Each solver receives the *local problem* of contact ``i``: the diagonal block
+Cone projections and De Saxcé velocities come from
+:mod:`socp_cd.solvers.kernels.cone` (one implementation).  Each solver receives the *local problem* of contact ``i``: the diagonal block
 ``A = W_ii`` (``dim x dim``, possibly nonsymmetric), the local free velocity
 ``b = q_i + sum_{j != i} W_ij r_j`` and the friction coefficient ``mu``; it
 returns ``r`` such that ``u = A r + b`` and ``r`` obey the contact law of the
@@ -30,9 +31,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-LAW_COULOMB = 0
-LAW_ASSOCIATED = 1
-LAW_TRESCA = 2
+from .kernels.cone import (LAW_ASSOCIATED, LAW_COULOMB, LAW_TRESCA, law_velocity_block,
+                           project_law_block)
+
 
 KIND_EXACT = 0
 KIND_AC_NEWTON = 1
@@ -54,14 +55,6 @@ def _matvec_plus(A, x, b, d, out):
 
 
 @njit(cache=True, inline="always")
-def _tnorm(x, d):
-    """``||x_T||`` of a local vector."""
-    if d == 2:
-        return abs(x[1])
-    return np.sqrt(x[1] * x[1] + x[2] * x[2])
-
-
-@njit(cache=True, inline="always")
 def _norm(x, d):
     s = 0.0
     for a in range(d):
@@ -69,50 +62,14 @@ def _norm(x, d):
     return np.sqrt(s)
 
 
-@njit(cache=True, inline="always")
-def project_law(x, d, mu, g, law, out):
-    """Project ``x`` on ``K_mu`` (Coulomb, associated) or ``R+ x B(0, g)`` (Tresca)."""
-    xn = x[0]
-    t = _tnorm(x, d)
-    if law == LAW_TRESCA:
-        out[0] = xn if xn > 0.0 else 0.0
-        s = 1.0
-        if t > g:
-            s = g / t
-        for a in range(1, d):
-            out[a] = s * x[a]
-        return
-    if t <= mu * xn:
-        for a in range(d):
-            out[a] = x[a]
-    elif mu * t <= -xn:
-        for a in range(d):
-            out[a] = 0.0
-    else:
-        pn = (xn + mu * t) / (1.0 + mu * mu)
-        out[0] = pn
-        s = mu * pn / t
-        for a in range(1, d):
-            out[a] = s * x[a]
-
-
-@njit(cache=True, inline="always")
-def law_velocity(u, d, mu, law, out):
-    """``û = u + mu ||u_T|| e_N`` for Coulomb, ``u`` otherwise."""
-    for a in range(d):
-        out[a] = u[a]
-    if law == LAW_COULOMB:
-        out[0] += mu * _tnorm(u, d)
-
-
 @njit(cache=True)
 def local_residual(A, b, mu, g, law, r, d, w1, w2):
     """Natural-map residual ``||r - P(r - û)||`` of the local problem (rho = 1)."""
     _matvec_plus(A, r, b, d, w1)
-    law_velocity(w1, d, mu, law, w2)
+    law_velocity_block(w1, d, mu, law, w2)
     for a in range(d):
         w2[a] = r[a] - w2[a]
-    project_law(w2, d, mu, g, law, w1)
+    project_law_block(w2, d, mu, g, law, w1)
     s = 0.0
     for a in range(d):
         e = r[a] - w1[a]
@@ -184,10 +141,10 @@ def projection_fp(A, b, mu, g, law, rho, r, d, maxit, tol, w1, w2):
     """
     for k in range(maxit):
         _matvec_plus(A, r, b, d, w1)
-        law_velocity(w1, d, mu, law, w2)
+        law_velocity_block(w1, d, mu, law, w2)
         for a in range(d):
             w2[a] = r[a] - rho * w2[a]
-        project_law(w2, d, mu, g, law, w1)
+        project_law_block(w2, d, mu, g, law, w1)
         s = 0.0
         for a in range(d):
             e = w1[a] - r[a]

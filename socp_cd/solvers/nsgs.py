@@ -32,6 +32,13 @@ local_tol : float, default 1e-13
 newton_max_iter : int, default 10; projection_max_iter : int, default 100
 threshold : array_like
     Tresca threshold per contact (formulation ``"tresca"``).
+
+Common options: ``max_iter`` counts sweeps (default 1000); ``time_limit`` is
+checked between blocks of sweeps (the sweeps then run in blocks of 10, 20,
+40, ... sweeps, each block restarting the light-error and stall bookkeeping
+and, for ``ordering="shuffled"``, reseeding with ``seed + sweeps done``); ``verbose`` prints a one-line summary; ``inner_settings`` holds the
+local solver's settings, nested: ``{"local_solver", "local_tol",
+"newton_max_iter", "projection_max_iter"}`` (the same names as the flat options).
 """
 from __future__ import annotations
 
@@ -39,22 +46,40 @@ import time
 
 import numpy as np
 
-from ..errors import InvalidProblemError, UnsupportedError
+from ..errors import UnsupportedError
 from .block_storage import problem_blocks
 from .local_solvers import (KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION, LAW_ASSOCIATED,
                             LAW_COULOMB, LAW_TRESCA)
-from .nsgs_kernels import (STATUS_NAMES, STATUS_NUMERICAL, full_error, local_parameters,
-                           nsgs_loop)
-from .registry import register
+from .nsgs_kernels import (STATUS_MAX_ITER, STATUS_NAMES, STATUS_NUMERICAL, BlockW, Law,
+                           LocalSolver, Sweeps, full_error, local_parameters, nsgs_loop)
+from .options import check_choice, check_int, check_real, check_unknown
 from .result import SolverResult
+from .spec import SolverSpec
 
 DEFAULT_MAX_ITER = 1000
 
 _KINDS = {"exact": KIND_EXACT, "ac_newton": KIND_AC_NEWTON, "projection": KIND_PROJECTION}
 _LAWS = {"coulomb": LAW_COULOMB, "frictionless": LAW_COULOMB, "associated": LAW_ASSOCIATED,
          "tresca": LAW_TRESCA}
-_OPTIONS = {"local_solver", "omega", "ordering", "seed", "error_every", "stall_window",
-            "local_tol", "newton_max_iter", "projection_max_iter", "threshold"}
+#: solver-specific options (name -> description)
+OPTIONS = {
+    "local_solver": "one-contact solver: 'exact' (2D default), 'ac_newton' (3D default), 'projection'",
+    "omega": "relaxation in (0, 2) (default 1)",
+    "ordering": "'natural' (default) or 'shuffled'",
+    "seed": "int seed of the shuffled ordering (default 0)",
+    "error_every": "full error every that many sweeps (default 10; 0: light-error rule only)",
+    "stall_window": "sweeps without 1 % progress before 'stalled' (default 5000; 0: never)",
+    "local_tol": "relative tolerance of the one-contact solvers (default 1e-13)",
+    "newton_max_iter": "one-contact Newton iterations (default 10)",
+    "projection_max_iter": "one-contact projection iterations (default 100)",
+    "threshold": "Tresca threshold per contact (formulation 'tresca')",
+}
+#: keys of ``inner_settings`` (the local solver's settings, nested)
+LOCAL_SETTINGS = ("local_solver", "local_tol", "newton_max_iter", "projection_max_iter")
+#: first block of sweeps when a time limit is checked between blocks
+TIME_CHECK_SWEEPS = 10
+#: initial length of the history buffer (doubled as sweeps go on)
+HISTORY_CHUNK = 64
 
 
 def _option(options, name, default):
@@ -62,38 +87,48 @@ def _option(options, name, default):
     return default if v is None else v
 
 
-@register("nsgs", ("coulomb", "frictionless", "tresca", "associated"), dims=(2, 3),
-          description="Moreau–Jean nonlinear block Gauss–Seidel (numba), exact 2D / "
-                      "Alart–Curnier Newton 3D local solvers")
-def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
-                 **options) -> SolverResult:
-    """NSGS backend for :func:`socp_cd.solve` (see the module docstring for options)."""
-    unknown = set(options) - _OPTIONS
-    if unknown:
-        raise UnsupportedError(f"nsgs: unknown option(s) {sorted(unknown)}; "
-                               f"known: {sorted(_OPTIONS)}")
-    d, nc = problem.dim, problem.n_contacts
-    t_setup, cpu0 = time.perf_counter(), time.process_time()
+_DEFAULT_SETTINGS: dict = {}
+
+
+def _settings(problem, options, inner_settings):
+    """Checked NSGS settings (every bad value raises ``InvalidProblemError`` naming it)."""
+    d = problem.dim
+    if not inner_settings and not (set(options) - {"threshold"}):
+        if d not in _DEFAULT_SETTINGS:        # defaults checked once per dimension
+            _DEFAULT_SETTINGS[d] = _checked_settings(d, {})
+        return _DEFAULT_SETTINGS[d]
+    check_unknown("nsgs (inner_settings)", inner_settings, LOCAL_SETTINGS)
+    return _checked_settings(d, {**options, **inner_settings})
+
+
+def _checked_settings(d, options):
     ls_name = _option(options, "local_solver", "exact" if d == 2 else "ac_newton")
-    if ls_name not in _KINDS:
-        raise InvalidProblemError("local_solver", f"must be one of {sorted(_KINDS)}, got {ls_name!r}")
+    check_choice("local_solver", ls_name, _KINDS)
     if ls_name == "exact" and d == 3:
         raise UnsupportedError("nsgs: local_solver='exact' exists in 2D only; use 'ac_newton' in 3D")
-    omega = float(_option(options, "omega", 1.0))
-    if not 0.0 < omega < 2.0:
-        raise InvalidProblemError("omega", f"relaxation must lie in (0, 2), got {omega}")
-    ordering = _option(options, "ordering", "natural")
-    if ordering not in ("natural", "shuffled"):
-        raise InvalidProblemError("ordering", f"must be 'natural' or 'shuffled', got {ordering!r}")
-    seed = int(_option(options, "seed", 0))
-    error_every = int(_option(options, "error_every", 10))
-    stall_window = int(_option(options, "stall_window", 5000))
-    loc_tol = float(_option(options, "local_tol", 1e-13))
-    newton_maxit = int(_option(options, "newton_max_iter", 10))
-    proj_maxit = int(_option(options, "projection_max_iter", 100))
-    if error_every < 0 or stall_window < 0 or newton_maxit < 1 or proj_maxit < 1:
-        raise InvalidProblemError("options", "error_every, stall_window must be >= 0 and "
-                                  "newton_max_iter, projection_max_iter >= 1")
+    omega = check_real("omega", _option(options, "omega", 1.0), minimum=0.0, maximum=2.0,
+                       open_interval=True)
+    ordering = check_choice("ordering", _option(options, "ordering", "natural"),
+                            ("natural", "shuffled"))
+    return dict(
+        ls_name=ls_name, omega=omega, ordering=ordering,
+        seed=check_int("seed", _option(options, "seed", 0), minimum=0),
+        error_every=check_int("error_every", _option(options, "error_every", 10), minimum=0),
+        stall_window=check_int("stall_window", _option(options, "stall_window", 5000), minimum=0),
+        loc_tol=check_real("local_tol", _option(options, "local_tol", 1e-13), positive=True),
+        newton_maxit=check_int("newton_max_iter", _option(options, "newton_max_iter", 10),
+                               minimum=1),
+        proj_maxit=check_int("projection_max_iter", _option(options, "projection_max_iter", 100),
+                             minimum=1))
+
+
+def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
+                 time_limit=None, verbose=False, inner_settings=None, **options) -> SolverResult:
+    """NSGS backend for :func:`socp_cd.solve` (see the module docstring for options)."""
+    check_unknown("nsgs", options, OPTIONS)
+    d, nc = problem.dim, problem.n_contacts
+    t_setup, cpu0 = time.perf_counter(), time.process_time()
+    st = _settings(problem, options, dict(inner_settings or {}))
     max_iter = DEFAULT_MAX_ITER if max_iter is None else int(max_iter)
 
     law = _LAWS[formulation]
@@ -108,8 +143,8 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     q = np.ascontiguousarray(problem.q, dtype=np.float64)
     r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=np.float64).reshape(-1)
     rhoN, rhoT, rhoP, bad = local_parameters(S.diag, S.blocks)
-    info = {"local_solver": ls_name, "omega": omega, "ordering": ordering,
-            "error_every": error_every}
+    info = {"local_solver": st["ls_name"], "omega": st["omega"], "ordering": st["ordering"],
+            "error_every": st["error_every"]}
     if bad.any():
         # a contact whose W_NN is not positive has no well-posed one-contact problem
         bad = np.flatnonzero(bad)
@@ -118,41 +153,70 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                             message=f"diagonal block W_ii of contact(s) {bad[:10].tolist()} has "
                                     f"W_NN <= 0: one-contact problem ill-posed")
 
-    hist = np.full(max_iter if history else 1, np.nan)
+    hist = np.full(min(max_iter, HISTORY_CHUNK) if history else 1, np.nan)
+    W = BlockW(S.indptr, S.indices, S.blocks, S.diag)
+    law_t = Law(mu, g, int(law))
+    local = LocalSolver(int(_KINDS[st["ls_name"]]), rhoN, rhoT, rhoP, float(st["loc_tol"]),
+                        int(st["newton_maxit"]), int(st["proj_maxit"]))
     info["setup_time"] = time.perf_counter() - t_setup
     t0 = time.perf_counter()
-    status, iters, err, n_full, n_fail, light = nsgs_loop(
-        d, nc, S.indptr, S.indices, S.blocks, S.diag, q, mu, g, law, _KINDS[ls_name],
-        rhoN, rhoT, rhoP, r, float(tol), max_iter, omega, ordering == "shuffled", seed,
-        error_every, stall_window, bool(history), loc_tol, newton_maxit, proj_maxit, hist)
+    done, block = 0, (max_iter if time_limit is None else min(max_iter, TIME_CHECK_SWEEPS))
+    hist_all = []
+    while True:
+        sweeps = Sweeps(float(tol), int(block), float(st["omega"]), st["ordering"] == "shuffled",
+                        int(st["seed"] + done), int(st["error_every"]), int(st["stall_window"]),
+                        bool(history))
+        status, iters, err, n_full, n_fail, light, hist = nsgs_loop(d, W, q, law_t, local, sweeps,
+                                                                    r, hist)
+        if history:
+            hist_all.extend(hist[:iters].tolist())
+        done += int(iters)
+        if status != STATUS_MAX_ITER or done >= max_iter or time_limit is None:
+            break
+        if time.perf_counter() - t0 > time_limit:
+            status = -1
+            break
+        block = min(2 * block, max_iter - done)
     info["loop_time"] = time.perf_counter() - t0
     info["cpu_time"] = time.process_time() - cpu0
     info.update(full_error_evaluations=int(n_full), local_failures=int(n_fail),
                 light_error=float(light), internal_error=float(err))
-    status_name = STATUS_NAMES[status]
+    status_name = "time_limit" if status == -1 else STATUS_NAMES[status]
     message = ""
     if status == STATUS_NUMERICAL:
         message = "non-finite value in a local solve; r is the last finite iterate"
+    elif status_name == "time_limit":
+        message = f"time_limit {time_limit:g} s reached after {done} sweeps"
     elif status_name == "stalled" and light == 0.0:
         message = f"a sweep left r unchanged but the error is {err:.3e} > tol"
     elif status_name == "stalled":
-        message = f"no progress of the error over {stall_window} sweeps (error {err:.3e})"
-    return SolverResult(r=r, status=status_name, iterations=int(iters),
-                        history=hist[:iters].tolist() if history else None,
-                        info=info, message=message)
+        message = f"no progress of the error over {st['stall_window']} sweeps (error {err:.3e})"
+    if verbose:
+        print(f"nsgs: {status_name} after {done} sweeps, error {err:.3e} "
+              f"({info['loop_time']:.3g} s)")
+    return SolverResult(r=r, status=status_name, iterations=int(done),
+                        history=hist_all if history else None, info=info, message=message)
+
+
+SPEC = SolverSpec(
+    "nsgs", nsgs_backend, ("coulomb", "frictionless", "tresca", "associated"), dims=(2, 3),
+    description="Moreau–Jean nonlinear block Gauss–Seidel (numba), exact 2D / "
+                "Alart–Curnier Newton 3D local solvers",
+    default_max_iter=DEFAULT_MAX_ITER, options=OPTIONS,
+    inner_settings="the local solver's settings: " + ", ".join(LOCAL_SETTINGS),
+    check=lambda problem, options, inner_settings: _settings(problem, options, inner_settings))
 
 
 def warmup() -> float:
     """Compile (or load from cache) the numba kernels on tiny problems; returns seconds."""
     from ..problem import FrictionContactProblem
-    from .registry import solve
     t0 = time.perf_counter()
     for d in (2, 3):
         W = np.eye(2 * d) + 0.1
         prob = FrictionContactProblem(W, -np.ones(2 * d), 0.3, d)
         for ls in (("exact", "ac_newton", "projection") if d == 2 else ("ac_newton", "projection")):
-            solve(prob, "nsgs", tol=1e-8, max_iter=5, local_solver=ls)
+            nsgs_backend(prob, "coulomb", tol=1e-8, max_iter=5, local_solver=ls)
     return time.perf_counter() - t0
 
 
-__all__ = ["nsgs_backend", "local_parameters", "warmup", "full_error", "DEFAULT_MAX_ITER"]
+__all__ = ["SPEC", "OPTIONS", "nsgs_backend", "local_parameters", "warmup", "full_error", "DEFAULT_MAX_ITER"]

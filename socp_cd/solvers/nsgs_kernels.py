@@ -7,10 +7,13 @@ the outcome.
 """
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
-from .local_solvers import law_velocity, local_solve, project_law
+from .kernels.cone import law_error
+from .local_solvers import local_solve
 
 STATUS_CONVERGED = 0
 STATUS_MAX_ITER = 1
@@ -52,44 +55,35 @@ def block_matvec(d, nc, indptr, indices, blocks, x, q, out):
 
 
 @njit(cache=True)
-def full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u, w1, w2, w3):
+def full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u):
     """Relative residual of the law, ``||r - P(r - û)|| / max(||q||, ||r||, ||u||)``.
 
-    ``u = W r + q`` is recomputed (into ``u``); same measure as
-    :func:`socp_cd.error` (Coulomb) and :mod:`socp_cd.laws` (other laws).
+    ``u = W r + q`` is recomputed (into ``u``); the measure itself is
+    :func:`socp_cd.solvers.kernels.cone.law_error` (= :func:`socp_cd.error`
+    for Coulomb, :mod:`socp_cd.laws` for the other laws).
     """
     block_matvec(d, nc, indptr, indices, blocks, r, q, u)
-    s = 0.0
-    nr = 0.0
-    nu = 0.0
-    for i in range(nc):
-        o = i * d
-        for a in range(d):
-            w1[a] = u[o + a]
-            nr += r[o + a] * r[o + a]
-            nu += u[o + a] * u[o + a]
-        law_velocity(w1, d, mu[i], law, w2)
-        for a in range(d):
-            w2[a] = r[o + a] - w2[a]
-        project_law(w2, d, mu[i], g[i], law, w3)
-        for a in range(d):
-            e = r[o + a] - w3[a]
-            s += e * e
-    den = norm_q
-    if np.sqrt(nr) > den:
-        den = np.sqrt(nr)
-    if np.sqrt(nu) > den:
-        den = np.sqrt(nu)
-    if den <= 2.220446049250313e-16:
-        den = 1.0
-    return np.sqrt(s) / den
+    return law_error(r, u, mu, g, d, law, norm_q)
+
+
+#: The block-sparse ``W`` (:mod:`socp_cd.solvers.block_storage`): block-row pointers,
+#: block-column indices, the ``(nnzb, d, d)`` blocks and the ``(nc, d, d)`` diagonal blocks.
+BlockW = namedtuple("BlockW", "indptr indices blocks diag")
+#: The contact law: friction coefficients, Tresca thresholds (per contact) and the law code.
+Law = namedtuple("Law", "mu g code")
+#: One-contact solver: kind code, per-contact steps and its tolerance and caps.
+LocalSolver = namedtuple("LocalSolver", "kind rhoN rhoT rhoP tol newton_max_iter projection_max_iter")
+#: Sweep settings: tolerance, cap, relaxation, ordering, error policy, recording.
+Sweeps = namedtuple("Sweeps", "tol max_iter omega shuffle seed error_every stall_window record")
 
 
 @njit(cache=True)
-def nsgs_loop(d, nc, indptr, indices, blocks, diag, q, mu, g, law, kind, rhoN, rhoT, rhoP,
-              r, tol, max_iter, omega, shuffle, seed, error_every, stall_window, record,
-              loc_tol, newton_maxit, proj_maxit, hist):
+def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
     """Nonsmooth block Gauss–Seidel iterations, in place on ``r``.
+
+    ``W`` is a :data:`BlockW`, ``law`` a :data:`Law`, ``local`` a
+    :data:`LocalSolver`, ``sweeps`` a :data:`Sweeps` (numba takes these named
+    tuples as they are).
 
     Error policy (Siconos' ``LIGHT_WITH_FULL_FINAL`` plus a periodic check):
     after each sweep the light error ``||r_k+1 - r_k|| / ||r_k+1||`` is
@@ -101,8 +95,18 @@ def nsgs_loop(d, nc, indptr, indices, blocks, diag, q, mu, g, law, kind, rhoN, r
 
     Returns
     -------
-    status, iterations, error, n_full_evaluations, n_local_failures, light_error
+    status, iterations, error, n_full_evaluations, n_local_failures, light_error, hist
+        ``hist`` holds the full error of every sweep when ``record`` (the buffer
+        passed in, doubled whenever it is full: nothing is allocated up front).
     """
+    indptr, indices, blocks, diag = W.indptr, W.indices, W.blocks, W.diag
+    nc = diag.shape[0]
+    mu, g, law = law.mu, law.g, law.code
+    kind, rhoN, rhoT, rhoP = local.kind, local.rhoN, local.rhoT, local.rhoP
+    loc_tol, newton_maxit, proj_maxit = local.tol, local.newton_max_iter, local.projection_max_iter
+    tol, max_iter, omega, shuffle = sweeps.tol, sweeps.max_iter, sweeps.omega, sweeps.shuffle
+    seed, error_every, stall_window, record = (sweeps.seed, sweeps.error_every,
+                                               sweeps.stall_window, sweeps.record)
     order = np.arange(nc)
     if shuffle:
         np.random.seed(seed)
@@ -113,9 +117,6 @@ def nsgs_loop(d, nc, indptr, indices, blocks, diag, q, mu, g, law, kind, rhoN, r
     rl = np.zeros(d)
     rold = np.zeros(d)
     u = np.zeros(nc * d)
-    w1 = np.zeros(d)
-    w2 = np.zeros(d)
-    w3 = np.zeros(d)
     norm_q = 0.0
     for k in range(nc * d):
         norm_q += q[k] * q[k]
@@ -147,9 +148,8 @@ def nsgs_loop(d, nc, indptr, indices, blocks, diag, q, mu, g, law, kind, rhoN, r
                 if not np.isfinite(rl[a]):
                     finite = False
             if not finite:
-                err = full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q,
-                                 u, w1, w2, w3)
-                return STATUS_NUMERICAL, it, err, n_full + 1, n_fail, light
+                err = full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u)
+                return STATUS_NUMERICAL, it, err, n_full + 1, n_fail, light, hist
             for a in range(d):
                 v = omega * rl[a] + (1.0 - omega) * rold[a]
                 e = v - rold[a]
@@ -166,26 +166,29 @@ def nsgs_loop(d, nc, indptr, indices, blocks, diag, q, mu, g, law, kind, rhoN, r
         if error_every > 0 and it % error_every == 0:
             full_now = True
         if full_now:
-            err = full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q,
-                             u, w1, w2, w3)
+            err = full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u)
             n_full += 1
             if record:
+                if it > hist.shape[0]:
+                    grown = np.full(2 * hist.shape[0], np.nan)
+                    grown[:hist.shape[0]] = hist
+                    hist = grown
                 hist[it - 1] = err
             if not np.isfinite(err):
-                return STATUS_NUMERICAL, it, err, n_full, n_fail, light
+                return STATUS_NUMERICAL, it, err, n_full, n_fail, light, hist
             if err <= tol:
-                return STATUS_CONVERGED, it, err, n_full, n_fail, light
+                return STATUS_CONVERGED, it, err, n_full, n_fail, light, hist
             if light <= light_tol:
                 if light == 0.0:
                     # the sweep is a fixed point but not a solution
-                    return STATUS_STALLED, it, err, n_full, n_fail, light
+                    return STATUS_STALLED, it, err, n_full, n_fail, light, hist
                 light_tol = light * tol / err
             if err < 0.99 * best:
                 best = err
                 best_iter = it
             elif stall_window > 0 and it - best_iter >= stall_window:
-                return STATUS_STALLED, it, err, n_full, n_fail, light
-    return STATUS_MAX_ITER, max_iter, err, n_full, n_fail, light
+                return STATUS_STALLED, it, err, n_full, n_fail, light, hist
+    return STATUS_MAX_ITER, max_iter, err, n_full, n_fail, light, hist
 
 
 @njit(cache=True)

@@ -31,8 +31,9 @@ import scipy.sparse as sp
 
 from ..errors import UnsupportedError
 from ..laws import LAW_RESIDUALS
-from .faceted import check_facets, cone_matrix, faceted_error
-from .registry import register
+from ..faceted import DEFAULT_FACETS, check_facets, cone_matrix, faceted_error
+from .options import check_unknown
+from .spec import SolverSpec
 from .result import SolverResult
 
 try:
@@ -40,24 +41,22 @@ try:
 except ModuleNotFoundError:  # pragma: no cover - proxsuite is a declared dependency
     proxqp = None
 
-DEFAULT_FACETS = 8
 DEFAULT_MAX_ITER = 50       #: outer De Saxcé iterations (2D coulomb)
 
 
-def _status_map():
-    S = proxqp.QPSolverOutput
-    return {
-        S.PROXQP_SOLVED: ("converged", ""),
-        S.PROXQP_MAX_ITER_REACHED: ("max_iter", "ProxQP hit its iteration cap "
-                                                "(also its symptom of an unbounded QP: no solution)"),
-        S.PROXQP_PRIMAL_INFEASIBLE: ("numerical_error", "ProxQP reported primal infeasibility, "
-                                                        "impossible (r = 0 is feasible)"),
-        S.PROXQP_DUAL_INFEASIBLE: ("numerical_error", "ProxQP reported dual infeasibility: the QP "
-                                                      "is unbounded below, the law has no solution"),
-        S.PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE: ("numerical_error", "ProxQP returned the closest "
-                                                                     "primal-feasible QP"),
-        S.PROXQP_NOT_RUN: ("numerical_error", "ProxQP did not run"),
-    }
+#: ProxQP status name -> (provisional socp_cd status, explanation)
+STATUS_MAP = {
+    "PROXQP_SOLVED": ("converged", ""),
+    "PROXQP_MAX_ITER_REACHED": ("max_iter", "ProxQP hit its iteration cap "
+                                            "(also its symptom of an unbounded QP: no solution)"),
+    "PROXQP_PRIMAL_INFEASIBLE": ("numerical_error", "ProxQP reported primal infeasibility, "
+                                                    "impossible (r = 0 is feasible)"),
+    "PROXQP_DUAL_INFEASIBLE": ("numerical_error", "ProxQP reported dual infeasibility: the QP "
+                                                  "is unbounded below, the law has no solution"),
+    "PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE": ("numerical_error", "ProxQP returned the closest "
+                                                                 "primal-feasible QP"),
+    "PROXQP_NOT_RUN": ("numerical_error", "ProxQP did not run"),
+}
 
 
 class ProxQPInner:
@@ -100,7 +99,6 @@ class ProxQPInner:
         self.scale = max(float(scale), np.finfo(float).tiny)
         self.n = n
         self.initialized = False
-        self.status_map = _status_map()
 
     def eps_abs(self, tol: float) -> float:
         """ProxQP's absolute tolerance (inf-norm of its residuals) for a relative ``tol``."""
@@ -120,7 +118,7 @@ class ProxQPInner:
             self.qp.update(g=g)
         self.qp.solve()
         res = self.qp.results
-        st, why = self.status_map.get(res.info.status, ("numerical_error", "unknown ProxQP status"))
+        st, why = STATUS_MAP.get(res.info.status.name, ("numerical_error", "unknown ProxQP status"))
         x = np.array(res.x, dtype=np.float64)
         r = x if self.E is None else self.E @ x
         return r, {"iterations": int(res.info.iter), "status": res.info.status.name,
@@ -206,10 +204,22 @@ def _solve_law(problem, inner: ProxQPInner, tol: float, max_iter: int, residual)
                               "law_error": err})
 
 
-@register("proxsuite", ("frictionless", "faceted", "coulomb", "associated", "tresca"), dims=(2, 3),
-          description="ProxQP on polyhedral laws: frictionless (2D/3D), faceted cone (3D), "
-                      "coulomb/associated/tresca (2D only)")
-def solve_proxsuite(problem, formulation, *, tol, max_iter=None, r0=None, history=False, **options):
+#: solver-specific options
+OPTIONS = {
+    "facets": "facets of the 3D faceted cone (default 8, >= 3)",
+    "placement": "'inscribed' (default) or 'circumscribed' faceted cone",
+    "threshold": "Tresca thresholds (2D)",
+    "accel": "2D coulomb outer acceleration (default 'anderson')",
+    "memory": "Anderson memory (default 5)", "adaptive_tol": "(default False)",
+    "kappa": "(default 1e-2)", "inner_tol_max": "(default 1e-4)",
+    "inner_tol_min": "(default min(1e-10, tol/100))",
+    "polish": "2D coulomb polish (default None here)", "polish_max_iter": "(default 15)",
+    "polish_switch": "(default per problem size)", "patience": "(default 8)",
+}
+
+
+def solve_proxsuite(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
+                    time_limit=None, verbose=False, inner_settings=None, **options):
     """Backend ``"proxsuite"``.
 
     Options
@@ -221,8 +231,8 @@ def solve_proxsuite(problem, formulation, *, tol, max_iter=None, r0=None, histor
         reactions are then admissible for the exact cone) or circumscribed.
     threshold : array_like
         Tresca thresholds (2D only).
-    qp_max_iter : int
-        ProxQP's iteration cap per QP (default ProxQP's, 10000).
+    inner_settings : dict
+        ProxQP settings; ``max_iter`` caps each QP (default ProxQP's, 10000).
     **outer_options
         For 2D ``"coulomb"``: forwarded to
         :func:`socp_cd.solvers.desaxce.desaxce_fixed_point` (``polish`` is
@@ -241,7 +251,13 @@ def solve_proxsuite(problem, formulation, *, tol, max_iter=None, r0=None, histor
     moves ``W_a`` into the De Saxcé shift.  In 2D ``associated`` and
     ``faceted`` are the same law (the wedge is already polyhedral).
     """
-    qp_max_iter = options.pop("qp_max_iter", None)
+    check_unknown("proxsuite", options, OPTIONS)
+    inner_settings = dict(inner_settings or {})
+    qp_max_iter = inner_settings.pop("max_iter", None)
+    if inner_settings:
+        check_unknown("proxsuite (inner_settings)", inner_settings, ("max_iter",))
+    if time_limit is not None and formulation == "coulomb":
+        options.setdefault("time_limit", float(time_limit))
     if problem.dim == 3 and formulation in ("coulomb", "associated", "tresca"):
         raise UnsupportedError(
             f"solver 'proxsuite' cannot solve {formulation!r} in 3D: the 3D "
@@ -286,9 +302,16 @@ def solve_proxsuite(problem, formulation, *, tol, max_iter=None, r0=None, histor
 
 
 def _no_options(options):
-    if options:
-        raise UnsupportedError(f"solver 'proxsuite' got unexpected options {sorted(options)}")
+    check_unknown("proxsuite (this formulation)", options, ())
 
 
-__all__ = ["ProxQPInner", "frictionless_qp", "cone_qp", "tresca_qp", "solve_proxsuite",
+SPEC = SolverSpec(
+    "proxsuite", solve_proxsuite, ("frictionless", "faceted", "coulomb", "associated", "tresca"),
+    dims=(2, 3),
+    description="ProxQP on polyhedral laws: frictionless (2D/3D), faceted cone (3D), "
+                "coulomb/associated/tresca (2D only)",
+    default_max_iter=DEFAULT_MAX_ITER, options=OPTIONS,
+    inner_settings="ProxQP settings: max_iter (per QP)")
+
+__all__ = ["SPEC", "OPTIONS", "STATUS_MAP", "ProxQPInner", "frictionless_qp", "cone_qp", "tresca_qp", "solve_proxsuite",
            "DEFAULT_FACETS"]

@@ -1,77 +1,89 @@
-"""One ``solve()`` in front of every backend.
+"""One ``solve()`` in front of every solver (the dispatcher).
 
-A backend is a function ``backend(problem, formulation, *, tol, max_iter, r0,
-history, **options) -> SolverResult`` registered with :func:`register`.  It fills
-``r`` (and ``v``, ``iterations``, ``history``, ``info``, a provisional
-``status``); :func:`solve` then times it, recomputes ``u`` and the residuals
-independently, and decides ``converged`` — a backend never does.
+A solver is a :class:`~socp_cd.solvers.spec.SolverSpec` whose ``func(problem,
+formulation, *, tol, max_iter, r0, history, time_limit, verbose,
+inner_settings, **options) -> SolverResult`` fills ``r`` (and ``v``,
+``iterations``, ``history``, ``info``, a provisional ``status``); :func:`solve`
+checks every argument first (:mod:`socp_cd.solvers.options`), times the call,
+recomputes ``u`` and the law's residual independently, and decides
+``converged`` — a solver never does.  Built-in solvers come from the explicit
+table :mod:`socp_cd.solvers.table`; :func:`register` / :func:`unregister` add
+and remove others (tests, plug-ins).
 """
 from __future__ import annotations
 
 import time as _time
-from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
 from ..errors import InvalidProblemError, UnsupportedError
-from ..laws import LAW_RESIDUALS
-from ..residuals import error as coulomb_error
+from ..laws import LAW_RESIDUALS, check_threshold, law_parameters
+from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
+from .options import COMMON_OPTIONS, check_common, check_unknown
 from .result import STATUSES, SolverResult
+from .spec import SolverSpec
 
 FORMULATIONS = ("coulomb", "associated", "tresca", "frictionless", "faceted")
 
-
-@dataclass(frozen=True)
-class SolverSpec:
-    """What a registered backend can do."""
-
-    name: str
-    func: Callable
-    formulations: tuple
-    global_native: tuple = ()   #: formulations solved on the global form directly
-    dims: tuple = (2, 3)
-    description: str = ""
+_TABLE: dict = {}
+_LOADED = [False]
 
 
-_REGISTRY: dict[str, SolverSpec] = {}
+def _table() -> dict:
+    """Name -> spec: the built-in table (imported on first use) plus registered solvers."""
+    if not _LOADED[0]:
+        from .table import BUILTIN
+        for spec in BUILTIN:
+            _TABLE.setdefault(spec.name, spec)
+        _LOADED[0] = True
+    return _TABLE
 
 
-def register(name: str, formulations, *, global_native=(), dims=(2, 3), description=""):
-    """Decorator registering a backend under ``name``."""
+def register(name: str, formulations, *, global_native=(), dims=(2, 3), description="",
+             default_max_iter=100, options=None, inner_settings="not used"):
+    """Decorator registering a solver function under ``name`` (see :class:`SolverSpec`)."""
 
     def deco(func):
-        _REGISTRY[name] = SolverSpec(name, func, tuple(formulations), tuple(global_native),
-                                     tuple(dims), description)
+        _table()
+        _TABLE[name] = SolverSpec(name, func, tuple(formulations), tuple(global_native),
+                                  tuple(dims), description, int(default_max_iter),
+                                  dict(options or {}), inner_settings)
         return func
 
     return deco
 
 
-def _load_backends() -> None:
-    """Import the backend modules (they register themselves)."""
-    from . import _backends  # noqa: F401
+def unregister(name: str) -> None:
+    """Remove a solver registered with :func:`register` (a built-in comes back from the table)."""
+    _TABLE.pop(name, None)
+    _LOADED[0] = False
+
+
+def solver_spec(name: str):
+    """The :class:`SolverSpec` registered under ``name``, or None."""
+    return _table().get(name)
 
 
 def solvers() -> dict:
-    """Registered solvers and the formulations each supports.
+    """Registered solvers, their formulations and options.
 
     Returns
     -------
     dict
-        ``name -> {"formulations": (...), "global_native": (...), "dims": (...),
-        "description": str}``.
+        ``name -> {"formulations", "global_native", "dims", "description",
+        "default_max_iter", "options" (solver-specific, name -> description),
+        "common_options", "inner_settings"}``.
     """
-    _load_backends()
     return {n: {"formulations": s.formulations, "global_native": s.global_native,
-                "dims": s.dims, "description": s.description} for n, s in sorted(_REGISTRY.items())}
+                "dims": s.dims, "description": s.description,
+                "default_max_iter": s.default_max_iter, "options": dict(s.options),
+                "common_options": dict(COMMON_OPTIONS), "inner_settings": s.inner_settings}
+            for n, s in sorted(_table().items())}
 
 
 def law_residual(problem, formulation, r, u=None, **params) -> float:
-    """Residual of ``r`` for ``formulation`` (``faceted`` is judged by the backend)."""
-    if formulation == "tresca":
-        return LAW_RESIDUALS["tresca"](problem, r, u, threshold=params.get("threshold"))
-    return LAW_RESIDUALS[formulation](problem, r, u)
+    """Relative residual of ``r`` for ``formulation`` (its law parameters in ``params``)."""
+    return LAW_RESIDUALS[formulation](problem, r, u, **law_parameters(formulation, params))
 
 
 def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) -> SolverResult:
@@ -87,16 +99,20 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) 
         res.message = res.message or "backend returned non-finite or mis-sized impulses"
         return res
     res.r = r
-    res.u = problem.velocity(r)
-    if problem.is_global and res.v is None:
-        res.v = problem.global_velocity(r)
-    res.coulomb_error = coulomb_error(problem, r, res.u)
-    if formulation == "faceted":
-        law = float(res.info.get("law_residual", np.inf))
-    elif formulation == "coulomb":
-        law = res.coulomb_error          # the law's residual is Siconos' error itself
-    else:
-        law = law_residual(problem, formulation, r, res.u, **params)
+    with np.errstate(all="ignore"):
+        res.u = problem.velocity(r)
+        if problem.is_global and res.v is None:
+            res.v = problem.global_velocity(r)
+        # the law's residual and Siconos' Coulomb error, each computed once (one when equal)
+        judged = {name: law_residual(problem, name, r, res.u, **params)
+                  for name in {formulation, "coulomb"}}
+    res.coulomb_error, law = judged["coulomb"], judged[formulation]
+    if not np.isfinite(res.coulomb_error):
+        res.coulomb_error = float("inf")
+    if not np.isfinite(law):      # overflow (e.g. r0 = 1e300): never report error = nan
+        law = float("inf")
+        res.status = "numerical_error"
+        res.message = (res.message + "; " if res.message else "") + "non-finite residual"
     res.error = law
     res.converged = bool(law <= tol)
     if res.converged:
@@ -111,17 +127,41 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) 
     return res
 
 
-def solve(problem, solver: str = "nsgs", formulation: str = "coulomb", *, tol: float = 1e-8,
+def _check_problem(problem):
+    if not isinstance(problem, (FrictionContactProblem, GlobalFrictionContactProblem)):
+        hint = (" (read a file with socp_cd.read_problem(path) first)"
+                if isinstance(problem, (str, bytes)) or hasattr(problem, "__fspath__") else "")
+        raise InvalidProblemError(
+            "problem", "solve() takes a FrictionContactProblem or GlobalFrictionContactProblem, "
+                       f"got {type(problem).__name__}{hint}")
+
+
+def _resolve(solver, table):
+    """Spec of ``solver`` (a registered name or a callable solver function)."""
+    if callable(solver) and not isinstance(solver, str):
+        return SolverSpec(getattr(solver, "__name__", "callable"), solver, FORMULATIONS,
+                          options={"*": "any keyword, passed through"})
+    if not isinstance(solver, str) or solver not in table:
+        raise UnsupportedError(f"unknown solver {solver!r}; available: {sorted(table)} "
+                               "(or a callable)")
+    return table[solver]
+
+
+def solve(problem, solver="nsgs", formulation: str = "coulomb", *, tol: float = 1e-8,
           max_iter: int | None = None, r0=None, history: bool = False, crosscheck: str | None = None,
+          time_limit: float | None = None, verbose: bool = False, inner_settings: dict | None = None,
           **options) -> SolverResult:
     """Solve a frictional contact problem.
+
+    Every argument is checked before any work (:mod:`socp_cd.solvers.options`).
 
     Parameters
     ----------
     problem : FrictionContactProblem or GlobalFrictionContactProblem
-    solver : str
-        Backend: ``"nsgs"``, ``"clarabel"``, ``"cvxpy"``, ``"proxsuite"``
-        (see :func:`solvers`).
+    solver : str or callable
+        ``"nsgs"``, ``"clarabel"``, ``"cvxpy"``, ``"proxsuite"`` (see
+        :func:`solvers`), or a solver function with the signature of
+        :class:`~socp_cd.solvers.spec.SolverSpec` ``func``.
     formulation : str
         Contact law: ``"coulomb"`` (exact, default), ``"associated"``,
         ``"tresca"`` (needs ``threshold=``), ``"frictionless"``, ``"faceted"``.
@@ -129,17 +169,23 @@ def solve(problem, solver: str = "nsgs", formulation: str = "coulomb", *, tol: f
         Tolerance on the recomputed residual of the law (Siconos' relative
         error for ``"coulomb"``).
     max_iter : int, optional
-        Backend iteration cap (backend default when None).
+        Iteration cap (the solver's ``default_max_iter`` when None).
     r0 : array_like, optional
-        Initial guess (warm start) for backends that use one.
+        Initial guess (warm start) for solvers that use one.
     history : bool
-        Record the error per iteration when the backend supports it.
+        Record the error per iteration when the solver supports it.
     crosscheck : str, optional
         Name of a reference solver (``"nsgs"``) run on the same problem; the
         relative discrepancy in ``u`` is stored in ``result.info["crosscheck"]``
         (``u``, not ``r``: with redundant contacts ``r`` is not unique).
+    time_limit : float, optional
+        Seconds.
+    verbose : bool
+        Native solver printout.
+    inner_settings : dict, optional
+        Passed through to the native solver (see ``solvers()[name]["inner_settings"]``).
     **options
-        Backend options (see each backend's docstring).
+        Solver-specific options (``solvers()[name]["options"]``).
 
     Returns
     -------
@@ -147,47 +193,56 @@ def solve(problem, solver: str = "nsgs", formulation: str = "coulomb", *, tol: f
 
     Raises
     ------
+    InvalidProblemError
+        ``problem`` is not a problem object, or a bad argument value.
     UnsupportedError
-        Unknown solver, or a formulation/dimension the backend cannot do.
+        Unknown solver or option, or a formulation/dimension the solver cannot do.
     """
-    _load_backends()
-    if solver not in _REGISTRY:
-        raise UnsupportedError(f"unknown solver {solver!r}; available: {sorted(_REGISTRY)}")
-    spec = _REGISTRY[solver]
+    _check_problem(problem)
+    table = _table()
+    spec = _resolve(solver, table)
+    name = spec.name
     if formulation not in FORMULATIONS:
         raise UnsupportedError(f"unknown formulation {formulation!r}; available: {FORMULATIONS}")
     if formulation not in spec.formulations:
         raise UnsupportedError(
-            f"solver {solver!r} cannot solve formulation {formulation!r} "
+            f"solver {name!r} cannot solve formulation {formulation!r} "
             f"(it supports {spec.formulations})")
     if problem.dim not in spec.dims:
-        raise UnsupportedError(f"solver {solver!r} does not support dim = {problem.dim}")
-    if not (np.isfinite(tol) and tol > 0):
-        raise InvalidProblemError("tol", f"must be a positive finite number, got {tol!r}")
-    if max_iter is not None and int(max_iter) < 1:
-        raise InvalidProblemError("max_iter", f"must be >= 1, got {max_iter!r}")
+        raise UnsupportedError(f"solver {name!r} does not support dim = {problem.dim}")
+    if "*" not in spec.options:
+        check_unknown(name, options, spec.options)
+    tol, max_iter, time_limit, verbose, inner_settings = check_common(
+        tol, max_iter, time_limit, verbose, inner_settings)
+    if spec.check is not None:
+        spec.check(problem, options, inner_settings)
+    if crosscheck is not None:
+        cspec = _resolve(crosscheck, table)
+        if formulation not in cspec.formulations or problem.dim not in cspec.dims:
+            raise UnsupportedError(f"crosscheck solver {cspec.name!r} cannot solve "
+                                   f"{formulation!r} in dim {problem.dim}")
     if r0 is not None:
         r0 = problem.check_reaction(r0, "r0")
     if formulation == "tresca":
-        from ..laws import check_threshold
         options["threshold"] = check_threshold(problem, options.get("threshold"))
     target = problem
     if problem.is_global and formulation not in spec.global_native:
         target = problem.to_local()
     t0 = _time.perf_counter()
     res = spec.func(target, formulation, tol=tol, max_iter=max_iter, r0=r0, history=history,
+                    time_limit=time_limit, verbose=verbose, inner_settings=inner_settings,
                     **options)
     res.time = _time.perf_counter() - t0
-    res.solver, res.formulation = solver, formulation
+    res.solver, res.formulation = name, formulation
     if target is not problem:
         res.info["condensed_to_local"] = True
     res = _finalize(problem, res, formulation, tol, options)
     if crosscheck is not None:
         ref = solve(problem, solver=crosscheck, formulation=formulation, tol=tol,
-                    **({"threshold": options["threshold"]} if formulation == "tresca" else {}))
+                    **law_parameters(formulation, options))
         den = max(float(np.linalg.norm(ref.u)), np.finfo(float).tiny)
         res.info["crosscheck"] = {
-            "solver": crosscheck,
+            "solver": cspec.name,
             "status": ref.status,
             "error": ref.error,
             "u_discrepancy": float(np.linalg.norm(res.u - ref.u)) / den,
@@ -195,4 +250,5 @@ def solve(problem, solver: str = "nsgs", formulation: str = "coulomb", *, tol: f
     return res
 
 
-__all__ = ["solve", "solvers", "register", "law_residual", "FORMULATIONS", "SolverSpec"]
+__all__ = ["solve", "solvers", "solver_spec", "register", "unregister", "law_residual", "FORMULATIONS",
+           "SolverSpec"]

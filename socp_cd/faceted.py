@@ -31,11 +31,15 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..cones import project_cone
-from ..errors import InvalidProblemError
-from ..residuals import _pair, error_normalization
+from .cones import project_cone
+from .errors import InvalidProblemError
+from .residuals import checked_pair, error_normalization
 
 PLACEMENTS = ("inscribed", "circumscribed")
+
+
+#: default number of facets of the 3D faceted cone
+DEFAULT_FACETS = 8
 
 
 def check_facets(n_facets, placement="inscribed") -> tuple[int, str]:
@@ -172,7 +176,7 @@ def faceted_error(problem, r, u=None, n_facets: int = 8, placement: str = "inscr
     recomputed unless given — the analogue of Siconos' error for ``K_f``.
     """
     n_facets, placement = check_facets(n_facets, placement)
-    r, u = _pair(problem, r, u)
+    r, u = checked_pair(problem, r, u)
     F = r - project_faceted_cone(r - u, problem.mu, problem.dim, n_facets, placement)
     return float(np.linalg.norm(F)) / error_normalization(problem, r, u)
 

@@ -1,0 +1,90 @@
+"""Isolation of one solve: a forked child or a fresh interpreter, killed at the time limit.
+
+A hanging or crashing backend cannot stop a campaign: :func:`run_forked`
+(default on POSIX) and :func:`run_subprocess` (inside daemonic processes,
+e.g. dask workers) return an outcome ``("ok", payload)`` or ``(status,
+message)`` with status ``time_limit``, ``crashed``, ``unsupported`` or
+``rejected``.
+"""
+from __future__ import annotations
+
+import multiprocessing as mp
+import pickle
+import subprocess
+import sys
+
+import numpy as np
+
+from ..errors import InvalidProblemError, UnsupportedError
+from ..solvers import solve
+from .tasks import RunTask
+
+
+def solve_payload(task: RunTask, problem) -> tuple:
+    """Run ``socp_cd.solve`` and return a small picklable outcome."""
+    try:
+        res = solve(problem, solver=task.solver.name, formulation=task.solver.formulation,
+                    tol=task.tol, max_iter=task.max_iter, **dict(task.solver.options))
+    except UnsupportedError as exc:
+        return ("unsupported", str(exc))
+    except InvalidProblemError as exc:
+        return ("rejected", str(exc))
+    except Exception as exc:  # noqa: BLE001 - a crash is a benchmark outcome
+        return ("crashed", f"{type(exc).__name__}: {exc}")
+    return ("ok", dict(r=np.asarray(res.r), status=res.status, iterations=int(res.iterations),
+                       time=float(res.time), law_error=float(res.error), message=res.message))
+
+
+def _child(conn, task, problem) -> None:
+    try:
+        conn.send(solve_payload(task, problem))
+    finally:
+        conn.close()
+
+
+def run_forked(task: RunTask, problem) -> tuple:
+    """Solve in a forked child; kill it at the time limit."""
+    ctx = mp.get_context("fork")
+    recv, send = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_child, args=(send, task, problem), daemon=True)
+    proc.start()
+    send.close()
+    try:
+        if recv.poll(task.time_limit):
+            try:
+                return recv.recv()
+            except EOFError:
+                proc.join(5)
+                return ("crashed", f"solver process died (exit code {proc.exitcode})")
+        return ("time_limit", f"killed after the time limit of {task.time_limit:g} s")
+    finally:
+        if proc.is_alive():
+            proc.kill()
+        proc.join()
+        recv.close()
+
+
+def run_subprocess(task: RunTask) -> tuple:
+    """Solve in a fresh interpreter (used where forking is not allowed, e.g. daemonic dask workers)."""
+    try:
+        out = subprocess.run([sys.executable, "-m", "socp_cd.bench.isolation"], input=pickle.dumps(task),
+                             capture_output=True, timeout=task.time_limit + 30.0)
+    except subprocess.TimeoutExpired:
+        return ("time_limit", f"killed after the time limit of {task.time_limit:g} s")
+    if out.returncode != 0:
+        return ("crashed", f"solver process exit code {out.returncode}: {out.stderr.decode()[-200:]}")
+    return pickle.loads(out.stdout)
+
+
+def default_isolation() -> str:
+    return "subprocess" if mp.current_process().daemon or "fork" not in mp.get_all_start_methods() \
+        else "fork"
+
+
+__all__ = ["solve_payload", "run_forked", "run_subprocess", "default_isolation"]
+
+
+if __name__ == "__main__":  # subprocess isolation: task on stdin, outcome on stdout
+    _task = pickle.loads(sys.stdin.buffer.read())
+    _out = solve_payload(_task, _task.problem.load())
+    sys.stdout.buffer.write(pickle.dumps(_out))

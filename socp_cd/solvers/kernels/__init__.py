@@ -1,0 +1,13 @@
+"""Compiled (numba) mathematics shared by the solvers, written once.
+
+* :mod:`.cone` — per-contact cone operations (projection on ``K_mu`` and
+  ``K*_mu``, an element of the generalized Jacobian of the projection, De
+  Saxcé's velocity) and Siconos' relative error over a whole stacked vector.
+  The readable NumPy references are :mod:`socp_cd.cones` and
+  :mod:`socp_cd.residuals`; ``tests/test_kernels.py`` holds them equal.
+* :mod:`.dense` — dense linear algebra without BLAS (LU with partial
+  pivoting, mat-vec, ``W`` split, condensation of a small global problem).
+* :mod:`.polish` — the semismooth Newton polish on the natural map (dense).
+
+Modules here import nothing from ``socp_cd`` outside this package.
+"""

@@ -1,0 +1,54 @@
+"""What a solver is to the dispatcher: a :class:`SolverSpec` (no import of the dispatcher).
+
+Each backend module defines its ``SPEC``; :mod:`socp_cd.solvers.table` lists
+them; :mod:`socp_cd.solvers.registry` dispatches on them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+
+@dataclass(frozen=True)
+class SolverSpec:
+    """A registered solver.
+
+    Attributes
+    ----------
+    name : str
+    func : callable
+        ``func(problem, formulation, *, tol, max_iter, r0, history, time_limit,
+        verbose, inner_settings, **options) -> SolverResult``; ``max_iter`` is
+        None when the caller gave none (the solver then applies
+        ``default_max_iter``); every option is already checked.
+    formulations : tuple of str
+    global_native : tuple of str
+        Formulations solved on the global form directly (others are condensed).
+    dims : tuple of int
+    description : str
+    default_max_iter : int
+        ``max_iter`` when the caller gives none (what one iteration is depends
+        on the solver: a sweep for NSGS, an outer SOCP for the fixed point).
+    options : dict
+        Solver-specific options: ``name -> one-line description (with default)``.
+    inner_settings : str
+        What ``inner_settings=`` is passed to (the native solver's settings).
+    check : callable, optional
+        ``check(problem, options, inner_settings)`` raising on a bad option
+        value; :func:`socp_cd.solve` calls it before any work (e.g. before
+        condensing a global problem).
+    """
+
+    name: str
+    func: Callable
+    formulations: tuple
+    global_native: tuple = ()
+    dims: tuple = (2, 3)
+    description: str = ""
+    default_max_iter: int = 100
+    options: dict = field(default_factory=dict)
+    inner_settings: str = "not used"
+    check: Callable | None = None
+
+
+__all__ = ["SolverSpec"]
