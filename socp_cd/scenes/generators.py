@@ -45,7 +45,7 @@ _KINDS = {
 }
 
 
-def expand_generator(ck, t, path: str, dim: int) -> tuple[list, list]:
+def expand_generator(ck, t, path: str, dim: int, body_entry) -> tuple[list, list]:
     """Validate a ``[[generate]]`` table and return ``(bodies, obstacles)`` entries.
 
     Parameters
@@ -57,9 +57,12 @@ def expand_generator(ck, t, path: str, dim: int) -> tuple[list, list]:
         Its key path (``generate[k]``), used in error messages and as the
         generated entries' ``path``.
     dim : int
+    body_entry : callable
+        The schema's body-table validator
+        (:func:`socp_cd.scenes.schema.body_entry`), applied to the template;
+        passed in so that this module does not import the schema that
+        imports it.
     """
-    from .schema import body_entry
-
     if not isinstance(t, dict) or "kind" not in t:
         ck.table(t, path, {"kind", "body"}, required=("kind",))
     kind = ck.string(t["kind"], f"{path}.kind", tuple(_KINDS))

@@ -273,7 +273,7 @@ def validate_scene(data: dict, source: str = "<scene>", default_name: str = "sce
     obstacles = [_obstacle(ck, o, f"obstacles[{k}]", dim)
                  for k, o in enumerate(ck.array_of_tables(data.get("obstacles", []), "obstacles"))]
     for k, gtab in enumerate(ck.array_of_tables(data.get("generate", []), "generate")):
-        new_b, new_o = expand_generator(ck, gtab, f"generate[{k}]", dim)
+        new_b, new_o = expand_generator(ck, gtab, f"generate[{k}]", dim, body_entry)
         bodies += new_b
         obstacles += new_o
     if not bodies:
