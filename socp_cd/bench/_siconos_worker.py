@@ -332,17 +332,22 @@ def task_solve(task, inputs):
             return np.ascontiguousarray(inputs[task[key]], dtype=float).copy()
         return np.zeros(n)
 
-    r, u = start("r0", m), start("u0", m)
-    if kind == "global":
-        v = start("v0", len(np.array(p.q)))
-        t0, c0 = time.perf_counter(), time.process_time()
-        info = sn.gfc3d_driver(p, r, u, v, so)
-        elapsed, cpu = time.perf_counter() - t0, time.process_time() - c0
-    else:
-        driver = sn.fc3d_driver if dim == 3 else sn.fc2d_driver
-        t0, c0 = time.perf_counter(), time.process_time()
-        info = driver(p, r, u, so)
-        elapsed, cpu = time.perf_counter() - t0, time.process_time() - c0
+    # ``repeat`` > 1: the driver is called again on fresh copies of the
+    # starting point and the fastest call is reported (per-call time without
+    # the first call's cold caches); the result is the last call's.
+    elapsed = cpu = float("inf")
+    for _ in range(max(1, int(task.get("repeat") or 1))):
+        r, u = start("r0", m), start("u0", m)
+        if kind == "global":
+            v = start("v0", len(np.array(p.q)))
+            t0, c0 = time.perf_counter(), time.process_time()
+            info = sn.gfc3d_driver(p, r, u, v, so)
+        else:
+            driver = sn.fc3d_driver if dim == 3 else sn.fc2d_driver
+            t0, c0 = time.perf_counter(), time.process_time()
+            info = driver(p, r, u, so)
+        elapsed = min(elapsed, time.perf_counter() - t0)
+        cpu = min(cpu, time.process_time() - c0)
     res = {
         "kind": kind, "dim": dim, "solver_id": sid,
         "solver_name": sn.solver_options_id_to_name(sid),

@@ -51,7 +51,7 @@ SOLVERS = {
                 "vi_fpp", "vi_eg", "ipm", "prox_wr"),
 }
 #: Keyword options of :func:`siconos_solve` forwarded to the worker.
-SOLVE_PARAMS = ("iparam", "dparam", "internal_iparam", "internal_dparam", "r0", "u0", "v0",
+SOLVE_PARAMS = ("iparam", "dparam", "internal_iparam", "internal_dparam", "r0", "u0", "v0", "repeat",
                 "kind", "dense")
 _ARRAY_PARAMS = ("r0", "u0", "v0")
 _HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
@@ -172,7 +172,7 @@ def _job_task(spec: dict, packer: _Packer) -> dict:
             task[name] = {str(k): v for k, v in dict(spec.pop(name)).items()}
         else:
             spec.pop(name, None)
-    for name in ("solver", "tol", "max_iter", "time_limit", "kind", "dense"):
+    for name in ("solver", "tol", "max_iter", "time_limit", "kind", "dense", "repeat"):
         if name in spec:
             value = spec.pop(name)
             if value is not None:
@@ -340,7 +340,9 @@ def siconos_solve(problem, solver: str, tol: float = 1e-8, max_iter: int = 10000
         ``iparam`` / ``dparam`` (``{index or constant name: value}``),
         ``internal_iparam`` / ``internal_dparam`` (first internal solver, e.g.
         NSGS's local solver), ``r0`` / ``u0`` / ``v0`` (initial guesses),
-        ``kind``, ``dense`` (ship ``W`` dense).
+        ``kind``, ``dense`` (ship ``W`` dense), ``repeat`` (call the driver this
+        many times from the same start, in one process, and report the fastest
+        call: a per-call time without cold caches).
 
     Returns
     -------
