@@ -4,3 +4,4 @@
 is missing and then raise a clear error when called.
 """
 from . import clarabel_backend, cvxpy_backend, nsgs, proxsuite_backend  # noqa: F401
+from . import newton  # noqa: F401

@@ -1,0 +1,1 @@
+"""Numba kernels of the solvers (one module per method)."""
