@@ -40,7 +40,7 @@ MUS = (0.1, 0.5, 1.0, 2.0)
 OURS = ("newton", "clarabel", "nsgs")
 SICONOS = {"local3": ("prox", "nsn_ac", "nsn_fb", "nsgs"), "local2": ("nsgs",),
            "global3": ("prox_wr", "nsn_ac", "nsgs_wr")}
-TIME_LIMIT = 20.0
+TIME_LIMIT = 5.0
 
 
 def family(p):
