@@ -192,3 +192,14 @@ def test_bad_options_raise_socp_cd_errors(opts):
     p = manufactured(3, 3, 0.5, seed=1)
     with pytest.raises(SocpCdError):
         socp_cd.solve(p, "newton", **opts)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_internal_error_equals_socp_cd_error(dim):
+    from socp_cd.solvers.kernels.newton_ac import relative_error
+    p = manufactured(15, dim, 0.7, seed=2)
+    r = np.random.default_rng(0).normal(size=p.m)
+    u = p.velocity(r)
+    e = relative_error(r, u, p.mu, dim, float(np.linalg.norm(p.q)), np.empty(dim), np.empty(dim))
+    assert e > 1e-3
+    assert e == pytest.approx(socp_cd.error(p, r), rel=1e-12)

@@ -147,6 +147,72 @@ def per_problem_table(rows):
     return lines + [""]
 
 
+def linear_solver_table(shared, repeat):
+    """Dense LAPACK LU vs SuperLU for the local Newton matrix, and global-native vs condensed."""
+    from socp_cd.bench.generators import manufactured
+    probs = [manufactured(n, 3, 0.5, seed=0, name=f"manufactured tree 3D nc={n}")
+             for n in (30, 100, 200, 400)]
+    probs += [p for p in shared if not p.is_global and p.m >= 150]
+    lines = ["### Linear solver of the local Newton matrix (newton total time, s, min of "
+             f"{repeat})", "", "| problem | m | nnz(W)/m² | dense LU | SuperLU | auto picks |",
+             "|---|---|---|---|---|---|"]
+    for p in probs:
+        t = {}
+        for ls in ("dense", "splu"):
+            best = np.inf
+            for _ in range(repeat):
+                res = socp_cd.solve(p, "newton", tol=TOL, linear_solver=ls, time_limit=TIME_LIMIT)
+                best = min(best, res.time if res.converged else np.inf)
+            t[ls] = best
+        auto = socp_cd.solve(p, "newton", tol=TOL).info["linear_solver"]
+        lines.append(f"| {p.name[:40]} | {p.m} | {p.W.nnz / p.m ** 2:.2f} | {t['dense']:.4f} | "
+                     f"{t['splu']:.4f} | {auto} |")
+    lines += ["", "### Global problems: native saddle-point Newton vs condensing W = HᵀM⁻¹H "
+              "first (condensation time included), s, min of repeats", "",
+              "| problem | n | m | native | condensed + local |", "|---|---|---|---|---|"]
+    for p in shared:
+        if not p.is_global:
+            continue
+        tn = tc = np.inf
+        for _ in range(repeat):
+            res = socp_cd.solve(p, "newton", tol=TOL)
+            tn = min(tn, res.time if res.converged else np.inf)
+            t0 = time.perf_counter()
+            lp = p.to_local()
+            res = socp_cd.solve(lp, "newton", tol=TOL)
+            tc = min(tc, time.perf_counter() - t0 if res.converged else np.inf)
+        lines.append(f"| {p.name[:40]} | {p.n_dofs} | {p.m} | {tn:.4f} | {tc:.4f} |")
+    return lines + [""]
+
+
+def one_contact_table(shared, use_siconos):
+    """Per-call time on the 1-contact problems: ``socp_cd.solve`` vs Siconos' driver call."""
+    lines = ["### Per-call time on 1-contact problems (µs; socp_cd: whole `socp_cd.solve` call, "
+             "min of 200; Siconos: driver call timed in-process by the bridge, min of 20)", "",
+             "| problem | newton solve() | newton backend | Siconos PROX | Siconos NSN_AC |",
+             "|---|---|---|---|---|"]
+    for p in shared:
+        if p.is_global or p.n_contacts != 1:
+            continue
+        ts, tb = [], []
+        for _ in range(200):
+            t0 = time.perf_counter()
+            res = socp_cd.solve(p, "newton", tol=TOL)
+            ts.append(time.perf_counter() - t0)
+            tb.append(res.time)
+        sic = {"prox": np.nan, "nsn_ac": np.nan}
+        if use_siconos:
+            names = [sv for sv in sic for _ in range(20)]
+            outs = siconos_batch([{"task": "solve", "problem": p, "solver": sv, "tol": TOL}
+                                  for sv in names])
+            for sv, o in zip(names, outs):
+                if o.get("status") == "ok":
+                    sic[sv] = np.nanmin([sic[sv], float(o["time"])])
+        lines.append(f"| {p.name} | {min(ts) * 1e6:.0f} | {min(tb) * 1e6:.0f} | "
+                     f"{sic['prox'] * 1e6:.0f} | {sic['nsn_ac'] * 1e6:.0f} |")
+    return lines + [""]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=4)
@@ -169,6 +235,9 @@ def main(argv=None):
           f"set: {args.repeat}, generated set: {args.repeat_generated}) on a shared 2-core "
           "machine (noisy). Solved = `socp_cd.error(r) <= 1e-8` of the returned r.", ""]
     all_rows = []
+    md += one_contact_table(shared, use_sic)
+    md += linear_solver_table(shared, args.repeat)
+    print("\n".join(md), flush=True)
     if not args.skip_shared:
         rows = evaluate(shared, args.repeat, use_sic)
         for fam in ("local3", "local2", "global3"):

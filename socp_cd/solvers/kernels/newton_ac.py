@@ -25,7 +25,8 @@ from numba import njit
 
 # The one import site of the shared cone operations (to be repointed to
 # ``socp_cd.solvers.kernels.cone`` after the kernels merge).
-from ..local_solvers import LAW_COULOMB, law_velocity, project_law
+from ..local_solvers import LAW_COULOMB
+from ..nsgs_kernels import full_error
 
 #: branch codes returned per contact by :func:`ac_blocks` (normal * 3 + tangential)
 NORMAL_OPEN, NORMAL_ACTIVE = 0, 1          # a_N <= 0 (separated) / a_N > 0 (in contact)
@@ -130,32 +131,17 @@ def dense_jacobian(Dr, Du, W, alpha, d, J):
 
 @njit(cache=True)
 def relative_error(r, u, mu, d, norm_q, w1, w2):
-    """Siconos' relative error ``||r - P_K(r - û)|| / max(||q||, ||r||, ||u||)``.
+    """Siconos' relative error ``||r - P_K(r - û)|| / max(||q||, ||r||, ||u||)`` at given ``u``.
 
-    Same measure as :func:`socp_cd.error` (absolute value when all three norms
-    are below machine epsilon), from given ``r`` and ``u``.
+    Evaluated by the NSGS error kernel with an empty ``W`` and ``q := u`` (so
+    its recomputed velocity is ``u`` itself): one implementation of the
+    measure.  ``w1``, ``w2`` are work vectors of length ``d``.
     """
     nc = mu.shape[0]
-    s = 0.0
-    nr = 0.0
-    nu = 0.0
-    for i in range(nc):
-        o = i * d
-        for a in range(d):
-            w1[a] = u[o + a]
-            nr += r[o + a] * r[o + a]
-            nu += u[o + a] * u[o + a]
-        law_velocity(w1, d, mu[i], LAW_COULOMB, w2)
-        for a in range(d):
-            w2[a] = r[o + a] - w2[a]
-        project_law(w2, d, mu[i], 0.0, LAW_COULOMB, w1)
-        for a in range(d):
-            e = r[o + a] - w1[a]
-            s += e * e
-    den = max(norm_q, np.sqrt(nr), np.sqrt(nu))
-    if den <= 2.220446049250313e-16:
-        den = 1.0
-    return np.sqrt(s) / den
+    no_blocks = np.zeros((0, d, d))
+    return full_error(d, nc, np.zeros(nc + 1, np.int64), np.zeros(0, np.int64), no_blocks,
+                      u, r, mu, np.zeros(nc), LAW_COULOMB, norm_q, np.empty_like(u), w1, w2,
+                      np.empty(d))
 
 
 def ac_blocks_reference(r, u, mu, rho, d):
