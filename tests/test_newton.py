@@ -152,11 +152,13 @@ def _small_global(dim, seed):
 @pytest.mark.parametrize("dim", [2, 3])
 def test_global_and_local_agree(dim):
     g = _small_global(dim, 2)
-    rg = socp_cd.solve(g, "newton", tol=1e-10)
+    rg = socp_cd.solve(g, "newton", tol=1e-10, global_mode="native")
     rl = socp_cd.solve(g.to_local(), "newton", tol=1e-10)
-    assert rg.converged and rl.converged
-    assert "condensed_to_local" not in rg.info            # solved natively
-    assert rg.info["linear_solver"] == "splu-global"
+    rc = socp_cd.solve(g, "newton", tol=1e-10)            # auto: condensed (small m)
+    assert rg.converged and rl.converged and rc.converged
+    assert "condensed_to_local" not in rg.info            # the registry did not condense
+    assert rg.info["linear_solver"] == "splu-global" and rc.info["global_mode"] == "condense"
+    np.testing.assert_allclose(rc.v, g.global_velocity(rc.r), atol=1e-8)
     np.testing.assert_allclose(rg.u, rl.u, atol=1e-7 * max(1.0, np.linalg.norm(rl.u)))
     np.testing.assert_allclose(rg.v, g.global_velocity(rg.r), atol=1e-8)
 

@@ -175,7 +175,7 @@ def linear_solver_table(shared, repeat):
             continue
         tn = tc = np.inf
         for _ in range(repeat):
-            res = socp_cd.solve(p, "newton", tol=TOL)
+            res = socp_cd.solve(p, "newton", tol=TOL, global_mode="native")
             tn = min(tn, res.time if res.converged else np.inf)
             t0 = time.perf_counter()
             lp = p.to_local()

@@ -28,7 +28,15 @@ alpha_min : float, default 1e-10
 inner_max_iter : int, default 10
     Newton steps per proximal subproblem.
 linear_solver : {"auto", "dense", "splu"}, default "auto"
-    Local problems only (global problems always use SuperLU).
+    Newton matrix of the local problem: dense LAPACK LU or SuperLU.  ``"auto"``:
+    dense when ``m <= DENSE_MAX_M`` and (``m <= DENSE_ALWAYS_M`` or
+    ``nnz(W) >= DENSE_MIN_FILL m²``), else SuperLU (measured in
+    ``validation/results/newton_study.md``).
+global_mode : {"auto", "native", "condense"}, default "auto"
+    Global problems: Newton on the saddle-point system (``"native"``) or on the
+    condensed local problem ``W = Hᵀ M⁻¹ H`` (sparse solves, ``"condense"``).
+    ``"auto"`` condenses when ``m <= CONDENSE_MAX_M`` (measured: condensing is
+    cheaper on every shared global problem, up to m = 246).
 stall_window : int, default 50
     Status ``"stalled"`` when the best error has not dropped by 10 % over that
     many outer iterations.
@@ -56,7 +64,12 @@ from .result import SolverResult
 DEFAULT_MAX_ITER = 200
 #: local problems up to this size use the dense Newton matrix
 DENSE_MAX_M = 600
-_OPTIONS = {"alpha0", "alpha_min", "inner_max_iter", "linear_solver", "stall_window",
+DENSE_ALWAYS_M = 120
+DENSE_MIN_FILL = 0.1
+#: global problems up to this many unknowns r are condensed to the local form
+CONDENSE_MAX_M = 600
+_OPTIONS = {"alpha0", "alpha_min", "inner_max_iter", "linear_solver", "global_mode",
+            "stall_window",
             "time_limit"}
 _ARMIJO = 1e-4
 _MAX_BACKTRACK = 30
@@ -95,7 +108,9 @@ class _LocalSystem:
         self.d, self.m = problem.dim, problem.m
         self.q = np.ascontiguousarray(problem.q, dtype=np.float64)
         if linear_solver == "auto":
-            linear_solver = "dense" if self.m <= DENSE_MAX_M else "splu"
+            fill = W.nnz / float(self.m * self.m) if sp.issparse(W) else 1.0
+            dense = self.m <= DENSE_MAX_M and (self.m <= DENSE_ALWAYS_M or fill >= DENSE_MIN_FILL)
+            linear_solver = "dense" if dense else "splu"
         self.kind = linear_solver
         if self.kind == "dense":
             self.W = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W, dtype=np.float64)
@@ -378,6 +393,13 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
     if time_limit is not None and not float(time_limit) > 0:
         raise InvalidProblemError("time_limit", f"must be positive, got {time_limit!r}")
     max_iter = DEFAULT_MAX_ITER if max_iter is None else int(max_iter)
+    mode = _option(options, "global_mode", "auto")
+    if mode not in ("auto", "native", "condense"):
+        raise InvalidProblemError("global_mode",
+                                  f"must be 'auto', 'native' or 'condense', got {mode!r}")
+    glob = problem if problem.is_global else None
+    if glob is not None and (mode == "condense" or (mode == "auto" and problem.m <= CONDENSE_MAX_M)):
+        problem = glob.to_local()
     system = _GlobalSystem(problem) if problem.is_global else _LocalSystem(problem, lin)
     mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
     r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=np.float64).reshape(-1)
@@ -391,8 +413,13 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
         message = f"no 10 % drop of the error over {stall} outer iterations"
     elif status == "numerical_error":
         message = "non-finite error; r is the last finite iterate"
+    extra = system.result_extra()
+    if glob is not None:
+        info["global_mode"] = "native" if problem.is_global else "condense"
+        if not problem.is_global:
+            extra["v"] = glob.global_velocity(r)
     return SolverResult(r=r, status=status, iterations=iters, history=hist, info=info,
-                        message=message, **system.result_extra())
+                        message=message, **extra)
 
 
 __all__ = ["newton_backend", "prox_newton", "DEFAULT_MAX_ITER"]
