@@ -13,10 +13,12 @@ after outer iterations that cut the error and grows after those that do not.
 Equations: ``formulations/newton.md``.
 
 Local problems: the Newton matrix is assembled densely (compiled kernel,
-LAPACK LU) when ``W`` is small, otherwise as a sparse matrix factorized by
-SuperLU.  Global problems (solved natively): Newton on the saddle-point
-system ``M v = H r + f``, ``u = Hᵀ v + w`` with unknowns ``(v, r)``, one sparse
-LU per Newton step; ``W`` is never formed.
+LAPACK LU) when ``W`` is small or dense, otherwise as a sparse matrix
+factorized by SuperLU.  Global problems are registered as native: small ones
+are condensed here (``W = Hᵀ M⁻¹ H`` by sparse solves, cheaper as measured),
+larger ones run Newton on the saddle-point system ``M v = H r + f``,
+``u = Hᵀ v + w`` with unknowns ``(v, r)``, one sparse LU per Newton step and
+``W`` never formed (``global_mode``).
 
 Options (``socp_cd.solve(problem, solver="newton", **options)``)
 -----------------------------------------------------------------
@@ -69,8 +71,7 @@ DENSE_MIN_FILL = 0.1
 #: global problems up to this many unknowns r are condensed to the local form
 CONDENSE_MAX_M = 600
 _OPTIONS = {"alpha0", "alpha_min", "inner_max_iter", "linear_solver", "global_mode",
-            "stall_window",
-            "time_limit"}
+            "stall_window", "time_limit"}
 _ARMIJO = 1e-4
 _MAX_BACKTRACK = 30
 _ALPHA_MAX = 1e8
