@@ -1,0 +1,166 @@
+"""Alart–Curnier function, its generalized Jacobian and the error (numba kernels).
+
+Used by :mod:`socp_cd.solvers.newton` (see ``formulations/newton.md``).  For
+every contact ``i`` with impulse ``r_i``, velocity ``u_i`` and parameter
+``rho_i > 0``::
+
+    a_N = r_N - rho u_N,                  R = mu max(0, a_N)
+    x_T = r_T - rho u_T
+    F_N = r_N - max(0, a_N)
+    F_T = r_T - P_{B(0, R)}(x_T)
+
+``F(r, u) = 0`` with ``u = W r + q`` is exactly the Coulomb law with
+Signorini's condition.  The kernels return ``F`` and one element of its
+generalized Jacobian split as ``dF_i = Dr_i dr_i + Du_i du_i`` (two
+``d x d`` blocks per contact), so that the local Newton matrix is
+``Dr + Du W`` and the global one keeps ``H`` and ``M`` sparse.
+
+:func:`ac_blocks_reference` is the NumPy reference of :func:`ac_blocks`
+(tested equal).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+#: branch codes returned per contact by :func:`ac_blocks` (normal * 3 + tangential)
+NORMAL_OPEN, NORMAL_ACTIVE = 0, 1          # a_N <= 0 (separated) / a_N > 0 (in contact)
+TANGENT_STICK, TANGENT_SLIDE = 0, 1        # ||x_T|| <= R / ||x_T|| > R
+
+
+@njit(cache=True)
+def ac_blocks(r, u, mu, rho, d, want_jac, F, Dr, Du, branch):
+    """Alart–Curnier ``F`` and generalized-Jacobian blocks for every contact.
+
+    Parameters
+    ----------
+    r, u : ndarray (m,)
+        Impulses and velocities (``u`` already includes any proximal term).
+    mu, rho : ndarray (nc,)
+        Friction coefficients and Alart–Curnier parameters.
+    d : int
+        2 or 3.
+    want_jac : bool
+        Fill ``Dr``, ``Du`` (nc, d, d) and ``branch`` (nc,) too.
+    F : ndarray (m,)
+        Output.
+
+    Returns
+    -------
+    float
+        ``||F||``.
+    """
+    nc = mu.shape[0]
+    s = 0.0
+    for i in range(nc):
+        o = i * d
+        p = rho[i]
+        a_n = r[o] - p * u[o]
+        active = a_n > 0.0
+        if want_jac:
+            for a in range(d):
+                for c in range(d):
+                    Dr[i, a, c] = 0.0
+                    Du[i, a, c] = 0.0
+        if active:
+            F[o] = p * u[o]
+            if want_jac:
+                Du[i, 0, 0] = p
+        else:
+            F[o] = r[o]
+            if want_jac:
+                Dr[i, 0, 0] = 1.0
+        R = mu[i] * a_n if active else 0.0
+        x1 = r[o + 1] - p * u[o + 1]
+        x2 = r[o + 2] - p * u[o + 2] if d == 3 else 0.0
+        t = np.sqrt(x1 * x1 + x2 * x2)
+        if t <= R:
+            F[o + 1] = p * u[o + 1]
+            if d == 3:
+                F[o + 2] = p * u[o + 2]
+            if want_jac:
+                for a in range(1, d):
+                    Du[i, a, a] = p
+                branch[i] = (NORMAL_ACTIVE if active else NORMAL_OPEN) * 2 + TANGENT_STICK
+        else:
+            n1 = x1 / t
+            n2 = x2 / t
+            F[o + 1] = r[o + 1] - R * n1
+            if d == 3:
+                F[o + 2] = r[o + 2] - R * n2
+            if want_jac:
+                k = R / t
+                # d P_B(x)/dx = k (I - n n^T); dx = dr_T - rho du_T; dR = mu (dr_N - rho du_N)
+                for a in range(1, d):
+                    na = n1 if a == 1 else n2
+                    for c in range(1, d):
+                        nc_ = n1 if c == 1 else n2
+                        proj = k * ((1.0 if a == c else 0.0) - na * nc_)
+                        Dr[i, a, c] = (1.0 if a == c else 0.0) - proj
+                        Du[i, a, c] = p * proj
+                    if active:
+                        Dr[i, a, 0] = -mu[i] * na
+                        Du[i, a, 0] = mu[i] * p * na
+                branch[i] = (NORMAL_ACTIVE if active else NORMAL_OPEN) * 2 + TANGENT_SLIDE
+        for a in range(d):
+            s += F[o + a] * F[o + a]
+    return np.sqrt(s)
+
+
+@njit(cache=True)
+def dense_jacobian(Dr, Du, W, alpha, d, J):
+    """``J = Dr + Du (W + alpha I)`` for a dense ``W`` (block-diagonal ``Dr``, ``Du``)."""
+    nc = Dr.shape[0]
+    m = W.shape[1]
+    for i in range(nc):
+        o = i * d
+        for a in range(d):
+            for c in range(m):
+                s = 0.0
+                for b in range(d):
+                    s += Du[i, a, b] * W[o + b, c]
+                J[o + a, c] = s
+            for c in range(d):
+                J[o + a, o + c] += Dr[i, a, c] + alpha * Du[i, a, c]
+
+
+def ac_blocks_reference(r, u, mu, rho, d):
+    """NumPy reference of :func:`ac_blocks`: returns ``F, Dr, Du, branch``."""
+    r = np.asarray(r, float).reshape(-1, d)
+    u = np.asarray(u, float).reshape(-1, d)
+    mu = np.asarray(mu, float)
+    rho = np.asarray(rho, float)
+    nc = r.shape[0]
+    eye = np.eye(d - 1)
+    F = np.zeros((nc, d))
+    Dr = np.zeros((nc, d, d))
+    Du = np.zeros((nc, d, d))
+    branch = np.zeros(nc, dtype=np.int64)
+    a_n = r[:, 0] - rho * u[:, 0]
+    active = a_n > 0
+    R = np.where(active, mu * a_n, 0.0)
+    x = r[:, 1:] - rho[:, None] * u[:, 1:]
+    t = np.linalg.norm(x, axis=1)
+    F[:, 0] = np.where(active, rho * u[:, 0], r[:, 0])
+    Du[active, 0, 0] = rho[active]
+    Dr[~active, 0, 0] = 1.0
+    stick = t <= R
+    for i in range(nc):
+        if stick[i]:
+            F[i, 1:] = rho[i] * u[i, 1:]
+            Du[i, 1:, 1:] = rho[i] * eye
+        else:
+            n = x[i] / t[i]
+            F[i, 1:] = r[i, 1:] - R[i] * n
+            proj = (R[i] / t[i]) * (eye - np.outer(n, n))
+            Dr[i, 1:, 1:] = eye - proj
+            Du[i, 1:, 1:] = rho[i] * proj
+            if active[i]:
+                Dr[i, 1:, 0] = -mu[i] * n
+                Du[i, 1:, 0] = mu[i] * rho[i] * n
+        branch[i] = 2 * int(active[i]) + int(not stick[i])
+    return F.reshape(-1), Dr, Du, branch
+
+
+__all__ = ["ac_blocks", "ac_blocks_reference", "dense_jacobian",
+           "NORMAL_OPEN", "NORMAL_ACTIVE", "TANGENT_STICK", "TANGENT_SLIDE"]

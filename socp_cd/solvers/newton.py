@@ -1,0 +1,432 @@
+"""Proximal-point semismooth Newton method for the exact Coulomb law (backend ``"newton"``).
+
+The Coulomb law with Signorini's condition is written as the nonsmooth
+equation ``F_AC(r, u) = 0`` of Alart and Curnier (kernels in
+:mod:`socp_cd.solvers.kernels.newton_ac`).  Newton's method on it is
+globalized by an inexact proximal-point outer loop (Acary, Brémond & Huber
+2018; Siconos ``fc3d_proximal``): at outer iterate ``r_k`` the subproblem is
+the same law with ``u_alpha = u + alpha (r - r_k)``, i.e. with ``W + alpha I``,
+whose Newton matrix ``Dr + Du (W + alpha I)`` is nonsingular even when ``W``
+is rank deficient or asymmetric.  The subproblem is solved by semismooth
+Newton steps with an Armijo line search on ``½||F_alpha||²``; ``alpha`` shrinks
+after outer iterations that cut the error and grows after those that do not.
+Equations: ``formulations/newton.md``.
+
+Local problems: the Newton matrix is assembled densely (compiled kernel,
+LAPACK LU) when ``W`` is small or dense, otherwise as a sparse matrix
+factorized by SuperLU.  Global problems are registered as native: small ones
+are condensed here (``W = Hᵀ M⁻¹ H`` by sparse solves, cheaper as measured),
+larger ones run Newton on the saddle-point system ``M v = H r + f``,
+``u = Hᵀ v + w`` with unknowns ``(v, r)``, one sparse LU per Newton step and
+``W`` never formed (``global_mode``).
+
+Options (``socp_cd.solve(problem, solver="newton", **options)``)
+-----------------------------------------------------------------
+alpha0 : float, default 1
+    Initial proximal parameter, relative to the mean diagonal scale of ``W``
+    (``Hᵀ M⁻¹ H`` estimated from ``H`` and ``diag(M)`` for global problems).
+alpha_min : float, default 1e-10
+    Relative floor of the proximal parameter.
+inner_max_iter : int, default 10
+    Newton steps per proximal subproblem.
+linear_solver : {"auto", "dense", "splu"}, default "auto"
+    Newton matrix of the local problem: dense LAPACK LU or SuperLU.  ``"auto"``:
+    dense when ``m <= DENSE_MAX_M`` and (``m <= DENSE_ALWAYS_M`` or
+    ``nnz(W) >= DENSE_MIN_FILL m²``), else SuperLU (measured in
+    ``validation/results/newton_study.md``).
+global_mode : {"auto", "native", "condense"}, default "auto"
+    Global problems: Newton on the saddle-point system (``"native"``) or on the
+    condensed local problem ``W = Hᵀ M⁻¹ H`` (sparse solves, ``"condense"``).
+    ``"auto"`` condenses when ``m <= CONDENSE_MAX_M`` (measured: condensing is
+    cheaper on every shared global problem, up to m = 246).
+stall_window : int, default 50
+    Status ``"stalled"`` when the best error has not dropped by 10 % over that
+    many outer iterations.
+
+The common options (``tol``, ``max_iter`` = outer proximal iterations,
+default 200, ``time_limit``, ``verbose``, ``r0``) follow
+:mod:`socp_cd.solvers.options`; ``inner_settings`` is not used.
+"""
+from __future__ import annotations
+
+import contextlib
+import functools
+import time
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from threadpoolctl import ThreadpoolController
+
+from .kernels.cone import siconos_error
+from .kernels.newton_ac import ac_blocks, dense_jacobian
+from .options import check_choice, check_int, check_real
+from .result import SolverResult
+from .spec import SolverSpec
+
+DEFAULT_MAX_ITER = 200
+#: local problems up to this size use the dense Newton matrix
+DENSE_MAX_M = 600
+DENSE_ALWAYS_M = 120
+DENSE_MIN_FILL = 0.1
+#: global problems up to this many unknowns r are condensed to the local form
+CONDENSE_MAX_M = 600
+#: solver-specific options (the common ones are in :mod:`socp_cd.solvers.options`)
+OPTIONS = {
+    "alpha0": "initial proximal parameter relative to the diagonal scale of W (default 1)",
+    "alpha_min": "relative floor of the proximal parameter (default 1e-10)",
+    "inner_max_iter": "Newton steps per proximal subproblem (default 10)",
+    "linear_solver": "'auto' (default), 'dense' (LAPACK LU) or 'splu' (SuperLU)",
+    "global_mode": "'auto' (default), 'native' (saddle point) or 'condense'",
+    "stall_window": "outer iterations without a 10 % error drop before 'stalled' (default 50)",
+}
+_ARMIJO = 1e-4
+_MAX_BACKTRACK = 30
+_ALPHA_MAX = 1e8
+#: a solved proximal subproblem is accepted while its error <= NONMONOTONE * best
+NONMONOTONE = 10.0
+
+
+#: above this size the factorizations run with one BLAS thread: on a loaded
+#: machine OpenBLAS' threads spin and a 160 x 160 LU took 8 ms instead of 0.5 ms
+SINGLE_THREAD_MIN_M = 60
+
+
+@functools.lru_cache(maxsize=1)
+def _blas_controller():
+    return ThreadpoolController()
+
+
+def _one_blas_thread(m):
+    """Context limiting BLAS to one thread (a no-op for tiny problems)."""
+    if m < SINGLE_THREAD_MIN_M:
+        return contextlib.nullcontext()
+    return _blas_controller().limit(limits=1, user_api="blas")
+
+
+class _SingularStep(Exception):
+    """The Newton matrix could not be factorized."""
+
+
+# --------------------------------------------------------------------------- linear algebra
+class _LocalSystem:
+    """Newton steps of the local problem ``u = W r + q``."""
+
+    def __init__(self, problem, linear_solver):
+        W = problem.W
+        self.d, self.m = problem.dim, problem.m
+        self.q = np.ascontiguousarray(problem.q, dtype=np.float64)
+        if linear_solver == "auto":
+            fill = W.nnz / float(self.m * self.m) if sp.issparse(W) else 1.0
+            dense = self.m <= DENSE_MAX_M and (self.m <= DENSE_ALWAYS_M or fill >= DENSE_MIN_FILL)
+            linear_solver = "dense" if dense else "splu"
+        self.kind = linear_solver
+        if self.kind == "dense":
+            self.W = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W, dtype=np.float64)
+            self.J = np.empty((self.m, self.m))
+        else:
+            self.W = sp.csr_matrix(W, dtype=np.float64)
+            nc = self.m // self.d
+            self._bsr_index = (np.arange(nc, dtype=np.int32), np.arange(nc + 1, dtype=np.int32))
+        self.norm_q = float(np.linalg.norm(self.q))
+        self.factorizations = 0
+
+    def diag_blocks(self):
+        d, nc = self.d, self.m // self.d
+        W = self.W
+        out = np.empty((nc, d, d))
+        for a in range(d):
+            for c in range(d):
+                out[:, a, c] = (W[a::d, c::d].diagonal() if sp.issparse(W)
+                                else np.diagonal(W[a::d, c::d]))
+        return out
+
+    def start(self, r):
+        return self.W @ r + self.q
+
+    def direction(self, r, Dr, Du, alpha, F):
+        """Solve ``(Dr + Du (W + alpha I)) dr = -F``; returns ``(dr, W dr)``."""
+        self.factorizations += 1
+        if self.kind == "dense":
+            dense_jacobian(Dr, Du, self.W, alpha, self.d, self.J)
+            try:
+                lu = sla.lu_factor(self.J, overwrite_a=True, check_finite=False)
+            except (ValueError, sla.LinAlgError) as exc:
+                raise _SingularStep(str(exc)) from None
+            if not np.all(np.isfinite(lu[0].diagonal())) or np.min(np.abs(lu[0].diagonal())) == 0:
+                raise _SingularStep("singular Newton matrix")
+            dr = sla.lu_solve(lu, -F, check_finite=False)
+        else:
+            ind, ptr = self._bsr_index
+            shape = (self.m, self.m)
+            Dr_s = sp.bsr_matrix((Dr + alpha * Du, ind, ptr), shape=shape)
+            Du_s = sp.bsr_matrix((Du, ind, ptr), shape=shape)
+            J = (Dr_s.tocsr() + Du_s.tocsr() @ self.W).tocsc()
+            try:
+                dr = spla.splu(J, permc_spec="COLAMD").solve(-F)
+            except RuntimeError as exc:
+                raise _SingularStep(str(exc)) from None
+        if not np.all(np.isfinite(dr)):
+            raise _SingularStep("non-finite Newton step")
+        return dr, self.W @ dr
+
+    def accept(self, t):
+        pass
+
+    def result_extra(self):
+        return {}
+
+
+class _GlobalSystem:
+    """Newton steps on the saddle-point system ``M v = H r + f``, ``u = Hᵀ v + w``."""
+
+    kind = "splu-global"
+
+    def __init__(self, problem):
+        self.d, self.m, self.n = problem.dim, problem.m, problem.n_dofs
+        self.M = sp.csr_matrix(problem.M, dtype=np.float64)
+        self.H = sp.csr_matrix(problem.H, dtype=np.float64)
+        self.HT = self.H.T.tocsr()
+        self.f = np.asarray(problem.f, dtype=np.float64)
+        self.w = np.asarray(problem.w, dtype=np.float64)
+        self.problem = problem
+        self.norm_q = float(np.linalg.norm(problem.q_local))
+        nc = self.m // self.d
+        self._bsr_index = (np.arange(nc, dtype=np.int32), np.arange(nc + 1, dtype=np.int32))
+        self._top = sp.hstack([self.M, -self.H]).tocsr()
+        self.factorizations = 0
+        self.v = None
+        self._dv = None
+
+    def diag_blocks(self):
+        """Diagonal blocks of ``Hᵀ diag(M)⁻¹ H`` (a scale estimate; W is not formed)."""
+        dm = self.M.diagonal()
+        dm = np.where(np.abs(dm) > 0, dm, 1.0)
+        HtD = (self.HT @ sp.diags(1.0 / dm)).tocsr()
+        d, nc = self.d, self.m // self.d
+        out = np.empty((nc, d, d))
+        for a in range(d):
+            for c in range(d):
+                out[:, a, c] = np.asarray(HtD[a::d].multiply(self.HT[c::d]).sum(axis=1)).ravel()
+        return out
+
+    def start(self, r):
+        self.v = self.problem.global_velocity(r)
+        return self.HT @ self.v + self.w
+
+    def direction(self, r, Dr, Du, alpha, F):
+        self.factorizations += 1
+        ind, ptr = self._bsr_index
+        shape = (self.m, self.m)
+        Du_s = sp.bsr_matrix((Du, ind, ptr), shape=shape).tocsr()
+        bottom = sp.hstack([Du_s @ self.HT, sp.bsr_matrix((Dr + alpha * Du, ind, ptr),
+                                                           shape=shape).tocsr()])
+        K = sp.vstack([self._top, bottom]).tocsc()
+        rhs = np.concatenate([-(self.M @ self.v - self.H @ r - self.f), -F])
+        try:
+            x = spla.splu(K, permc_spec="COLAMD").solve(rhs)
+        except RuntimeError as exc:
+            raise _SingularStep(str(exc)) from None
+        if not np.all(np.isfinite(x)):
+            raise _SingularStep("non-finite Newton step")
+        self._dv = x[:self.n]
+        return x[self.n:], self.HT @ self._dv
+
+    def accept(self, t):
+        self.v = self.v + t * self._dv
+
+    def result_extra(self):
+        return {"v": self.v}
+
+
+# --------------------------------------------------------------------------- the method
+def _rho(diag_blocks, d):
+    """Alart–Curnier parameter per contact: inverse of the diagonal block's scale."""
+    scale = np.sqrt(np.einsum("iab,iab->i", diag_blocks, diag_blocks) / d)
+    ref = float(np.mean(scale)) if scale.size else 1.0
+    if not np.isfinite(ref) or ref <= 0.0:
+        ref = 1.0
+    scale = np.maximum(scale, 1e-8 * ref)
+    return 1.0 / scale, ref
+
+
+def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
+                stall_window, time_limit, history):
+    """Run the proximal-point semismooth Newton method.
+
+    Parameters
+    ----------
+    system : _LocalSystem or _GlobalSystem
+        Supplies ``u`` from ``r`` and the Newton directions.
+    mu : ndarray (nc,)
+    r : ndarray (m,)
+        Initial impulses (modified in place).
+
+    Returns
+    -------
+    tuple
+        ``(status, r, iterations, history, info)``.
+    """
+    d = system.d
+    nc = mu.shape[0]
+    rho, wscale = _rho(system.diag_blocks(), d)
+    alpha = alpha0 * wscale
+    a_min, a_max = alpha_min * wscale, _ALPHA_MAX * wscale
+    F = np.empty(system.m)
+    Ft = np.empty(system.m)
+    Dr = np.empty((nc, d, d))
+    Du = np.empty((nc, d, d))
+    branch = np.empty(nc, dtype=np.int64)
+    u = system.start(r)
+    err = siconos_error(r, u, mu, d, system.norm_q)
+    hist = [err] if history else None
+    best_err, best_r, best_it = err, r.copy(), 0
+    n_newton = n_backtrack = n_ls_fail = n_singular = 0
+    t0 = time.perf_counter()
+    status, it = "max_iter", 0
+    if err <= tol:
+        status = "converged"
+    while status == "max_iter" and it < max_iter:
+        it += 1
+        rk = r.copy()
+        err_k = err
+        sub_ok, solved = True, False
+        for _ in range(inner_max_iter):
+            ua = u + alpha * (r - rk)
+            nF = ac_blocks(r, ua, mu, rho, d, True, F, Dr, Du, branch)
+            if nF == 0.0:
+                solved = True
+                break
+            try:
+                dr, du = system.direction(r, Dr, Du, alpha, F)
+            except _SingularStep:
+                n_singular += 1
+                sub_ok = False
+                break
+            n_newton += 1
+            phi = 0.5 * nF * nF
+            t = 1.0
+            for _bt in range(_MAX_BACKTRACK):
+                rt = r + t * dr
+                ut = u + t * du
+                nFt = ac_blocks(rt, ut + alpha * (rt - rk), mu, rho, d, False, Ft, Dr, Du, branch)
+                if 0.5 * nFt * nFt <= (1.0 - 2.0 * _ARMIJO * t) * phi:
+                    break
+                t *= 0.5
+                n_backtrack += 1
+            else:
+                n_ls_fail += 1
+                sub_ok = False
+                break
+            r, u = rt, ut
+            system.accept(t)
+            # inexact proximal subproblem: stop once the subproblem residual is
+            # well below the outer one
+            if nFt <= 0.1 * nF and t == 1.0:
+                e_try = siconos_error(r, u, mu, d, system.norm_q)
+                if e_try <= tol or nFt <= 1e-3 * nF:
+                    solved = True
+                    break
+        u = system.start(r)          # fresh u (and v): no drift from the updates
+        err = siconos_error(r, u, mu, d, system.norm_q)
+        if not np.isfinite(err):
+            r = rk
+            system.start(r)
+            status = "numerical_error"
+            break
+        if history:
+            hist.append(err)
+        if err < best_err:
+            if err < 0.9 * best_err:
+                best_it = it
+            best_err, best_r = err, r.copy()
+        if err <= tol:
+            status = "converged"
+            break
+        # proximal parameter: shrink after good progress, grow otherwise
+        # (a solved subproblem is a proximal-point step: accepted even when the
+        # error rises, within NONMONOTONE x the best error)
+        if solved and err < err_k:
+            alpha = max(a_min, alpha * 0.1)
+        elif not (solved and err <= NONMONOTONE * best_err) and (not sub_ok or err >= err_k):
+            alpha = min(a_max, alpha * 10.0)
+            if err > err_k:       # reject the outer step
+                r, err = rk, err_k
+                u = system.start(r)
+        if stall_window and it - best_it >= stall_window:
+            status = "stalled"
+            break
+        if time_limit is not None and time.perf_counter() - t0 > time_limit:
+            status = "time_limit"
+            break
+    if status != "converged" and best_err < err:
+        r = best_r
+        system.start(r)
+    info = {"alpha": alpha, "alpha_relative": alpha / wscale, "newton_steps": n_newton,
+            "backtracks": n_backtrack, "line_search_failures": n_ls_fail,
+            "singular_steps": n_singular, "factorizations": system.factorizations,
+            "linear_solver": system.kind, "internal_error": min(err, best_err)}
+    return status, r, it, hist, info
+
+
+def _settings(problem, options, inner_settings=None) -> dict:
+    """Checked Newton settings (a bad value raises ``InvalidProblemError`` naming it)."""
+    def get(name, default):
+        v = options.get(name)
+        return default if v is None else v
+    alpha0 = check_real("alpha0", get("alpha0", 1.0), positive=True)
+    alpha_min = check_real("alpha_min", get("alpha_min", 1e-10), minimum=0.0, maximum=alpha0)
+    return dict(alpha0=alpha0, alpha_min=alpha_min,
+                inner_max_iter=check_int("inner_max_iter", get("inner_max_iter", 10), minimum=1),
+                stall_window=check_int("stall_window", get("stall_window", 50), minimum=0),
+                linear_solver=check_choice("linear_solver", get("linear_solver", "auto"),
+                                           ("auto", "dense", "splu")),
+                global_mode=check_choice("global_mode", get("global_mode", "auto"),
+                                         ("auto", "native", "condense")))
+
+
+def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
+                   time_limit=None, verbose=False, inner_settings=None, **options) -> SolverResult:
+    """Newton backend for :func:`socp_cd.solve` (see the module docstring for options)."""
+    st = _settings(problem, options)
+    max_iter = DEFAULT_MAX_ITER if max_iter is None else int(max_iter)
+    mode = st["global_mode"]
+    glob = problem if problem.is_global else None
+    if glob is not None and (mode == "condense" or (mode == "auto" and problem.m <= CONDENSE_MAX_M)):
+        problem = glob.to_local()
+    system = (_GlobalSystem(problem) if problem.is_global
+              else _LocalSystem(problem, st["linear_solver"]))
+    mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
+    r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=np.float64).reshape(-1)
+    with _one_blas_thread(problem.m):
+        status, r, iters, hist, info = prox_newton(
+            system, mu, r, tol=float(tol), max_iter=max_iter, alpha0=st["alpha0"],
+            alpha_min=st["alpha_min"], inner_max_iter=st["inner_max_iter"],
+            stall_window=st["stall_window"], time_limit=time_limit, history=history)
+    message = ""
+    if status == "stalled":
+        message = f"no 10 % drop of the error over {st['stall_window']} outer iterations"
+    elif status == "numerical_error":
+        message = "non-finite error; r is the last finite iterate"
+    if verbose:
+        print(f"newton: {status} after {iters} outer iterations, error {info['internal_error']:.3e}")
+    extra = system.result_extra()
+    if glob is not None:
+        info["global_mode"] = "native" if problem.is_global else "condense"
+        if not problem.is_global:
+            extra["v"] = glob.global_velocity(r)
+    return SolverResult(r=r, status=status, iterations=iters, history=hist, info=info,
+                        message=message, **extra)
+
+
+SPEC = SolverSpec(
+    "newton", newton_backend, ("coulomb",), global_native=("coulomb",), dims=(2, 3),
+    description="proximal-point semismooth Newton on the Alart–Curnier equation "
+                "(exact Coulomb law; local and global, dense LU or SuperLU)",
+    default_max_iter=DEFAULT_MAX_ITER, options=OPTIONS,
+    check=lambda problem, options, inner_settings: _settings(problem, options))
+
+
+__all__ = ["newton_backend", "prox_newton", "DEFAULT_MAX_ITER", "OPTIONS", "SPEC"]

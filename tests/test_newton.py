@@ -1,0 +1,207 @@
+"""Proximal-point semismooth Newton backend (``solver="newton"``)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import socp_cd
+from socp_cd.bench.generators import manufactured
+from socp_cd.data import shared_problems
+from socp_cd.errors import SocpCdError
+from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem
+from socp_cd.solvers.kernels.newton_ac import ac_blocks, ac_blocks_reference
+
+MU = 0.5
+RHO = 0.7
+
+
+def _branch_point(branch, dim, rng):
+    """``(r, u)`` of one contact strictly inside an AC branch (away from kinks).
+
+    branch: 'separated' (a_N < 0), 'stick' (a_N > 0, ||x_T|| < R),
+    'slide' (a_N > 0, ||x_T|| > R), 'open-slide' is 'separated'.
+    """
+    t = rng.normal(size=dim - 1)
+    t /= np.linalg.norm(t)
+    if branch == "separated":          # a_N = r_N - rho u_N < 0, x_T != 0
+        r = np.concatenate([[0.2], 0.3 * t])
+        u = np.concatenate([[1.0], 0.5 * rng.normal(size=dim - 1)])
+    elif branch == "stick":            # a_N > 0, ||x_T|| < mu a_N
+        r = np.concatenate([[1.0], 0.1 * t])
+        u = np.concatenate([[0.1], 0.05 * rng.normal(size=dim - 1)])
+    elif branch == "slide":            # a_N > 0, ||x_T|| > mu a_N
+        r = np.concatenate([[1.0], 0.3 * t])
+        u = np.concatenate([[0.1], -2.0 * t + 0.1 * rng.normal(size=dim - 1)])
+    else:                              # 'polar': a_N < 0 and x_T = 0 is a kink; use x_T small
+        r = np.concatenate([[-0.5], 1e-1 * t])
+        u = np.concatenate([[0.5], np.zeros(dim - 1)])
+    return r, u
+
+
+def _F(r, u, dim):
+    F = np.empty(dim)
+    z = np.empty((1, dim, dim))
+    ac_blocks(r, u, np.array([MU]), np.array([RHO]), dim, False, F, z, z, np.empty(1, np.int64))
+    return F
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("branch,code", [("separated", 1), ("stick", 2), ("slide", 3),
+                                         ("polar", 1)])
+def test_jacobian_matches_finite_differences_in_every_branch(dim, branch, code):
+    rng = np.random.default_rng(3)
+    r, u = _branch_point(branch, dim, rng)
+    F = np.empty(dim)
+    Dr, Du = np.empty((1, dim, dim)), np.empty((1, dim, dim))
+    br = np.empty(1, np.int64)
+    ac_blocks(r, u, np.array([MU]), np.array([RHO]), dim, True, F, Dr, Du, br)
+    assert br[0] == code                       # the point is in the intended branch
+    h = 1e-7
+    for j in range(dim):
+        e = np.zeros(dim)
+        e[j] = h
+        fd_r = (_F(r + e, u, dim) - _F(r - e, u, dim)) / (2 * h)
+        fd_u = (_F(r, u + e, dim) - _F(r, u - e, dim)) / (2 * h)
+        np.testing.assert_allclose(Dr[0, :, j], fd_r, atol=1e-7)
+        np.testing.assert_allclose(Du[0, :, j], fd_u, atol=1e-7)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_kernel_equals_numpy_reference(dim):
+    rng = np.random.default_rng(5)
+    nc = 200
+    r, u = rng.normal(size=nc * dim), rng.normal(size=nc * dim)
+    mu, rho = rng.uniform(0, 2, nc), rng.uniform(0.1, 2, nc)
+    for X in (r, u):                   # x_T = 0 at the first contacts: the apex branch
+        X.reshape(nc, dim)[:20, 1:] = 0.0
+    F = np.empty(nc * dim)
+    Dr, Du = np.empty((nc, dim, dim)), np.empty((nc, dim, dim))
+    br = np.empty(nc, np.int64)
+    ac_blocks(r, u, mu, rho, dim, True, F, Dr, Du, br)
+    F0, Dr0, Du0, br0 = ac_blocks_reference(r, u, mu, rho, dim)
+    assert len(set(br0.tolist())) == 4         # every branch visited
+    np.testing.assert_allclose(F, F0, atol=1e-14)
+    np.testing.assert_allclose(Dr, Dr0, atol=1e-14)
+    np.testing.assert_allclose(Du, Du0, atol=1e-14)
+    np.testing.assert_array_equal(br, br0)
+
+
+def _check_exact(p, res, tol, unique_u=True):
+    assert res.status == "converged" and res.error <= tol
+    assert socp_cd.error(p, res.r) <= tol      # independent recomputation
+    if not unique_u:
+        return
+    u_star = p.solution.u
+    assert np.linalg.norm(res.u - u_star) <= 1e-6 * max(1.0, np.linalg.norm(u_star))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("structure", ["tree", "redundant"])
+@pytest.mark.parametrize("mu", [0.1, 1.0])
+def test_manufactured_exact_solutions_to_1e_10(dim, structure, mu):
+    p = manufactured(30, dim, mu, structure=structure, seed=11)
+    assert (structure == "redundant") == bool(p.is_rank_deficient)
+    res = socp_cd.solve(p, "newton", tol=1e-10)
+    # with a rank-deficient W the non-associated law may have several u
+    _check_exact(p, res, 1e-10, unique_u=structure == "tree")
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_asymmetric_w(dim):
+    base = manufactured(20, dim, 0.5, seed=4)
+    rng = np.random.default_rng(4)
+    S = rng.normal(size=(base.m, base.m))
+    W = base.W.toarray() + 0.05 * np.abs(base.W).max() * (S - S.T)   # PD symmetric part, skew
+    r_star, u_star = base.solution.r, base.solution.u
+    p = FrictionContactProblem(W, u_star - W @ r_star, base.mu, dim,
+                               solution=type(base.solution)(r=r_star, u=u_star))
+    assert p.asymmetry > 1e-3
+    res = socp_cd.solve(p, "newton", tol=1e-10)
+    _check_exact(p, res, 1e-10)
+
+
+def _shared(name):
+    hits = [s for s in shared_problems() if s.file == name]
+    if not hits:
+        pytest.skip("shared data not available")
+    return socp_cd.read_problem(hits[0].path)
+
+
+@pytest.mark.parametrize("name", ["OneObject-i1028-138.hdf5.dat",      # asymmetric, rank deficient
+                                  "FC2D_SliderCrankLagrangian00000.dat",  # 2D, asymmetric, rank def.
+                                  "Rover3865.dat", "BoxesStack1-i100000-32.hdf5.dat"])
+def test_real_asymmetric_or_rank_deficient_problems(name):
+    p = _shared(name)
+    assert p.is_rank_deficient or p.asymmetry > 1e-8
+    res = socp_cd.solve(p, "newton", tol=1e-8)
+    assert res.converged and socp_cd.error(p, res.r) <= 1e-8
+
+
+def _small_global(dim, seed):
+    rng = np.random.default_rng(seed)
+    n, nc = 12, 5
+    A = rng.normal(size=(n, n))
+    M = A @ A.T + n * np.eye(n)
+    H = rng.normal(size=(n, nc * dim))
+    f = rng.normal(size=n)
+    w = np.tile(np.r_[0.1, np.zeros(dim - 1)], nc)
+    return GlobalFrictionContactProblem(sp.csr_matrix(M), sp.csr_matrix(H), f, w, 0.4, dim)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_global_and_local_agree(dim):
+    g = _small_global(dim, 2)
+    rg = socp_cd.solve(g, "newton", tol=1e-10, global_mode="native")
+    rl = socp_cd.solve(g.to_local(), "newton", tol=1e-10)
+    rc = socp_cd.solve(g, "newton", tol=1e-10)            # auto: condensed (small m)
+    assert rg.converged and rl.converged and rc.converged
+    assert "condensed_to_local" not in rg.info            # the registry did not condense
+    assert rg.info["linear_solver"] == "splu-global" and rc.info["global_mode"] == "condense"
+    np.testing.assert_allclose(rc.v, g.global_velocity(rc.r), atol=1e-8)
+    np.testing.assert_allclose(rg.u, rl.u, atol=1e-7 * max(1.0, np.linalg.norm(rl.u)))
+    np.testing.assert_allclose(rg.v, g.global_velocity(rg.r), atol=1e-8)
+
+
+def test_dense_and_sparse_paths_agree():
+    p = manufactured(40, 3, 0.5, seed=8)
+    a = socp_cd.solve(p, "newton", tol=1e-10, linear_solver="dense")
+    b = socp_cd.solve(p, "newton", tol=1e-10, linear_solver="splu")
+    assert a.converged and b.converged
+    np.testing.assert_allclose(a.u, b.u, atol=1e-8)
+
+
+def test_never_converged_above_tol_and_history():
+    p = _shared("Capsules-i125-1213.hdf5")
+    for max_iter in (1, 2, 3):
+        res = socp_cd.solve(p, "newton", tol=1e-12, max_iter=max_iter, history=True)
+        recomputed = socp_cd.error(p, res.r)
+        assert res.converged == (recomputed <= 1e-12)
+        assert res.status in ("max_iter", "converged")
+        assert len(res.history) == res.iterations + 1
+        assert res.info["factorizations"] >= res.iterations
+
+
+def test_warm_start_from_solution_is_immediate():
+    p = manufactured(10, 3, 0.5, seed=1)
+    res = socp_cd.solve(p, "newton", tol=1e-10, r0=p.solution.r)
+    assert res.converged and res.iterations == 0
+
+
+@pytest.mark.parametrize("opts", [dict(alpha0=-1.0), dict(linear_solver="qr"),
+                                  dict(inner_max_iter=0), dict(bogus=1)])
+def test_bad_options_raise_socp_cd_errors(opts):
+    p = manufactured(3, 3, 0.5, seed=1)
+    with pytest.raises(SocpCdError):
+        socp_cd.solve(p, "newton", **opts)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_internal_error_equals_socp_cd_error(dim):
+    from socp_cd.solvers.kernels.cone import siconos_error
+    p = manufactured(15, dim, 0.7, seed=2)
+    r = np.random.default_rng(0).normal(size=p.m)
+    u = p.velocity(r)
+    e = siconos_error(r, u, p.mu, dim, float(np.linalg.norm(p.q)))
+    assert e > 1e-3
+    assert e == pytest.approx(socp_cd.error(p, r), rel=1e-12)
