@@ -57,3 +57,35 @@ def test_rescaled_copies_keep_exact_solution(what, lam):
     assert socp_cd.error(p, p.solution.r) < 1e-11
     assert np.allclose(p.velocity(p.solution.r), p.solution.u, rtol=1e-9,
                        atol=1e-12 * np.abs(p.solution.u).max())
+
+
+def test_simulation_collections_join_the_evaluation_set(tmp_path):
+    """Problems dumped by ``socp-cd simulate --fclib`` are read back as held-out cases."""
+    from socp_cd.bench.evalset import collection_cases
+    from socp_cd.scenes.simulate import simulate
+    scene = tmp_path / "drop.toml"
+    scene.write_text("""
+[scene]
+name = "Drop"
+dim = 2
+mu = 0.3
+[simulation]
+h = 2e-3
+steps = 8
+tol = 1e-10
+[[obstacles]]
+shape = "line"
+[[generate]]
+kind = "stack"
+base = [0, 0]
+count = 3
+body = {shape = "disk", radius = 0.05}
+""")
+    s = simulate(scene, fclib=tmp_path / "drop", fclib_every=4, quiet=True)
+    cases = collection_cases(tmp_path / "drop")
+    assert [c.source for c in cases] == [f.name for f in s["fclib_files"]] and len(cases) == 2
+    for c in cases:
+        assert c.split == "holdout" and c.family == "drop" and not c.is_global
+        p = c.problem()
+        assert p.n_contacts == c.n_contacts == 3
+        assert socp_cd.error(p, p.solution.r) <= 1e-10

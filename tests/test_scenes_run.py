@@ -258,3 +258,11 @@ def test_sphere_column_agrees_with_siconos_moreau_jean():
     assert r.active_ours.max() == 4 and np.array_equal(r.active_ours, r.active_siconos)
     assert r.position_difference().max() < 1e-10 and r.velocity_difference().max() < 1e-8
     assert np.abs(r.pos_ours[-1] - r.pos_ours[0]).max() > 1e-2      # the top sphere moved
+
+
+def test_fclib_every_dumps_every_nth_step_only(tmp_path):
+    s = simulate(_scene(tmp_path, SMALL_2D), fclib=tmp_path / "fc", fclib_every=2, quiet=True)
+    steps = [int(re.search(r"-(\d{5})\.hdf5$", f.name).group(1)) for f in s["fclib_files"]]
+    assert steps == [2, 4, 6]
+    with pytest.raises(socp_cd.SocpCdError, match="fclib_every"):
+        simulate(_scene(tmp_path, SMALL_2D), fclib=tmp_path / "fc2", fclib_every=0, quiet=True)

@@ -79,7 +79,8 @@ def _postfix(st, wall: float, t: float) -> dict:
 
 
 def simulate(path, *, steps: int | None = None, out=None, vtk=None, fclib=None, render=None,
-             every: int | None = None, quiet: bool = False, stream=None) -> dict:
+             every: int | None = None, fclib_every: int = 1, quiet: bool = False,
+             stream=None) -> dict:
     """Run a scene file.
 
     Parameters
@@ -94,7 +95,10 @@ def simulate(path, *, steps: int | None = None, out=None, vtk=None, fclib=None, 
         ParaView series, FCLib step problems, PNG frames.
     every : int, optional
         Record (trajectory, VTK, PNG) one frame every that many steps (default
-        ``simulation.record_every``); FCLib dumps every step with contacts.
+        ``simulation.record_every``).
+    fclib_every : int
+        FCLib dumps of every that many steps (those with contacts; default 1:
+        every step).
     quiet : bool
         No progress bar.
     stream : file, optional
@@ -114,9 +118,11 @@ def simulate(path, *, steps: int | None = None, out=None, vtk=None, fclib=None, 
     spec, sim = load_simulation(path)
     n_steps = spec.simulation["steps"] if steps is None else int(steps)
     every = spec.simulation["record_every"] if every is None else int(every)
-    if n_steps < 0 or every < 1:
+    fclib_every = int(fclib_every)
+    if n_steps < 0 or every < 1 or fclib_every < 1:
         from .schema import SceneFileError
-        raise SceneFileError(spec.source, "steps" if n_steps < 0 else "every", "must be positive")
+        raise SceneFileError(spec.source, "steps" if n_steps < 0 else "every" if every < 1 else "fclib_every",
+                             "must be positive")
     stream = sys.stderr if stream is None else stream
     show = not quiet and hasattr(stream, "isatty") and stream.isatty()
     traj = Trajectory.start(sim)
@@ -147,7 +153,7 @@ def simulate(path, *, steps: int | None = None, out=None, vtk=None, fclib=None, 
             if problem is not None:
                 max_err = max(max_err, float(st.error))
                 unconverged += not st.converged
-                if fclib is not None:
+                if fclib is not None and k % fclib_every == 0:
                     from .. import write_fclib
                     f = fclib / fclib_name(spec.name, k, st.iterations, st.n_active)
                     write_fclib(problem, f, solution=result, title=spec.name,
@@ -253,6 +259,8 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
     ap.add_argument("--preview", default=None, metavar="PNG",
                     help="only draw the initial configuration to PNG (no simulation)")
     ap.add_argument("--every", type=int, default=None, help="record one frame every N steps")
+    ap.add_argument("--fclib-every", type=int, default=1, metavar="N",
+                    help="with --fclib: dump the problem of every N-th step (default 1)")
     ap.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
     return ap
 
@@ -264,7 +272,8 @@ def main(argv=None) -> int:
         print(f"wrote {preview(args.scene, args.preview)}")
         return 0
     s = simulate(args.scene, steps=args.steps, out=args.out, vtk=args.vtk, fclib=args.fclib,
-                 render=args.render, every=args.every, quiet=args.quiet)
+                 render=args.render, every=args.every, fclib_every=args.fclib_every,
+                 quiet=args.quiet)
     if not args.quiet:
         print(f"{args.scene}: {s['steps']} steps to t = {s['t']:.6g} in {s['wall_time']:.3g} s wall "
               f"(sim/wall {(s['t'] - s['trajectory'].frames[0].t) / max(s['wall_time'], 1e-9):.3g}); "
