@@ -340,9 +340,10 @@ def siconos_solve(problem, solver: str, tol: float = 1e-8, max_iter: int = 10000
         ``iparam`` / ``dparam`` (``{index or constant name: value}``),
         ``internal_iparam`` / ``internal_dparam`` (first internal solver, e.g.
         NSGS's local solver), ``r0`` / ``u0`` / ``v0`` (initial guesses),
-        ``kind``, ``dense`` (ship ``W`` dense), ``repeat`` (call the driver this
-        many times from the same start, in one process, and report the fastest
-        call: a per-call time without cold caches).
+        ``kind``, ``dense`` (ship ``W`` dense), ``repeat`` (call the driver up to
+        this many times from the same start, in one process, and report the
+        fastest call: a per-call time without cold caches; repeating stops once
+        the calls have taken 0.05 s).
 
     Returns
     -------
