@@ -1,4 +1,4 @@
-"""Moreau–Jean contact dynamics of rigid disks, convex polygons (2D) and spheres (3D).
+"""Moreau–Jean contact dynamics of rigid disks, convex polygons (2D), spheres and convex polyhedra (3D).
 
 Typical use::
 
@@ -14,11 +14,13 @@ See :mod:`socp_cd.dynamics.stepper` for the scheme, :mod:`~.detection` for the
 contact conventions (pair ``(i, j)``, ``j = -1`` for obstacles, normal from
 ``j`` into ``i``), :mod:`~.cases` / :mod:`~.validate` for exact-solution checks.
 """
-from .bodies import (Disk, FixedDisk, FixedPolygon, FixedSphere, Force, Line, Plane, Polygon, Sphere,
-                     Spring)
+from .bodies import (Box, ConvexPolyhedron, Disk, FixedBox, FixedDisk, FixedPolygon, FixedPolyhedron, FixedSphere,
+                     Force, Line, Plane, Polygon, Sphere, Spring)
 from .detection import Contacts, detect
+from .frames import ContactFrame, Frame, StepStats
+from .overlap import OverlapWarning
 from .scene import Scene, System, compile_scene
-from .stepper import ContactFrame, Frame, Simulation, StepStats
+from .stepper import Simulation
 from .trajectory import Trajectory
 
 
@@ -28,6 +30,6 @@ def render_frame(*args, **kwargs):
     return _r(*args, **kwargs)
 
 
-__all__ = ["Scene", "System", "compile_scene", "Disk", "Polygon", "Sphere", "Line", "Plane", "FixedDisk",
-           "FixedPolygon", "FixedSphere", "Spring", "Force", "Contacts", "detect", "Simulation",
+__all__ = ["Scene", "System", "compile_scene", "Disk", "Polygon", "Sphere", "Box", "ConvexPolyhedron", "Line",
+           "Plane", "FixedDisk", "FixedPolygon", "FixedSphere", "FixedBox", "FixedPolyhedron", "OverlapWarning", "Spring", "Force", "Contacts", "detect", "Simulation",
            "StepStats", "Frame", "ContactFrame", "Trajectory", "render_frame"]

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ProblemFormatError
-from .stepper import ContactFrame, Frame, StepStats
+from .frames import ContactFrame, Frame, StepStats
 
 _FORMAT = "socp_cd-trajectory-1"
 _CFIELDS = ("pairs", "obstacle", "point", "normal", "gap", "r", "force", "key")
