@@ -23,7 +23,11 @@ Each manifold point carries a feature id independent of the order in which it
 was produced: the two *boundary lines* meeting at it (incident-face edges or
 reference-face sides), plus the reference face and which member owns it.
 Small motions that keep the same faces in contact keep the same ids, so the
-warm start of the next step finds last step's impulses.
+warm start of the next step finds last step's impulses.  Exactly aligned faces
+(a stack of equal boxes) put incident vertices *on* the side planes, where
+round-off would flip them in and out: a vertex within ``_CLIP_SLACK`` (10⁻⁴)
+× size outside a side plane is kept as a vertex (its contact point then lies
+at most that far outside the reference face).
 
 Sphere–polyhedron (:func:`sphere_hull`) is the exact closest point.
 """
@@ -35,7 +39,8 @@ from numba import njit
 MAX_POINTS = 4
 EDGE_FLAG = np.int64(1) << 24     # feature ids of edge–edge contacts
 _FACE_BIAS = 1e-4                 # prefer faces over edges within this × size
-_REF_BIAS = 1e-6                  # prefer member a's face within this × size
+_REF_BIAS = 1e-4                  # prefer member a's face within this × size
+_CLIP_SLACK = 1e-4                # incident vertices this × size outside a side plane are kept
 
 
 @njit(cache=True)
@@ -244,24 +249,26 @@ def hull_hull(V, NV, FN, NF, FL, FK, E, EDIR, NE, D, ND, ia, ib, margin):
             v2 = V[r, FL[r, fr, (s + 1) % kr]]
             e = v2 - v1
             sn = np.cross(e, nref)           # outward normal of the side plane
+            sn /= np.sqrt(_dot(sn, sn))
             off = _dot(sn, v1)
+            slack = _CLIP_SLACK * scale      # aligned faces keep their vertex ids under round-off
             nt = 0
             for k in range(cnt):
                 P0, P1 = poly[k], poly[(k + 1) % cnt]
                 lab = plab[k]
                 d0 = _dot(sn, P0) - off
                 d1 = _dot(sn, P1) - off
-                if d0 <= 0.0:
-                    if d1 <= 0.0:            # in -> in: P1, reached along the same line
+                if d0 <= slack:
+                    if d1 <= slack:          # in -> in: P1, reached along the same line
                         tmp[nt] = P1
                         tlab[nt] = lab
                         nt += 1
                     else:                    # in -> out: crossing point, reached along the same line
-                        tmp[nt] = P0 + (d0 / (d0 - d1)) * (P1 - P0)
+                        tmp[nt] = P0 + min(1.0, max(0.0, d0 / (d0 - d1))) * (P1 - P0)
                         tlab[nt] = lab
                         nt += 1
-                elif d1 <= 0.0:              # out -> in: crossing reached along the side plane, then P1
-                    tmp[nt] = P0 + (d0 / (d0 - d1)) * (P1 - P0)
+                elif d1 <= slack:            # out -> in: crossing reached along the side plane, then P1
+                    tmp[nt] = P0 + min(1.0, max(0.0, d0 / (d0 - d1))) * (P1 - P0)
                     tlab[nt] = 64 + s
                     nt += 1
                     tmp[nt] = P1
