@@ -223,7 +223,7 @@ def detect(sys, margin: float = 0.0) -> Contacts:
     n = sys.n_bodies
     rnd = sys.is_round
     PVb = sys.poly_world() if sys.is_poly.any() else None
-    HT = _world_hull_table(sys) if sys.has_hulls else None
+    HT = world_hull_table(sys) if sys.has_hulls else None
     # ----------------------------------------------------------- half-spaces
     hs = sys.halfspaces
     hp, hn, hidx = hs.point, hs.normal, hs.index
@@ -279,13 +279,13 @@ def detect(sys, margin: float = 0.0) -> Contacts:
                 sel = rnd[da] & sys.is_hull[pb_]
                 if sel.any():
                     dd, pp = da[sel], pb_[sel]
-                    g, nn, pt = _sphere_hull(HT, pos[dd], R[dd], hrow[pp])
+                    g, nn, pt = sphere_hull_contacts(HT, pos[dd], R[dd], hrow[pp])
                     m = g <= margin
                     parts.add(dd[m], pp[m], -np.ones(m.sum()), pt[m], nn[m], g[m], np.zeros(m.sum()))
             sel = sys.is_hull[a] & sys.is_hull[b]
             if sel.any():
                 aa, bb = a[sel], b[sel]
-                valid, g, nn, pt, fid = _hull_hull(HT, hrow[aa], hrow[bb], margin)
+                valid, g, nn, pt, fid = hull_pair_contacts(HT, hrow[aa], hrow[bb], margin)
                 q, s = np.nonzero(valid)
                 parts.add(aa[q], bb[q], -np.ones(q.size), pt[q, s], nn[q, s], g[q, s], fid[q, s])
         if len(cand.fixed):
@@ -293,7 +293,7 @@ def detect(sys, margin: float = 0.0) -> Contacts:
     return parts.build()
 
 
-def _world_hull_table(sys):
+def world_hull_table(sys):
     """World-frame table: moving hull bodies' rows, then the fixed polyhedra's."""
     mov = sys.is_hull
     Rm = sys.rotations()[mov] if mov.any() else np.zeros((0, 3, 3))
@@ -302,12 +302,14 @@ def _world_hull_table(sys):
     return concat_tables(moving, world_hulls(fh.table, fh.rot, fh.center))
 
 
-def _hull_hull(HT, ia, ib, margin):
+def hull_pair_contacts(HT, ia, ib, margin):
+    """:func:`~socp_cd.dynamics.narrow3d.hull_hull` on a world table (rows ``ia``, ``ib``)."""
     return hull_hull(HT.V, HT.NV, HT.FN, HT.NF, HT.FL, HT.FK, HT.E, HT.EDIR, HT.NE, HT.D, HT.ND,
                      np.ascontiguousarray(ia, np.int64), np.ascontiguousarray(ib, np.int64), float(margin))
 
 
-def _sphere_hull(HT, C, Rs, ih):
+def sphere_hull_contacts(HT, C, Rs, ih):
+    """:func:`~socp_cd.dynamics.narrow3d.sphere_hull` on a world table (hull rows ``ih``)."""
     return sphere_hull(np.ascontiguousarray(C), np.ascontiguousarray(Rs, np.float64), HT.V, HT.NV, HT.FN,
                        HT.NF, HT.FL, HT.FK, HT.E, HT.NE, np.ascontiguousarray(ih, np.int64))
 
@@ -337,7 +339,7 @@ def _fixed_contacts(sys, parts, fix, margin, PVb, HT):
         s = sys.is_hull[bb]
         if s.any():
             # hull body vs fixed sphere: kernel normal points into the sphere -> negate
-            g, nn, pt = _sphere_hull(HT, fcen[rr[s]], frad[rr[s]], sys.hull_of_body[bb[s]])
+            g, nn, pt = sphere_hull_contacts(HT, fcen[rr[s]], frad[rr[s]], sys.hull_of_body[bb[s]])
             m = g <= margin
             parts.add(bb[s][m], -np.ones(m.sum()), fidx[rr[s]][m], pt[m], -nn[m], g[m], np.zeros(m.sum()))
     sel = row >= nfr
@@ -347,12 +349,12 @@ def _fixed_contacts(sys, parts, fix, margin, PVb, HT):
         nmov = sys.hulls.n
         s = rnd[bb]
         if s.any():
-            g, nn, pt = _sphere_hull(HT, pos[bb[s]], R[bb[s]], nmov + rr[s])
+            g, nn, pt = sphere_hull_contacts(HT, pos[bb[s]], R[bb[s]], nmov + rr[s])
             m = g <= margin
             parts.add(bb[s][m], -np.ones(m.sum()), hidx[rr[s]][m], pt[m], nn[m], g[m], np.zeros(m.sum()))
         s = sys.is_hull[bb]
         if s.any():
-            valid, g, nn, pt, fid = _hull_hull(HT, sys.hull_of_body[bb[s]], nmov + rr[s], margin)
+            valid, g, nn, pt, fid = hull_pair_contacts(HT, sys.hull_of_body[bb[s]], nmov + rr[s], margin)
             q, k = np.nonzero(valid)
             parts.add(bb[s][q], -np.ones(q.size), hidx[rr[s]][q], pt[q, k], nn[q, k], g[q, k], fid[q, k])
     elif sel.any():
@@ -384,4 +386,5 @@ def _pad_to(V, vmax):
     return out
 
 
-__all__ = ["Contacts", "detect", "broad_phase", "CandidatePairs", "NarrowResult"]
+__all__ = ["Contacts", "detect", "broad_phase", "CandidatePairs", "NarrowResult", "world_hull_table",
+           "hull_pair_contacts", "sphere_hull_contacts"]

@@ -134,34 +134,53 @@ def segment_closest(p1, q1, p2, q2):
 
 
 @njit(cache=True)
-def _reduce(P, depth, lab, cnt, keep):
-    """Choose at most MAX_POINTS of ``cnt`` manifold points: indices into ``keep``, returns their count."""
+def _better(x, best, lab, blab, tol):
+    """``x`` beats ``best`` by more than ``tol``, or ties within ``tol`` with a smaller label."""
+    return x > best + tol or (x >= best - tol and lab < blab)
+
+
+@njit(cache=True)
+def _reduce(P, depth, lab, cnt, keep, scale):
+    """Choose at most MAX_POINTS of ``cnt`` manifold points: indices into ``keep``, returns their count.
+
+    Deepest point, the point farthest from it, the one spanning the largest
+    triangle, the one adding the most area.  Comparisons tie within a
+    relative tolerance and ties go to the smallest feature label, so round-off
+    (a resting face) never changes the choice from one step to the next.
+    """
     if cnt <= MAX_POINTS:
         for k in range(cnt):
             keep[k] = k
         return cnt
+    tl = 1e-5 * scale
     k0 = 0
-    for k in range(cnt):            # deepest (ties: smallest label, order-independent)
-        if depth[k] < depth[k0] - 1e-12 or (abs(depth[k] - depth[k0]) <= 1e-12 and lab[k] < lab[k0]):
+    for k in range(1, cnt):
+        if _better(-depth[k], -depth[k0], lab[k], lab[k0], tl):
             k0 = k
     keep[0] = k0
-    best, k1 = -1.0, 0
+    k1 = -1
+    best = 0.0
     for k in range(cnt):
+        if k == k0:
+            continue
         d = P[k] - P[k0]
-        x = _dot(d, d)
-        if x > best:
+        x = np.sqrt(_dot(d, d))
+        if k1 < 0 or _better(x, best, lab[k], lab[k1], tl):
             best, k1 = x, k
     keep[1] = k1
-    best, k2 = -1.0, 0
+    k2 = -1
     for k in range(cnt):
+        if k == k0 or k == k1:
+            continue
         c = np.cross(P[k1] - P[k0], P[k] - P[k0])
-        x = _dot(c, c)
-        if x > best:
+        x = np.sqrt(_dot(c, c))
+        if k2 < 0 or _better(x, best, lab[k], lab[k2], tl * scale):
             best, k2 = x, k
     keep[2] = k2
     # fourth: the point adding the largest area to the triangle (outside one of its edges)
-    best, k3 = -1.0, -1
+    k3 = -1
     nrm = np.cross(P[k1] - P[k0], P[k2] - P[k0])
+    nrm /= max(np.sqrt(_dot(nrm, nrm)), 1e-300)
     for k in range(cnt):
         if k == k0 or k == k1 or k == k2:
             continue
@@ -169,7 +188,7 @@ def _reduce(P, depth, lab, cnt, keep):
         for (ia, ib) in ((k0, k1), (k1, k2), (k2, k0)):
             c = np.cross(P[ib] - P[ia], P[k] - P[ia])
             x = max(x, -_dot(c, nrm))
-        if x > best:
+        if x > tl * scale and (k3 < 0 or _better(x, best, lab[k], lab[k3], tl * scale)):
             best, k3 = x, k
     if k3 < 0:
         return 3
@@ -295,7 +314,7 @@ def hull_hull(V, NV, FN, NF, FL, FK, E, EDIR, NE, D, ND, ia, ib, margin):
                 nk += 1
         if nk == 0:
             continue
-        nsel = _reduce(tmp, depth, pid, nk, keep)
+        nsel = _reduce(tmp, depth, pid, nk, keep, scale)
         sgn = 1.0 if flip else -1.0
         for s in range(nsel):
             k = keep[s]
