@@ -14,7 +14,11 @@ import numpy as np
 
 @dataclass
 class StepStats:
-    """Statistics of one step (``time_*`` in seconds, wall clock)."""
+    """Statistics of one step (``time_*`` in seconds, wall clock).
+
+    ``time_projection`` is the post-step position projection (detection at the
+    new positions and, when needed, its frictionless problem); 0 when off.
+    """
 
     t: float
     n_detected: int
@@ -27,6 +31,7 @@ class StepStats:
     time_detection: float = 0.0
     time_assembly: float = 0.0
     time_solve: float = 0.0
+    time_projection: float = 0.0
 
 
 @dataclass

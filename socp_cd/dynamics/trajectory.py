@@ -186,6 +186,8 @@ class Trajectory:
         for k in range(n):
             kw = {}
             for fl in fields(StepStats):
+                if fl.name not in stt:          # written before the field existed: keep its default
+                    continue
                 v = stt[fl.name][k]
                 kw[fl.name] = v.decode() if isinstance(v, bytes) else v.item()
             stats.append(StepStats(**kw))
