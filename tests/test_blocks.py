@@ -285,3 +285,17 @@ def test_resting_stack_penetration_stays_small():
         worst = max(worst, -sim.last_contacts.gap.min())
     assert worst < 1e-3 * L
     assert np.abs(sim.sys.vel).max() < 1e-4
+
+
+def test_global_form_matches_local_form_with_full_inertia():
+    def sim(form):
+        boxes = [Box((0.3, 0.2, 0.1), (0, 0, 0.05), orientation=quat_from_rotvec([0.1, 0.0, 0.4]),
+                      omega=(0.0, 0.0, 0.5)),
+                 Box((0.2, 0.2, 0.2), (0.0, 0.0, 0.2), orientation=quat_from_rotvec([0.0, 0.0, 0.3]))]
+        s = Simulation(Scene(boxes, [Plane()], mu=0.4), 1e-3, solver="clarabel", tol=1e-10, form=form,
+                       check_overlap=False)
+        s.run(5, progress=False)
+        return s
+    a, b = sim("local"), sim("global")
+    assert np.allclose(a.sys.vel, b.sys.vel, atol=1e-7)
+    assert np.allclose(a.sys.orientation, b.sys.orientation, atol=1e-10)

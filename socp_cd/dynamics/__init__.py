@@ -10,6 +10,16 @@ Typical use::
     frame = traj.frames[-1]                              # pos, angle, vel, contacts
     frame.contacts.pairs, frame.contacts.force           # global contact data
 
+3D blocks::
+
+    from socp_cd.dynamics import Box, Plane, Scene, Simulation
+    boxes = [Box((0.1, 0.1, 0.1), (0, 0, 0.05 + 0.1 * k), material="wood") for k in range(10)]
+    scene = Scene(boxes, [Plane(material="steel")], mu=0.5,
+                  materials={("wood", "steel"): {"mu": 0.3, "restitution": 0.0}})
+    sim = Simulation(scene, h=2e-3)          # post-step projection on by default with polyhedra
+    sim.step(); sim.last_problem, sim.last_result   # the step's contact problem and its solution
+    state = sim.get_state(); sim.set_state(state)   # kinematics + warm start
+
 See :mod:`socp_cd.dynamics.stepper` for the scheme, :mod:`~.detection` for the
 contact conventions (pair ``(i, j)``, ``j = -1`` for obstacles, normal from
 ``j`` into ``i``), :mod:`~.cases` / :mod:`~.validate` for exact-solution checks.

@@ -82,16 +82,32 @@ def case_pushed_particle(solver="nsgs", quick=False):
 
 
 # ----------------------------------------------------------------------------- block on incline
-def _block_on_incline(alpha, mu, solver, n, h):
+def _block_on_incline(alpha, mu):
     w, hb = 1.0, 0.5
     line = Line.inclined(alpha)
     t = np.array([np.cos(alpha), np.sin(alpha)])
     c = 1.0 * t + 0.5 * hb * line.normal
-    box = Polygon.box(w, hb, c, angle=alpha)
-    sc = Scene([box], [line], mu=mu)
-    sim = _sim(sc, h, solver)
-    sim.run(n, progress=False)
-    return sim, t
+    return Scene([Polygon.box(w, hb, c, angle=alpha)], [line], mu=mu), t
+
+
+def _incline_rows(name, build, mu, solver, quick):
+    """Stick (20°) / slip (35°) rows for a block built by ``build(alpha) -> (scene, unit vector up the slope)``."""
+    h = 1e-2
+    n = 20 if quick else 100
+    T = n * h
+    rows = []
+    for alpha_deg in (20.0, 35.0):
+        a = np.radians(alpha_deg)
+        sc, t = build(a)
+        sim = _sim(sc, h, solver)
+        sim.run(n, progress=False)
+        v = sim.sys.vel[0, :t.size] @ t
+        exact = max(0.0, G * (np.sin(a) - mu * np.cos(a)))
+        label = "stick" if np.tan(a) <= mu else "slip"
+        rows.append(Row(f"{name} {alpha_deg:g}° mu={mu} ({label})", "acceleration along slope",
+                        exact, -v / T, 1e-6, solver, scale=G * np.sin(a),
+                        why="tol 1e-6 = solver level: constant forces are integrated exactly by the θ-scheme"))
+    return rows
 
 
 def case_block_incline(solver="nsgs", quick=False):
@@ -100,20 +116,8 @@ def case_block_incline(solver="nsgs", quick=False):
     Exact: sticks iff ``tan(alpha) <= mu``; else ``a = g (sin alpha - mu cos alpha)``.
     Constant forces → exact in the θ-scheme; tolerance 1e-6 (solver level).
     """
-    mu, h = 0.5, 1e-2
-    n = 20 if quick else 100
-    T = n * h
-    rows = []
-    for alpha_deg in (20.0, 35.0):
-        a = np.radians(alpha_deg)
-        sim, t = _block_on_incline(a, mu, solver, n, h)
-        v = sim.sys.vel[0, :2] @ t
-        exact = max(0.0, G * (np.sin(a) - mu * np.cos(a)))
-        label = "stick" if np.tan(a) <= mu else "slip"
-        rows.append(Row(f"box on incline {alpha_deg:g}° mu={mu} ({label})", "acceleration along slope",
-                        exact, -v / T, 1e-6, solver, scale=G * np.sin(a),
-                        why="tol 1e-6 = solver level: constant forces are integrated exactly by the θ-scheme"))
-    return rows
+    mu = 0.5
+    return _incline_rows("box on incline", lambda a: _block_on_incline(a, mu), mu, solver, quick)
 
 
 # ----------------------------------------------------------------------------- spring-driven particle
@@ -301,7 +305,7 @@ def case_newton_cradle(solver="nsgs", quick=False):
 
 
 # ----------------------------------------------------------------------------- 3D blocks
-def _box_on_incline_3d(alpha, size, mu, solver, density=1.0):
+def _box_on_incline_3d(alpha, size, mu, density=1.0):
     """A :class:`Box` resting on the plane of slope ``alpha`` (rising along +x), body x up the slope.
 
     Returns the scene and the unit vector up the slope.
@@ -319,22 +323,9 @@ def case_block_incline_3d(solver="nsgs", quick=False):
     Exact: sticks iff ``tan(alpha) <= mu``; else ``a = g (sin alpha - mu cos alpha)``.
     Constant forces → exact in the θ-scheme; tolerance 1e-6 (solver level).
     """
-    mu, h = 0.5, 1e-2
-    n = 20 if quick else 100
-    T = n * h
-    rows = []
-    for alpha_deg in (20.0, 35.0):
-        a = np.radians(alpha_deg)
-        sc, t = _box_on_incline_3d(a, (1.0, 1.0, 0.5), mu, solver)
-        sim = _sim(sc, h, solver)
-        sim.run(n, progress=False)
-        v = sim.sys.vel[0, :3] @ t
-        exact = max(0.0, G * (np.sin(a) - mu * np.cos(a)))
-        label = "stick" if np.tan(a) <= mu else "slip"
-        rows.append(Row(f"3D box on incline {alpha_deg:g}° mu={mu} ({label})", "acceleration along slope",
-                        exact, -v / T, 1e-6, solver, scale=G * np.sin(a),
-                        why="tol 1e-6 = solver level: constant forces are integrated exactly by the θ-scheme"))
-    return rows
+    mu = 0.5
+    return _incline_rows("3D box on incline", lambda a: _box_on_incline_3d(a, (1.0, 1.0, 0.5), mu), mu,
+                         solver, quick)
 
 
 def case_box_stack_3d(solver="nsgs", quick=False):
@@ -384,7 +375,7 @@ def case_tipping_box(solver="nsgs", quick=False):
         wdot = tau / ((w ** 2 + H ** 2) / 3)
         phi = 0.5 * wdot * T ** 2
         for label, alpha in (("rests", alpha_c - d), ("topples", alpha_c + d)):
-            sc, _ = _box_on_incline_3d(alpha, (w, depth, H), mu, solver)
+            sc, _ = _box_on_incline_3d(alpha, (w, depth, H), mu)
             sim = _sim(sc, h, solver)
             sim.run(n, progress=False)
             om = -sim.sys.vel[0, 4] / T             # tipping downhill: negative rotation about y
