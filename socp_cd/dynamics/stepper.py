@@ -347,7 +347,9 @@ class Simulation:
         """Post-step projection on the gaps detected at the new positions (see the module docstring).
 
         Each round detects contacts within ``margin``; if one penetrates deeper
-        than ``projection_tol`` the positions move by ``Δq = M̂⁻¹ H λ`` with
+        than ``projection_tol`` (depth ``δ``), every pair within ``margin + 2δ``
+        (those the correction could close) is constrained and the positions
+        move by ``Δq = M̂⁻¹ H λ`` with
         ``0 ≤ λ ⊥ g + tol/2 + W λ ≥ 0`` (frictionless, NSGS, tol 1e-10).  The
         gaps are linear in ``Δq`` only to first order (rotations), hence up to
         ``max_rounds`` rounds.
@@ -359,6 +361,8 @@ class Simulation:
             D = detect(s, self.margin)
             if D.n == 0 or D.gap.min() >= -self.projection_tol:
                 return
+            # pairs the displacement (at most ~ the depth) could close are constrained too
+            D = detect(s, self.margin - 2.0 * float(D.gap.min()))
             minv = self.inverse_mass()
             Hp, _ = assemble_H(s, D)
             W = delassus(Hp, minv)
