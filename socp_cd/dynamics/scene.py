@@ -122,6 +122,9 @@ class System:
     mass, inertia : ndarray (n,)
     inv_mass_diag : ndarray (n * ndof,)
         Diagonal of ``M^{-1}`` (rotational entries 0 for ``fixed_rotation`` bodies).
+        For 3D polyhedra the rotational entries are only ``3 / tr(I)``: their
+        exact block ``R I_body⁻¹ Rᵀ`` is :meth:`Simulation.inverse_mass
+        <socp_cd.dynamics.stepper.Simulation.inverse_mass>`.
     radius : ndarray (n,)
         Disk/sphere radius, or polygon bounding radius.
     is_poly : ndarray (n,) bool
