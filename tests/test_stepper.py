@@ -144,3 +144,40 @@ def test_bad_parameters_raise():
         Scene([]) and compile_scene(Scene([]))
     with pytest.raises(InvalidProblemError):
         compile_scene(Scene([]))
+
+
+def test_overlapping_disks_at_start_warn_with_names_and_depth():
+    from socp_cd.dynamics import OverlapWarning
+    sc = Scene([Disk(0.1, (0.0, 0.1)), Disk(0.1, (0.15, 0.1)), Disk(0.1, (1.0, 0.2))], [Line()])
+    with pytest.warns(OverlapWarning, match=r"bodies\[0\] \(Disk\) and bodies\[1\] \(Disk\) overlap by 0.05"):
+        Simulation(sc, 1e-3)
+
+
+def test_dynamics_modules_import_graph_is_acyclic_and_no_private_imports():
+    import ast
+    from pathlib import Path
+
+    import socp_cd.dynamics as dyn
+    root = Path(dyn.__file__).parent
+    graph = {}
+    for f in root.glob("*.py"):
+        deps = set()
+        for node in ast.walk(ast.parse(f.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module:
+                deps.add(node.module.split(".")[0])
+                assert not any(a.name.startswith("_") for a in node.names), (f.name, node.module)
+        graph[f.stem] = deps - {"__init__"}
+    seen, done = set(), set()
+
+    def visit(m, path):
+        assert m not in path, f"import cycle: {' -> '.join(path + [m])}"
+        if m in done or m not in graph:
+            return
+        for d in graph[m]:
+            visit(d, path + [m])
+        done.add(m)
+
+    for m in graph:
+        if m != "__init__":
+            visit(m, [])
+    assert "stepper" not in graph["trajectory"] and "frames" in graph["trajectory"]

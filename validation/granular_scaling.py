@@ -78,18 +78,13 @@ def rms_velocity(sim: Simulation) -> float:
 # ---------------------------------------------------------------- states
 def state_of(sim: Simulation) -> dict:
     """Everything needed to continue ``sim`` exactly (incl. the warm start)."""
-    s = sim.sys
-    return {"t": sim.t, "pos": s.pos.copy(), "angle": s.angle.copy(), "vel": s.vel.copy(),
-            "ws_keys": sim._ws_keys.copy(), "ws_r": sim._ws_r.copy()}
+    return {k: v for k, v in sim.get_state().items() if v is not None}   # npz-storable
 
 
 def restore(n: int, state: dict, solver: str, tol: float, max_iter) -> Simulation:
     """A simulation of ``deposit(n)`` put in ``state``."""
     sim = Simulation(deposit(n), H, solver=solver, tol=tol, max_iter=max_iter, t0=float(state["t"]))
-    s = sim.sys
-    s.pos, s.angle, s.vel = (np.array(state[k], dtype=np.float64) for k in ("pos", "angle", "vel"))
-    sim._ws_keys = np.array(state["ws_keys"], dtype=np.int64)
-    sim._ws_r = np.array(state["ws_r"], dtype=np.float64).reshape(-1, 2)
+    sim.set_state(state)
     return sim
 
 

@@ -13,7 +13,10 @@ impulse of the contact reactions is ``H r``.
 
 The mass matrix ``M`` is diagonal for disks, polygons (body frame at the
 centroid) and spheres, so the Delassus operator ``W = H^T M^{-1} H`` is a
-sparse product with a diagonal scaling — no factorization.
+sparse product with a diagonal scaling — no factorization.  3D polyhedra have
+a full inertia tensor: ``M`` is block diagonal with the world-frame blocks
+``I_w = R I_body Rᵀ`` (:func:`block_inverse_mass`), inverted block by block
+(``I_w⁻¹ = R I_body⁻¹ Rᵀ``), still without factorization.
 """
 from __future__ import annotations
 
@@ -117,22 +120,68 @@ def local_velocity(sys, contacts, v, E=None, pos=None) -> np.ndarray:
     return u
 
 
-def delassus(H: sp.spmatrix, inv_mass_diag: np.ndarray) -> sp.csr_matrix:
-    """``W = H^T diag(inv_mass_diag) H`` (Delassus operator), CSR."""
+def delassus(H: sp.spmatrix, inv_mass) -> sp.csr_matrix:
+    """``W = H^T M^{-1} H`` (Delassus operator), CSR.
+
+    ``inv_mass`` is the diagonal of ``M^{-1}`` (ndarray) or the sparse
+    block-diagonal ``M^{-1}`` of :func:`block_inverse_mass`.
+    """
     H = sp.csr_matrix(H)
-    W = (H.T.tocsr() @ H.multiply(inv_mass_diag[:, None]).tocsr()).tocsr()
+    if sp.issparse(inv_mass):
+        W = (H.T.tocsr() @ (inv_mass @ H).tocsr()).tocsr()
+    else:
+        W = (H.T.tocsr() @ H.multiply(inv_mass[:, None]).tocsr()).tocsr()
     W.eliminate_zeros()
     return W
 
 
-def mass_matrix(inv_mass_diag: np.ndarray) -> sp.csr_matrix:
-    """Diagonal mass matrix from the inverse-mass diagonal (locked dofs: unit mass).
+def mass_matrix(inv_mass) -> sp.csr_matrix:
+    """Mass matrix from ``M^{-1}`` (diagonal ndarray or block-diagonal sparse); locked dofs: unit mass.
 
     Locked rotations have ``inv_mass = 0``; for the global form they get mass
     1 and are excluded from ``H`` by zeroing their rows (see the stepper).
     """
-    m = np.where(inv_mass_diag > 0, 1.0 / np.where(inv_mass_diag > 0, inv_mass_diag, 1.0), 1.0)
+    if sp.issparse(inv_mass):
+        n = inv_mass.shape[0] // 6
+        rows = np.repeat(np.arange(6 * n).reshape(n, 6), 6, axis=1).reshape(n, 6, 6)
+        B = np.asarray(inv_mass[rows.ravel(), rows.transpose(0, 2, 1).ravel()]).reshape(n, 6, 6)
+        lock = np.all(B == 0, axis=2)
+        B[lock[:, :, None] & lock[:, None, :]] = 0.0
+        B = B + np.einsum("bi,ij->bij", lock.astype(float), np.eye(6))
+        return sp.block_diag(list(np.linalg.inv(B)), format="csr")
+    m = np.where(inv_mass > 0, 1.0 / np.where(inv_mass > 0, inv_mass, 1.0), 1.0)
     return sp.diags(m).tocsr()
 
 
-__all__ = ["contact_frames", "body_blocks", "assemble_H", "local_velocity", "delassus", "mass_matrix"]
+def world_inverse_inertia(R: np.ndarray, inertia_body: np.ndarray, locked: np.ndarray) -> np.ndarray:
+    """``R I_body⁻¹ Rᵀ`` per body, (n, 3, 3); zero for ``locked`` (fixed-rotation) bodies."""
+    Ji = np.einsum("bij,bjk,blk->bil", R, np.linalg.inv(inertia_body), R)
+    Ji[locked] = 0.0
+    return Ji
+
+
+def world_inertia(R: np.ndarray, inertia_body: np.ndarray) -> np.ndarray:
+    """``R I_body Rᵀ`` per body, (n, 3, 3)."""
+    return np.einsum("bij,bjk,blk->bil", R, inertia_body, R)
+
+
+def block_inverse_mass(inv_translational: np.ndarray, inv_rot_world: np.ndarray) -> sp.csr_matrix:
+    """Sparse block-diagonal ``M^{-1}`` of 3D bodies (ndof 6): ``diag(1/m)`` then ``I_w⁻¹`` per body.
+
+    Parameters
+    ----------
+    inv_translational : (n,) inverse (spring-augmented) masses
+    inv_rot_world : (n, 3, 3) world-frame inverse inertia tensors
+    """
+    n = inv_translational.shape[0]
+    B = np.zeros((n, 6, 6))
+    B[:, [0, 1, 2], [0, 1, 2]] = inv_translational[:, None]
+    B[:, 3:, 3:] = inv_rot_world
+    rows = np.repeat(np.arange(6 * n).reshape(n, 6), 6, axis=1).reshape(n, 6, 6)
+    cols = rows.transpose(0, 2, 1)
+    keep = B != 0
+    return sp.csr_matrix((B[keep], (rows[keep], cols[keep])), shape=(6 * n, 6 * n))
+
+
+__all__ = ["contact_frames", "body_blocks", "assemble_H", "local_velocity", "delassus", "mass_matrix",
+           "world_inverse_inertia", "world_inertia", "block_inverse_mass"]

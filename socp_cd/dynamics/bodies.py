@@ -8,15 +8,17 @@ Dynamic bodies
 * :class:`Disk`     — 2D disk, dofs ``(x, y, angle)``, velocity ``(vx, vy, omega)``.
 * :class:`Polygon`  — 2D convex polygon (vertices counter-clockwise, in the body
   frame, re-centred on the area centroid), same dofs as a disk.
-* :class:`Sphere`   — 3D sphere, velocity ``(vx, vy, vz, wx, wy, wz)`` (a sphere's
-  orientation never matters for contact, so it is not stored).
+* :class:`Sphere`   — 3D sphere, velocity ``(vx, vy, vz, wx, wy, wz)`` (world-frame
+  angular velocity; its orientation is tracked for output only).
+* :class:`ConvexPolyhedron`, :class:`Box` — 3D convex polyhedra, same velocity,
+  orientation a unit quaternion ``(w, x, y, z)``, full inertia tensor.
 
 Fixed obstacles (index ``-1`` in contact pairs)
 -----------------------------------------------
 * :class:`Line`  — 2D half-space ``{x : n·(x - p) >= 0}`` (``n`` points to the free side).
 * :class:`Plane` — 3D half-space, same convention.
 * :class:`FixedDisk`, :class:`FixedPolygon`, :class:`FixedSphere` — immobile grains
-  (e.g. the rough bed of a talus).
+  (e.g. the rough bed of a talus); :class:`FixedPolyhedron`, :class:`FixedBox` in 3D.
 
 Loads
 -----
@@ -26,8 +28,11 @@ Loads
   ``(fx, fy, fz[, tx, ty, tz])`` (3D) applied at the centre, explicit.
 
 Material parameters ``mu`` (Coulomb friction) and ``restitution`` (Newton's
-``e``) may be set on any body or obstacle; a contact takes the minimum of the
-values set on its two members, or the scene default when neither sets one.
+``e``) may be set on any body or obstacle, and so may a ``material`` name.
+A contact's values, by precedence: the scene's pair table
+``Scene.materials[(name_a, name_b)]`` when both members name a material and
+the (unordered) pair is listed; else the minimum of the values set on its two
+members; else the scene default.
 """
 from __future__ import annotations
 
@@ -37,6 +42,7 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 from ..errors import InvalidProblemError
+from .geometry3d import Hull, box_vertices, convex_hull, hull_mass_properties, quat_normalize, quat_to_matrix
 
 
 def _vec(x, d: int, name: str) -> np.ndarray:
@@ -58,6 +64,8 @@ def _material(obj, name: str) -> None:
         raise InvalidProblemError(f"{name}.mu", f"must be >= 0, got {obj.mu!r}")
     if obj.restitution is not None and not (0 <= obj.restitution <= 1):
         raise InvalidProblemError(f"{name}.restitution", f"must lie in [0, 1], got {obj.restitution!r}")
+    if obj.material is not None and not isinstance(obj.material, str):
+        raise InvalidProblemError(f"{name}.material", f"must be a string or None, got {obj.material!r}")
 
 
 def polygon_properties(vertices) -> tuple[float, np.ndarray, float]:
@@ -143,6 +151,7 @@ class Disk:
     fixed_rotation: bool = False
     mu: Optional[float] = None
     restitution: Optional[float] = None
+    material: Optional[str] = None
 
     dim = 2
     kind = "disk"
@@ -190,6 +199,7 @@ class Polygon:
     fixed_rotation: bool = False
     mu: Optional[float] = None
     restitution: Optional[float] = None
+    material: Optional[str] = None
 
     dim = 2
     kind = "polygon"
@@ -229,7 +239,11 @@ class Polygon:
 
 @dataclass
 class Sphere:
-    """A 3D rigid sphere (velocity ``(vx, vy, vz)``, angular velocity ``omega`` (3,))."""
+    """A 3D rigid sphere (velocity ``(vx, vy, vz)``, world angular velocity ``omega`` (3,)).
+
+    ``orientation`` (unit quaternion ``(w, x, y, z)``) is tracked for output
+    only: it never affects a sphere's contacts.
+    """
 
     radius: float
     position: Sequence[float] = (0.0, 0.0, 0.0)
@@ -241,12 +255,15 @@ class Sphere:
     fixed_rotation: bool = False
     mu: Optional[float] = None
     restitution: Optional[float] = None
+    material: Optional[str] = None
+    orientation: Sequence[float] = (1.0, 0.0, 0.0, 0.0)
 
     dim = 3
     kind = "disk"   # round body: same narrow phase as a disk, in 3D
     angle = 0.0
 
     def __post_init__(self):
+        self.orientation = quat_normalize(_vec(self.orientation, 4, "Sphere.orientation"), "Sphere.orientation")
         self.radius = _positive(self.radius, "Sphere.radius")
         self.position = _vec(self.position, 3, "Sphere.position")
         self.velocity = _vec(self.velocity, 3, "Sphere.velocity")
@@ -264,6 +281,116 @@ class Sphere:
         return self.radius
 
 
+def _inertia_tensor(val, name: str) -> np.ndarray:
+    """A symmetric positive definite 3×3 tensor from (3,) principal values or a (3, 3) array."""
+    a = np.asarray(val, dtype=np.float64)
+    if a.shape == (3,):
+        a = np.diag(a)
+    if a.shape != (3, 3) or not np.all(np.isfinite(a)) or not np.allclose(a, a.T, rtol=1e-10, atol=0):
+        raise InvalidProblemError(name, f"must be (3,) principal moments or a symmetric (3, 3) tensor, got {val!r}")
+    if np.linalg.eigvalsh(a).min() <= 0:
+        raise InvalidProblemError(name, "inertia tensor must be positive definite")
+    return a
+
+
+@dataclass
+class ConvexPolyhedron:
+    """A 3D convex rigid polyhedron.
+
+    Parameters
+    ----------
+    vertices : array_like, shape (k, 3)
+        Points in the body frame, relative to ``position``; their convex hull
+        is taken and re-centred on the solid's centroid (``position`` moves to
+        the world centroid accordingly).
+    position, velocity : (3,) sequences
+    orientation : (4,) sequence
+        Unit quaternion ``(w, x, y, z)`` (normalized on input), body → world.
+    omega : (3,) sequence
+        World-frame angular velocity.
+    mass : float, optional
+        Defaults to ``density × volume``.
+    density : float
+    inertia : (3,) or (3, 3), optional
+        Body-frame inertia tensor about the centroid (principal values or full
+        tensor); defaults to the exact tensor of the solid with this mass.
+    fixed_rotation : bool
+    mu, restitution, material
+        Material values (see module docstring).
+    """
+
+    vertices: np.ndarray
+    position: Sequence[float] = (0.0, 0.0, 0.0)
+    orientation: Sequence[float] = (1.0, 0.0, 0.0, 0.0)
+    velocity: Sequence[float] = (0.0, 0.0, 0.0)
+    omega: Sequence[float] = (0.0, 0.0, 0.0)
+    mass: Optional[float] = None
+    density: float = 1.0
+    inertia: Optional[np.ndarray] = None
+    fixed_rotation: bool = False
+    mu: Optional[float] = None
+    restitution: Optional[float] = None
+    material: Optional[str] = None
+
+    dim = 3
+    kind = "hull"
+    angle = 0.0
+
+    def __post_init__(self):
+        name = type(self).__name__
+        hull = convex_hull(self.vertices, f"{name}.vertices")
+        vol, c, J = hull_mass_properties(hull)
+        self.hull = Hull(hull.vertices - c, hull.faces, hull.normals, hull.edges, hull.edge_dir, hull.directions)
+        self.vertices = self.hull.vertices
+        self.volume = vol
+        self.orientation = quat_normalize(_vec(self.orientation, 4, f"{name}.orientation"), f"{name}.orientation")
+        self.position = _vec(self.position, 3, f"{name}.position") + quat_to_matrix(self.orientation) @ c
+        self.velocity = _vec(self.velocity, 3, f"{name}.velocity")
+        self.omega = _vec(self.omega, 3, f"{name}.omega")
+        if self.mass is None:
+            self.mass = _positive(self.density, f"{name}.density") * vol
+        self.mass = _positive(self.mass, f"{name}.mass")
+        if self.inertia is None:
+            self.inertia = self.mass * J / vol
+        self.inertia = _inertia_tensor(self.inertia, f"{name}.inertia")
+        _material(self, name)
+
+    @property
+    def bounding_radius(self) -> float:
+        return self.hull.bounding_radius
+
+    @classmethod
+    def box(cls, size, position=(0.0, 0.0, 0.0), **kw) -> "ConvexPolyhedron":
+        """A box of edge lengths ``size = (lx, ly, lz)`` (body axes) centred at ``position``."""
+        return cls(box_vertices(_vec(size, 3, "size")), position=position, **kw)
+
+    @classmethod
+    def prism(cls, n: int, radius: float, height: float, position=(0.0, 0.0, 0.0), **kw) -> "ConvexPolyhedron":
+        """A right prism on a regular ``n``-gon of circumradius ``radius``, axis along body z."""
+        a = 2 * np.pi * np.arange(int(n)) / int(n)
+        ring = np.c_[radius * np.cos(a), radius * np.sin(a)]
+        V = np.vstack([np.c_[ring, np.full(int(n), -height / 2)], np.c_[ring, np.full(int(n), height / 2)]])
+        return cls(V, position=position, **kw)
+
+
+class Box(ConvexPolyhedron):
+    """A 3D rigid box: ``Box(size=(lx, ly, lz), position, orientation, velocity, omega, ...)``.
+
+    A :class:`ConvexPolyhedron` with the 8 corners of ``size``; other
+    parameters as for :class:`ConvexPolyhedron` (exact inertia
+    ``m/12 (ly² + lz², lx² + lz², lx² + ly²)`` by default).
+    """
+
+    def __init__(self, size=(1.0, 1.0, 1.0), position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0),
+                 velocity=(0.0, 0.0, 0.0), omega=(0.0, 0.0, 0.0), mass=None, density=1.0, inertia=None,
+                 fixed_rotation=False, mu=None, restitution=None, material=None):
+        self.size = _vec(size, 3, "Box.size")
+        for k in range(3):
+            _positive(self.size[k], f"Box.size[{k}]")
+        super().__init__(box_vertices(self.size), position, orientation, velocity, omega, mass, density,
+                         inertia, fixed_rotation, mu, restitution, material)
+
+
 # ----------------------------------------------------------------------------- obstacles
 @dataclass
 class Line:
@@ -273,6 +400,7 @@ class Line:
     normal: Sequence[float] = (0.0, 1.0)
     mu: Optional[float] = None
     restitution: Optional[float] = None
+    material: Optional[str] = None
 
     dim = 2
     kind = "halfspace"
@@ -310,6 +438,7 @@ class FixedDisk:
     position: Sequence[float] = (0.0, 0.0)
     mu: Optional[float] = None
     restitution: Optional[float] = None
+    material: Optional[str] = None
 
     dim = 2
     kind = "disk"
@@ -339,6 +468,7 @@ class FixedPolygon:
     vertices: np.ndarray
     mu: Optional[float] = None
     restitution: Optional[float] = None
+    material: Optional[str] = None
 
     dim = 2
     kind = "polygon"
@@ -351,6 +481,46 @@ class FixedPolygon:
     @property
     def bounding_radius(self) -> float:
         return float(np.max(np.linalg.norm(self.vertices - self.position, axis=1)))
+
+
+@dataclass
+class FixedPolyhedron:
+    """An immobile convex polyhedron: hull of ``vertices`` (body frame) placed at ``position``/``orientation``."""
+
+    vertices: np.ndarray
+    position: Sequence[float] = (0.0, 0.0, 0.0)
+    orientation: Sequence[float] = (1.0, 0.0, 0.0, 0.0)
+    mu: Optional[float] = None
+    restitution: Optional[float] = None
+    material: Optional[str] = None
+
+    dim = 3
+    kind = "hull"
+
+    def __post_init__(self):
+        name = type(self).__name__
+        hull = convex_hull(self.vertices, f"{name}.vertices")
+        _, c, _ = hull_mass_properties(hull)
+        self.hull = Hull(hull.vertices - c, hull.faces, hull.normals, hull.edges, hull.edge_dir, hull.directions)
+        self.vertices = self.hull.vertices
+        self.orientation = quat_normalize(_vec(self.orientation, 4, f"{name}.orientation"), f"{name}.orientation")
+        self.position = _vec(self.position, 3, f"{name}.position") + quat_to_matrix(self.orientation) @ c
+        _material(self, name)
+
+    @property
+    def bounding_radius(self) -> float:
+        return self.hull.bounding_radius
+
+
+class FixedBox(FixedPolyhedron):
+    """An immobile box ``FixedBox(size, position, orientation, mu, restitution, material)``."""
+
+    def __init__(self, size=(1.0, 1.0, 1.0), position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0),
+                 mu=None, restitution=None, material=None):
+        self.size = _vec(size, 3, "FixedBox.size")
+        for k in range(3):
+            _positive(self.size[k], f"FixedBox.size[{k}]")
+        super().__init__(box_vertices(self.size), position, orientation, mu, restitution, material)
 
 
 # ----------------------------------------------------------------------------- loads
@@ -384,9 +554,9 @@ class Force:
             raise InvalidProblemError("Force.func", "must be a callable t -> force")
 
 
-BODY_TYPES = (Disk, Polygon, Sphere)
-OBSTACLE_TYPES = (Line, Plane, FixedDisk, FixedSphere, FixedPolygon)
+BODY_TYPES = (Disk, Polygon, Sphere, ConvexPolyhedron)
+OBSTACLE_TYPES = (Line, Plane, FixedDisk, FixedSphere, FixedPolygon, FixedPolyhedron)
 
-__all__ = ["Disk", "Polygon", "Sphere", "Line", "Plane", "FixedDisk", "FixedSphere",
-           "FixedPolygon", "Spring", "Force", "polygon_properties", "convex_ccw",
+__all__ = ["Disk", "Polygon", "Sphere", "ConvexPolyhedron", "Box", "Line", "Plane", "FixedDisk", "FixedSphere",
+           "FixedPolygon", "FixedPolyhedron", "FixedBox", "Spring", "Force", "polygon_properties", "convex_ccw",
            "BODY_TYPES", "OBSTACLE_TYPES"]

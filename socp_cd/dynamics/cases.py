@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .bodies import Disk, Force, Line, Plane, Polygon, Sphere, Spring
+from .bodies import Box, Disk, Force, Line, Plane, Polygon, Sphere, Spring
 from .scene import Scene
 from .stepper import Simulation
 
@@ -82,16 +82,32 @@ def case_pushed_particle(solver="nsgs", quick=False):
 
 
 # ----------------------------------------------------------------------------- block on incline
-def _block_on_incline(alpha, mu, solver, n, h):
+def _block_on_incline(alpha, mu):
     w, hb = 1.0, 0.5
     line = Line.inclined(alpha)
     t = np.array([np.cos(alpha), np.sin(alpha)])
     c = 1.0 * t + 0.5 * hb * line.normal
-    box = Polygon.box(w, hb, c, angle=alpha)
-    sc = Scene([box], [line], mu=mu)
-    sim = _sim(sc, h, solver)
-    sim.run(n, progress=False)
-    return sim, t
+    return Scene([Polygon.box(w, hb, c, angle=alpha)], [line], mu=mu), t
+
+
+def _incline_rows(name, build, mu, solver, quick):
+    """Stick (20°) / slip (35°) rows for a block built by ``build(alpha) -> (scene, unit vector up the slope)``."""
+    h = 1e-2
+    n = 20 if quick else 100
+    T = n * h
+    rows = []
+    for alpha_deg in (20.0, 35.0):
+        a = np.radians(alpha_deg)
+        sc, t = build(a)
+        sim = _sim(sc, h, solver)
+        sim.run(n, progress=False)
+        v = sim.sys.vel[0, :t.size] @ t
+        exact = max(0.0, G * (np.sin(a) - mu * np.cos(a)))
+        label = "stick" if np.tan(a) <= mu else "slip"
+        rows.append(Row(f"{name} {alpha_deg:g}° mu={mu} ({label})", "acceleration along slope",
+                        exact, -v / T, 1e-6, solver, scale=G * np.sin(a),
+                        why="tol 1e-6 = solver level: constant forces are integrated exactly by the θ-scheme"))
+    return rows
 
 
 def case_block_incline(solver="nsgs", quick=False):
@@ -100,20 +116,8 @@ def case_block_incline(solver="nsgs", quick=False):
     Exact: sticks iff ``tan(alpha) <= mu``; else ``a = g (sin alpha - mu cos alpha)``.
     Constant forces → exact in the θ-scheme; tolerance 1e-6 (solver level).
     """
-    mu, h = 0.5, 1e-2
-    n = 20 if quick else 100
-    T = n * h
-    rows = []
-    for alpha_deg in (20.0, 35.0):
-        a = np.radians(alpha_deg)
-        sim, t = _block_on_incline(a, mu, solver, n, h)
-        v = sim.sys.vel[0, :2] @ t
-        exact = max(0.0, G * (np.sin(a) - mu * np.cos(a)))
-        label = "stick" if np.tan(a) <= mu else "slip"
-        rows.append(Row(f"box on incline {alpha_deg:g}° mu={mu} ({label})", "acceleration along slope",
-                        exact, -v / T, 1e-6, solver, scale=G * np.sin(a),
-                        why="tol 1e-6 = solver level: constant forces are integrated exactly by the θ-scheme"))
-    return rows
+    mu = 0.5
+    return _incline_rows("box on incline", lambda a: _block_on_incline(a, mu), mu, solver, quick)
 
 
 # ----------------------------------------------------------------------------- spring-driven particle
@@ -300,6 +304,91 @@ def case_newton_cradle(solver="nsgs", quick=False):
             for k, ex in enumerate((-1 / 3, 2 / 3, 2 / 3))]
 
 
+# ----------------------------------------------------------------------------- 3D blocks
+def _box_on_incline_3d(alpha, size, mu, density=1.0):
+    """A :class:`Box` resting on the plane of slope ``alpha`` (rising along +x), body x up the slope.
+
+    Returns the scene and the unit vector up the slope.
+    """
+    n = np.array([-np.sin(alpha), 0.0, np.cos(alpha)])
+    t = np.array([np.cos(alpha), 0.0, np.sin(alpha)])
+    q = (np.cos(alpha / 2), 0.0, -np.sin(alpha / 2), 0.0)       # rotation -alpha about y: body z -> n
+    box = Box(size, 1.0 * t + 0.5 * size[2] * n, orientation=q, density=density)
+    return Scene([box], [Plane((0.0, 0.0, 0.0), n)], mu=mu), t
+
+
+def case_block_incline_3d(solver="nsgs", quick=False):
+    """3D: a box (face contact, 4 points) on a rough incline.
+
+    Exact: sticks iff ``tan(alpha) <= mu``; else ``a = g (sin alpha - mu cos alpha)``.
+    Constant forces → exact in the θ-scheme; tolerance 1e-6 (solver level).
+    """
+    mu = 0.5
+    return _incline_rows("3D box on incline", lambda a: _box_on_incline_3d(a, (1.0, 1.0, 0.5), mu), mu,
+                         solver, quick)
+
+
+def case_box_stack_3d(solver="nsgs", quick=False):
+    """3D: 4 boxes stacked at rest on a plane: interface k from the top carries ``k m g``.
+
+    Four-point face contacts make individual impulses non-unique, their sum is
+    unique: tol 1e-6 (solver level).
+    """
+    nbox, L, mu, h = 4, 0.5, 0.5, 1e-3
+    bodies = [Box((1.0, 0.8, L), (0.0, 0.0, L / 2 + k * L), density=2.0) for k in range(nbox)]
+    m = bodies[0].mass
+    sim = _sim(Scene(bodies, [Plane()], mu=mu), h, solver)
+    sim.run(3 if quick else 10, progress=False)
+    cf = sim.last_contacts
+    fn = cf.normal_force
+    rows = []
+    for k in range(1, nbox + 1):
+        upper, lower = nbox - k, nbox - k - 1
+        pair = np.sort(cf.pairs, axis=1)
+        sel = (pair[:, 0] == lower) & (pair[:, 1] == upper) if lower >= 0 else \
+            (cf.pairs[:, 0] == upper) & (cf.pairs[:, 1] == -1)
+        rows.append(Row(f"3D stack of {nbox} boxes", f"interface {k} load / (m g)", float(k),
+                        fn[sel].sum() / (m * G), 1e-6, solver,
+                        why="tol 1e-6 = solver level: statics exact from the first step"))
+    return rows
+
+
+def case_tipping_box(solver="nsgs", quick=False):
+    """3D: a tall box (width w along the slope, height H) on a rough incline (no sliding).
+
+    Exact: it topples iff ``tan(alpha) > w/H`` (the weight's line leaves the
+    base).  Below, it stays at rest (angular velocity 0, solver level, measured
+    against the tipping case's ``ω̇ T``); above, it starts rotating about its
+    lower edge with ``ω̇ = m g (H/2 sin alpha - w/2 cos alpha) / I_edge``,
+    ``I_edge = m (w² + H²)/3``.  The torque changes as the box turns: tol
+    ``3 (∂τ/∂φ) φ(T) / τ`` (O(φ), φ the tilt reached at T).
+    """
+    w, H, depth, mu, h = 0.5, 1.0, 0.6, 1.0, 1e-3
+    n = 20
+    T = n * h
+    alpha_c = np.arctan(w / H)
+    rows = []
+    for d_deg in (1.0, 5.0):
+        d = np.radians(d_deg)
+        tau = G * (H / 2 * np.sin(alpha_c + d) - w / 2 * np.cos(alpha_c + d))   # torque / m about the edge
+        dtau = G * (H / 2 * np.cos(alpha_c + d) + w / 2 * np.sin(alpha_c + d))
+        wdot = tau / ((w ** 2 + H ** 2) / 3)
+        phi = 0.5 * wdot * T ** 2
+        for label, alpha in (("rests", alpha_c - d), ("topples", alpha_c + d)):
+            sc, _ = _box_on_incline_3d(alpha, (w, depth, H), mu)
+            sim = _sim(sc, h, solver)
+            sim.run(n, progress=False)
+            om = -sim.sys.vel[0, 4] / T             # tipping downhill: negative rotation about y
+            case = f"tipping box w/H={w / H:g}, alpha = atan(w/H) {'-' if label == 'rests' else '+'} {d_deg:g}° ({label})"
+            if label == "rests":
+                rows.append(Row(case, "angular acceleration", 0.0, om, 1e-6, solver, scale=wdot,
+                                why="tol 1e-6 = solver level: static equilibrium, exact from the first step"))
+            else:
+                rows.append(Row(case, "angular acceleration", wdot, om, 3 * dtau * phi / tau, solver,
+                                why="tol = 3 (∂τ/∂φ) φ(T)/τ: the gravity torque about the edge changes as the box tilts, O(φ)"))
+    return rows
+
+
 CASES = {
     "pushed_particle": case_pushed_particle,
     "block_incline": case_block_incline,
@@ -310,6 +399,9 @@ CASES = {
     "rolling_incline": case_rolling_incline,
     "box_stack": case_box_stack,
     "newton_cradle": case_newton_cradle,
+    "block_incline_3d": case_block_incline_3d,
+    "box_stack_3d": case_box_stack_3d,
+    "tipping_box": case_tipping_box,
 }
 
 __all__ = ["Row", "CASES"] + [f.__name__ for f in CASES.values()]

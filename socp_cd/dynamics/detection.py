@@ -14,18 +14,55 @@ of a :class:`~socp_cd.dynamics.scene.System`.  Conventions, used everywhere in
 
 Supported pairs: disk–disk, disk–line, disk–polygon, polygon–polygon (up to
 two points, by separating axes and clipping), polygon–line, and their
-fixed-obstacle variants; sphere–sphere, sphere–plane in 3D.
+fixed-obstacle variants; in 3D sphere–sphere, sphere–plane, and for convex
+polyhedra (boxes) polyhedron–plane (vertices), polyhedron–polyhedron (up to
+four points per face pair, :mod:`~socp_cd.dynamics.narrow3d`),
+sphere–polyhedron, and the fixed-obstacle variants.
+
+Keys are ``((i * (n_bodies + n_obstacles) + other) << 26) + feature``; they
+fit in int64 up to about 3·10⁵ bodies.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .hulls import concat_tables, world_hulls
 from .narrow import disk_poly, poly_poly
+from .narrow3d import hull_hull, sphere_hull
 
-_FID_BITS = 16
+_FID_BITS = 26
+
+
+class CandidatePairs(NamedTuple):
+    """Broad-phase output.
+
+    Attributes
+    ----------
+    bodies : (k, 2) int
+        Body–body pairs ``(a, b)``, ``a < b``.
+    fixed : (k2, 2) int
+        ``(body, fixed row)``; rows index the fixed round objects first, then
+        the fixed polygons (2D) or fixed polyhedra (3D).
+    """
+
+    bodies: np.ndarray
+    fixed: np.ndarray
+
+
+class NarrowResult(NamedTuple):
+    """Contacts of one pair type before assembly into :class:`Contacts`."""
+
+    i: np.ndarray
+    j: np.ndarray
+    obstacle: np.ndarray
+    point: np.ndarray
+    normal: np.ndarray
+    gap: np.ndarray
+    fid: np.ndarray
 
 
 @dataclass
@@ -70,8 +107,11 @@ class Contacts:
         return Contacts(zi, zi, zi, np.zeros((0, d)), np.zeros((0, d)), z, zi, z, z)
 
 
-def _combine(a, b, default):
+def _combine(a, b, default, pair=None):
+    """Pair-table value where listed, else the min of the members' values, else the default."""
     v = np.fmin(a, b)            # NaN (unset) values are ignored by fmin
+    if pair is not None:
+        v = np.where(np.isnan(pair), v, pair)
     return np.where(np.isnan(v), default, v)
 
 
@@ -84,30 +124,38 @@ class _Parts:
 
     def add(self, i, j, obst, point, normal, gap, fid):
         if len(i):
-            self.cols.append((np.asarray(i, np.int64), np.asarray(j, np.int64), np.asarray(obst, np.int64),
-                              point, normal, gap, np.asarray(fid, np.int64)))
+            self.cols.append(NarrowResult(np.asarray(i, np.int64), np.asarray(j, np.int64),
+                                          np.asarray(obst, np.int64), point, normal, gap,
+                                          np.asarray(fid, np.int64)))
 
     def build(self) -> Contacts:
         s = self.sys
         if not self.cols:
             return Contacts.empty(s.dim)
-        i, j, ob, pt, nr, g, fid = (np.concatenate(c) for c in zip(*self.cols))
+        cat = NarrowResult(*(np.concatenate(c) for c in zip(*self.cols)))
+        i, j, ob = cat.i, cat.j, cat.obstacle
         n_all = s.n_bodies + s.n_obstacles
         other = np.where(j >= 0, j, s.n_bodies + ob)
-        key = ((i * n_all + other) << _FID_BITS) + fid
-        # materials: body values, obstacle values (NaN = unset), scene default
-        mu_o = np.full(s.n_obstacles, np.nan)
-        e_o = np.full(s.n_obstacles, np.nan)
-        for tab in (s.halfspaces, s.fixed_round):
-            mu_o[tab[4]] = tab[2]
-            e_o[tab[4]] = tab[3]
-        mu_o[s.fixed_poly[6]] = s.fixed_poly[4]
-        e_o[s.fixed_poly[6]] = s.fixed_poly[5]
-        mu_j = np.where(j >= 0, s.mu_body[np.maximum(j, 0)], mu_o[np.maximum(ob, 0)] if s.n_obstacles else np.nan)
-        e_j = np.where(j >= 0, s.e_body[np.maximum(j, 0)], e_o[np.maximum(ob, 0)] if s.n_obstacles else np.nan)
-        mu = _combine(s.mu_body[i], mu_j, s.mu_default)
-        e = _combine(s.e_body[i], e_j, s.e_default)
-        return Contacts(i, j, ob, pt, nr, g, key, mu, e)
+        key = ((i * n_all + other) << _FID_BITS) + cat.fid
+        # materials: pair table, else member values (NaN = unset), else scene default
+        hasj = j >= 0
+        jj, oo = np.maximum(j, 0), np.maximum(ob, 0)
+        if s.n_obstacles:
+            mu_j = np.where(hasj, s.mu_body[jj], s.mu_obstacle[oo])
+            e_j = np.where(hasj, s.e_body[jj], s.e_obstacle[oo])
+            mat_j = np.where(hasj, s.mat_body[jj], s.mat_obstacle[oo])
+        else:
+            mu_j, e_j, mat_j = s.mu_body[jj], s.e_body[jj], s.mat_body[jj]
+        pmu = pe = None
+        if s.mat_mu.size:
+            mi = s.mat_body[i]
+            ok = (mi >= 0) & (mat_j >= 0)
+            a, b = np.maximum(mi, 0), np.maximum(mat_j, 0)
+            pmu = np.where(ok, s.mat_mu[a, b], np.nan)
+            pe = np.where(ok, s.mat_e[a, b], np.nan)
+        mu = _combine(s.mu_body[i], mu_j, s.mu_default, pmu)
+        e = _combine(s.e_body[i], e_j, s.e_default, pe)
+        return Contacts(i, j, ob, cat.point, cat.normal, cat.gap, key, mu, e)
 
 
 def _round_round(ci, ri, cj, rj):
@@ -122,17 +170,8 @@ def _round_round(ci, ri, cj, rj):
     return gap, n, point
 
 
-def broad_phase(sys, margin: float):
-    """Candidate pairs by bounding spheres (k-d tree).
-
-    Returns
-    -------
-    dyn_pairs : (k, 2) int
-        Body–body pairs ``(a, b)``, ``a < b``.
-    fix_pairs : (k2, 2) int
-        ``(body, fixed object row)``; rows index the fixed round objects first,
-        then the fixed polygons.
-    """
+def broad_phase(sys, margin: float) -> CandidatePairs:
+    """Candidate pairs by bounding spheres (k-d tree); see :class:`CandidatePairs`."""
     pos, R = sys.pos, sys.radius
     n = sys.n_bodies
     tree = cKDTree(pos)
@@ -144,12 +183,15 @@ def broad_phase(sys, margin: float):
     fc = [sys.fixed_round[0]]
     fr = [sys.fixed_round[1]]
     if sys.dim == 2:
-        fc.append(sys.fixed_poly[2])
-        fr.append(sys.fixed_poly[3])
+        fc.append(sys.fixed_poly.center)
+        fr.append(sys.fixed_poly.radius)
+    else:
+        fc.append(sys.fixed_hull.center)
+        fr.append(sys.fixed_hull.table.radius)
     fc = np.concatenate(fc)
     fr = np.concatenate(fr)
     if fc.shape[0] == 0:
-        return dyn, np.zeros((0, 2), dtype=np.int64)
+        return CandidatePairs(dyn, np.zeros((0, 2), dtype=np.int64))
     ftree = cKDTree(fc)
     sdm = tree.sparse_distance_matrix(ftree, rmax + float(fr.max()) + margin, output_type="ndarray")
     pairs = np.c_[sdm["i"], sdm["j"]].astype(np.int64)
@@ -160,7 +202,7 @@ def broad_phase(sys, margin: float):
     pairs = pairs[keep]
     if extra:
         pairs = np.unique(np.vstack([pairs, np.array(extra, dtype=np.int64)]), axis=0)
-    return dyn, pairs
+    return CandidatePairs(dyn, pairs)
 
 
 def detect(sys, margin: float = 0.0) -> Contacts:
@@ -177,13 +219,14 @@ def detect(sys, margin: float = 0.0) -> Contacts:
     Contacts
     """
     parts = _Parts(sys)
-    d = sys.dim
     pos, R = sys.pos, sys.radius
     n = sys.n_bodies
-    rnd = ~sys.is_poly
+    rnd = sys.is_round
     PVb = sys.poly_world() if sys.is_poly.any() else None
+    HT = world_hull_table(sys) if sys.has_hulls else None
     # ----------------------------------------------------------- half-spaces
-    hp, hn, _, _, hidx = sys.halfspaces
+    hs = sys.halfspaces
+    hp, hn, hidx = hs.point, hs.normal, hs.index
     if len(hidx):
         ib = np.flatnonzero(rnd)
         if ib.size:
@@ -193,18 +236,21 @@ def detect(sys, margin: float = 0.0) -> Contacts:
             nn = hn[k]
             parts.add(ib[b], -np.ones_like(b), hidx[k], pos[ib[b]] - nn * (R[ib[b]] + 0.5 * gg)[:, None],
                       nn, gg, np.zeros_like(b))
-        if PVb is not None:
-            ip = np.flatnonzero(sys.is_poly)
-            g = np.einsum("pvkd,kd->pkv", PVb[:, :, None, :] - hp[None, None], hn)
-            vmask = np.arange(PVb.shape[1])[None, :] < sys.poly_nv[:, None]
+        for body_mask, VW, nv in ((sys.is_poly, PVb, sys.poly_nv),
+                                  (sys.is_hull, None if HT is None else HT.V[:sys.hulls.n], sys.hulls.NV)):
+            if VW is None or not body_mask.any():
+                continue
+            ip = np.flatnonzero(body_mask)
+            g = np.einsum("pvkd,kd->pkv", VW[:, :, None, :] - hp[None, None], hn)
+            vmask = np.arange(VW.shape[1])[None, :] < nv[:, None]
             p, k, v = np.nonzero((g <= margin) & vmask[:, None, :])
             gg = g[p, k, v]
             nn = hn[k]
-            parts.add(ip[p], -np.ones_like(p), hidx[k], PVb[p, v] - 0.5 * gg[:, None] * nn, nn, gg, v)
+            parts.add(ip[p], -np.ones_like(p), hidx[k], VW[p, v] - 0.5 * gg[:, None] * nn, nn, gg, v)
     # ----------------------------------------------------------- body–body
-    if n > 1 or sys.fixed_round[1].size or sys.fixed_poly[1].size:
-        dyn, fix = broad_phase(sys, margin)
-        a, b = dyn[:, 0], dyn[:, 1]
+    if n > 1 or sys.fixed_round.radius.size or sys.fixed_poly.nv.size or sys.fixed_hull.rot.shape[0]:
+        cand = broad_phase(sys, margin)
+        a, b = cand.bodies[:, 0], cand.bodies[:, 1]
         rr = rnd[a] & rnd[b]
         if rr.any():
             aa, bb = a[rr], b[rr]
@@ -227,15 +273,52 @@ def detect(sys, margin: float = 0.0) -> Contacts:
                 valid, g, nn, pt, fid = poly_poly(PVb, sys.poly_nv, prow[aa], prow[bb], margin)
                 q, s = np.nonzero(valid)
                 parts.add(aa[q], bb[q], -np.ones(q.size), pt[q, s], nn[q, s], g[q, s], fid[q, s])
-        if fix is not None and len(fix):
-            _fixed_contacts(sys, parts, fix, margin, PVb)
+        if HT is not None:
+            hrow = sys.hull_of_body
+            for da, pb_ in ((a, b), (b, a)):
+                sel = rnd[da] & sys.is_hull[pb_]
+                if sel.any():
+                    dd, pp = da[sel], pb_[sel]
+                    g, nn, pt = sphere_hull_contacts(HT, pos[dd], R[dd], hrow[pp])
+                    m = g <= margin
+                    parts.add(dd[m], pp[m], -np.ones(m.sum()), pt[m], nn[m], g[m], np.zeros(m.sum()))
+            sel = sys.is_hull[a] & sys.is_hull[b]
+            if sel.any():
+                aa, bb = a[sel], b[sel]
+                valid, g, nn, pt, fid = hull_pair_contacts(HT, hrow[aa], hrow[bb], margin)
+                q, s = np.nonzero(valid)
+                parts.add(aa[q], bb[q], -np.ones(q.size), pt[q, s], nn[q, s], g[q, s], fid[q, s])
+        if len(cand.fixed):
+            _fixed_contacts(sys, parts, cand.fixed, margin, PVb, HT)
     return parts.build()
 
 
-def _fixed_contacts(sys, parts, fix, margin, PVb):
+def world_hull_table(sys):
+    """World-frame table: moving hull bodies' rows, then the fixed polyhedra's."""
+    mov = sys.is_hull
+    Rm = sys.rotations()[mov] if mov.any() else np.zeros((0, 3, 3))
+    moving = world_hulls(sys.hulls, Rm, sys.pos[mov])
+    fh = sys.fixed_hull
+    return concat_tables(moving, world_hulls(fh.table, fh.rot, fh.center))
+
+
+def hull_pair_contacts(HT, ia, ib, margin):
+    """:func:`~socp_cd.dynamics.narrow3d.hull_hull` on a world table (rows ``ia``, ``ib``)."""
+    return hull_hull(HT.V, HT.NV, HT.FN, HT.NF, HT.FL, HT.FK, HT.E, HT.EDIR, HT.NE, HT.D, HT.ND,
+                     np.ascontiguousarray(ia, np.int64), np.ascontiguousarray(ib, np.int64), float(margin))
+
+
+def sphere_hull_contacts(HT, C, Rs, ih):
+    """:func:`~socp_cd.dynamics.narrow3d.sphere_hull` on a world table (hull rows ``ih``)."""
+    return sphere_hull(np.ascontiguousarray(C), np.ascontiguousarray(Rs, np.float64), HT.V, HT.NV, HT.FN,
+                       HT.NF, HT.FL, HT.FK, HT.E, HT.NE, np.ascontiguousarray(ih, np.int64))
+
+
+def _fixed_contacts(sys, parts, fix, margin, PVb, HT):
     pos, R = sys.pos, sys.radius
-    rnd = ~sys.is_poly
-    fcen, frad, _, _, fidx = sys.fixed_round
+    rnd = sys.is_round
+    fr_ = sys.fixed_round
+    fcen, frad, fidx = fr_.center, fr_.radius, fr_.index
     nfr = frad.size
     body, row = fix[:, 0], fix[:, 1]
     # body vs fixed round obstacle
@@ -247,15 +330,36 @@ def _fixed_contacts(sys, parts, fix, margin, PVb):
             g, nn, pt = _round_round(pos[bb[s]], R[bb[s]], fcen[rr[s]], frad[rr[s]])
             m = g <= margin
             parts.add(bb[s][m], -np.ones(m.sum()), fidx[rr[s]][m], pt[m], nn[m], g[m], np.zeros(m.sum()))
-        s = ~rnd[bb]
+        s = sys.is_poly[bb]
         if s.any():
             # polygon body vs fixed disk: kernel normal points into the disk -> negate
             g, nn, pt = disk_poly(fcen[rr[s]], frad[rr[s]], PVb, sys.poly_nv, sys.poly_of_body[bb[s]])
             m = g <= margin
             parts.add(bb[s][m], -np.ones(m.sum()), fidx[rr[s]][m], pt[m], -nn[m], g[m], np.zeros(m.sum()))
+        s = sys.is_hull[bb]
+        if s.any():
+            # hull body vs fixed sphere: kernel normal points into the sphere -> negate
+            g, nn, pt = sphere_hull_contacts(HT, fcen[rr[s]], frad[rr[s]], sys.hull_of_body[bb[s]])
+            m = g <= margin
+            parts.add(bb[s][m], -np.ones(m.sum()), fidx[rr[s]][m], pt[m], -nn[m], g[m], np.zeros(m.sum()))
     sel = row >= nfr
-    if sel.any():
-        FV, FN, _, _, _, _, pidx = sys.fixed_poly
+    if sel.any() and sys.dim == 3:
+        bb, rr = body[sel], row[sel] - nfr
+        hidx = sys.fixed_hull.index
+        nmov = sys.hulls.n
+        s = rnd[bb]
+        if s.any():
+            g, nn, pt = sphere_hull_contacts(HT, pos[bb[s]], R[bb[s]], nmov + rr[s])
+            m = g <= margin
+            parts.add(bb[s][m], -np.ones(m.sum()), hidx[rr[s]][m], pt[m], nn[m], g[m], np.zeros(m.sum()))
+        s = sys.is_hull[bb]
+        if s.any():
+            valid, g, nn, pt, fid = hull_pair_contacts(HT, sys.hull_of_body[bb[s]], nmov + rr[s], margin)
+            q, k = np.nonzero(valid)
+            parts.add(bb[s][q], -np.ones(q.size), hidx[rr[s]][q], pt[q, k], nn[q, k], g[q, k], fid[q, k])
+    elif sel.any():
+        fp = sys.fixed_poly
+        FV, FN, pidx = fp.vertices, fp.nv, fp.index
         bb, rr = body[sel], row[sel] - nfr
         s = rnd[bb]
         if s.any():
@@ -282,4 +386,5 @@ def _pad_to(V, vmax):
     return out
 
 
-__all__ = ["Contacts", "detect", "broad_phase"]
+__all__ = ["Contacts", "detect", "broad_phase", "CandidatePairs", "NarrowResult", "world_hull_table",
+           "hull_pair_contacts", "sphere_hull_contacts"]

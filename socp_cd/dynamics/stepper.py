@@ -16,7 +16,23 @@ One step from ``(q_k, v_k, t_k)`` (see ``formulations/moreau_jean.md``):
    activated early through the margin cannot act at a distance);
 5. solve with :func:`socp_cd.solve` (warm start from the previous step's
    impulses matched by persistent contact keys), ``v⁺ = v_free + M̂⁻¹ H r``,
-   ``q⁺ = q + h(θ v⁺ + (1-θ) v)``.
+   ``q⁺ = q + h(θ v⁺ + (1-θ) v)`` (3D orientations: ``q⁺ = exp(½ h ω_m) ⊗ q``);
+6. position projection (``projection=True``): if a detected contact's predicted
+   end gap ``g + h(θ u_N⁺ + (1-θ) u_N⁻)`` is below ``-projection_tol``, the
+   positions are moved by ``Δq = M̂⁻¹ H λ`` with ``λ`` the solution of the
+   frictionless problem ``0 ≤ λ ⊥ g_end + W λ ≥ 0`` (the mass-weighted
+   closest non-penetrating configuration, linearized), velocities untouched.
+
+3D polyhedra have a full inertia tensor: ``M`` is block diagonal with
+``I_w = R I_body Rᵀ`` evaluated at the start of the step; the gyroscopic
+torque ``-ω × I_w ω`` is explicit (evaluated at ``t_k``).
+
+Public hooks: after :meth:`Simulation.step`, ``sim.last_problem`` holds the
+step's :class:`~socp_cd.problem.FrictionContactProblem` (or the global one),
+``sim.last_result`` the solver result, ``sim.last_active`` the active
+:class:`~socp_cd.dynamics.detection.Contacts` (``None`` for all three when no
+contact was active); :meth:`Simulation.get_state` / :meth:`Simulation.set_state`
+save and restore the kinematic state together with the warm start.
 """
 from __future__ import annotations
 
@@ -29,83 +45,14 @@ import scipy.sparse as sp
 
 from ..errors import InvalidProblemError
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
-from .assembly import assemble_H, contact_frames, delassus, local_velocity, mass_matrix
+from .assembly import (assemble_H, block_inverse_mass, contact_frames, delassus, local_velocity, mass_matrix,
+                       world_inertia, world_inverse_inertia)
 from .detection import Contacts, detect
+from .frames import ContactFrame, Frame, StepStats
+from .geometry3d import quat_integrate
+from .overlap import warn_initial_overlaps
 from .scene import Scene, compile_scene
-
-
-@dataclass
-class StepStats:
-    """Statistics of one step (``time_*`` in seconds, wall clock)."""
-
-    t: float
-    n_detected: int
-    n_active: int
-    solver: str = ""
-    status: str = "no_contact"
-    converged: bool = True
-    error: float = 0.0
-    iterations: int = 0
-    time_detection: float = 0.0
-    time_assembly: float = 0.0
-    time_solve: float = 0.0
-
-
-@dataclass
-class ContactFrame:
-    """Contact data of one step in the global frame.
-
-    Attributes
-    ----------
-    pairs : (nc, 2) int
-        ``(i, j)``; ``j = -1`` for fixed obstacles (index in ``obstacle``).
-    obstacle : (nc,) int
-    point, normal : (nc, d)
-        Contact point; unit normal from ``j`` into ``i``.
-    gap : (nc,)
-        Gap at the beginning of the step.
-    r : (nc, dim)
-        Local impulse (normal first) applied to ``i`` (``-`` on ``j``).
-    force : (nc, d)
-        Global force on ``i``: ``(E^T r) / h``.
-    key : (nc,) int64
-        Persistent contact identity.
-    """
-
-    pairs: np.ndarray
-    obstacle: np.ndarray
-    point: np.ndarray
-    normal: np.ndarray
-    gap: np.ndarray
-    r: np.ndarray
-    force: np.ndarray
-    key: np.ndarray
-
-    @property
-    def n(self) -> int:
-        return int(self.pairs.shape[0])
-
-    @property
-    def normal_force(self) -> np.ndarray:
-        """Normal force magnitude ``r_N / h`` per contact."""
-        return np.einsum("cd,cd->c", self.force, self.normal)
-
-    @staticmethod
-    def empty(d: int) -> "ContactFrame":
-        z = np.zeros
-        return ContactFrame(z((0, 2), np.int64), z(0, np.int64), z((0, d)), z((0, d)), z(0), z((0, d)),
-                            z((0, d)), z(0, np.int64))
-
-
-@dataclass
-class Frame:
-    """State at time ``t`` and the contacts of the step that led to it."""
-
-    t: float
-    pos: np.ndarray
-    angle: np.ndarray
-    vel: np.ndarray
-    contacts: ContactFrame
+from .trajectory import Trajectory
 
 
 class Simulation:
@@ -138,12 +85,24 @@ class Simulation:
     solver_options : dict, optional
         Extra keyword options for the backend.
     t0 : float
+    projection : bool, optional
+        Post-step position projection removing penetrations deeper than
+        ``projection_tol`` (see the module docstring); velocities are not changed.
+        Default (None): on for scenes with 3D polyhedra, off otherwise, so that
+        existing disk/polygon/sphere trajectories are unchanged; pass ``True``
+        to hold non-penetration in any scene.
+    projection_tol : float, optional
+        Default ``10⁻⁴ ×`` the smallest body radius.
+    check_overlap : bool
+        Warn (:class:`~socp_cd.dynamics.overlap.OverlapWarning`) when bodies
+        overlap at the start by more than ``10⁻⁶ ×`` the smallest radius.
     """
 
     def __init__(self, scene: Scene, h: float, *, theta: float = 0.5, solver: str = "nsgs",
                  formulation: Optional[str] = None, tol: float = 1e-8, max_iter: Optional[int] = None,
                  margin: Optional[float] = None, warm_start: bool = True, form: str = "local",
-                 solver_options: Optional[dict] = None, t0: float = 0.0):
+                 solver_options: Optional[dict] = None, t0: float = 0.0, projection: Optional[bool] = None,
+                 projection_tol: Optional[float] = None, check_overlap: bool = True):
         if not (np.isfinite(h) and h > 0):
             raise InvalidProblemError("h", f"must be a positive time step, got {h!r}")
         if not (0.0 < theta <= 1.0):
@@ -161,9 +120,19 @@ class Simulation:
         self.solver, self.formulation, self.tol, self.max_iter = solver, formulation, tol, max_iter
         self.margin, self.warm_start, self.form = float(margin), bool(warm_start), form
         self.solver_options = dict(solver_options or {})
+        if projection_tol is None:
+            projection_tol = 1e-4 * float(sys_.radius.min())
+        if not (np.isfinite(projection_tol) and projection_tol >= 0):
+            raise InvalidProblemError("projection_tol", f"must be >= 0, got {projection_tol!r}")
+        if projection is None:
+            projection = bool(sys_.dim == 3 and sys_.has_hulls)
+        self.projection, self.projection_tol = bool(projection), float(projection_tol)
         self.stats: list[StepStats] = []
         self.last_contacts = ContactFrame.empty(self.sys.dim)
         self.last_result = None
+        self.last_problem = None
+        self.last_active: Optional[Contacts] = None
+        self.n_projections = 0
         self._ws_keys = np.zeros(0, np.int64)
         self._ws_r = np.zeros((0, self.sys.dim))
         s = self.sys
@@ -174,6 +143,71 @@ class Simulation:
         inv = s.inv_mass_diag.reshape(s.n_bodies, s.ndof).copy()
         inv[:, :s.dim] = 1.0 / (s.mass + self.h ** 2 * self.theta ** 2 * self._k)[:, None]
         self.inv_mhat = inv.reshape(-1)
+        self._locked = inv[:, s.dim:].max(axis=1) == 0 if s.dim == 3 else None
+        if check_overlap:
+            warn_initial_overlaps(scene, sys_, 1e-6 * float(sys_.radius.min()))
+
+    # ------------------------------------------------------------------ mass
+    def inverse_mass(self):
+        """``M̂⁻¹`` at the current configuration: diagonal ndarray, or sparse block-diagonal with polyhedra."""
+        s = self.sys
+        if s.dim == 2 or not s.is_hull.any():
+            return self.inv_mhat
+        inv = self.inv_mhat.reshape(s.n_bodies, s.ndof)
+        return block_inverse_mass(inv[:, 0], world_inverse_inertia(s.rotations(), s.inertia_body, self._locked))
+
+    @staticmethod
+    def _apply(minv, x: np.ndarray) -> np.ndarray:
+        return minv @ x if sp.issparse(minv) else minv * x
+
+    # ------------------------------------------------------------------ state
+    def get_state(self) -> dict:
+        """Copy of everything :meth:`step` depends on: time, kinematics and warm start.
+
+        Returns
+        -------
+        dict
+            ``t``, ``pos`` (n, d), ``angle`` (n,), ``vel`` (n, ndof), ``orientation``
+            (n, 4) or None, ``ws_keys`` (k,) and ``ws_r`` (k, dim) (impulses of the
+            last step's active contacts by persistent key).
+        """
+        s = self.sys
+        return {"t": self.t, "pos": s.pos.copy(), "angle": s.angle.copy(), "vel": s.vel.copy(),
+                "orientation": None if s.orientation is None else s.orientation.copy(),
+                "ws_keys": self._ws_keys.copy(), "ws_r": self._ws_r.copy()}
+
+    def set_state(self, state: dict) -> None:
+        """Restore a state from :meth:`get_state` (same scene); missing warm-start keys clear it.
+
+        Raises
+        ------
+        InvalidProblemError
+            A field with the wrong shape or non-finite values.
+        """
+        s = self.sys
+
+        def arr(name, shape, dtype=np.float64):
+            a = np.asarray(state[name], dtype=dtype)
+            if a.shape != shape or (dtype == np.float64 and not np.all(np.isfinite(a))):
+                raise InvalidProblemError(f"state[{name!r}]", f"must be finite with shape {shape}, got {a.shape}")
+            return a.copy()
+
+        t = float(state["t"])
+        pos, angle = arr("pos", s.pos.shape), arr("angle", s.angle.shape)
+        vel = arr("vel", s.vel.shape)
+        quat = None
+        if s.orientation is not None and state.get("orientation") is not None:
+            quat = arr("orientation", s.orientation.shape)
+            quat /= np.linalg.norm(quat, axis=1)[:, None]
+        keys = np.asarray(state.get("ws_keys", np.zeros(0)), dtype=np.int64).reshape(-1)
+        ws_r = np.asarray(state.get("ws_r", np.zeros((0, s.dim))), dtype=np.float64).reshape(-1, s.dim)
+        if ws_r.shape[0] != keys.size:
+            raise InvalidProblemError("state['ws_r']", f"has {ws_r.shape[0]} rows for {keys.size} keys")
+        order = np.argsort(keys)
+        self.t, s.pos, s.angle, s.vel = t, pos, angle, vel
+        if quat is not None:
+            s.orientation = quat
+        self._ws_keys, self._ws_r = keys[order], ws_r[order]
 
     # ------------------------------------------------------------------ loads
     def _spring_pull(self, t: float) -> np.ndarray:
@@ -194,8 +228,8 @@ class Simulation:
             out[f.body, :val.size] += val
         return out
 
-    def free_velocity(self) -> np.ndarray:
-        """Velocity at the end of the step without contact impulses."""
+    def free_velocity(self, minv=None) -> np.ndarray:
+        """Velocity at the end of the step without contact impulses (``minv``: :meth:`inverse_mass`)."""
         s, h, th = self.sys, self.h, self.theta
         imp = np.zeros((s.n_bodies, s.ndof))
         imp[:, :s.dim] = s.mass[:, None] * s.gravity[None]
@@ -204,7 +238,14 @@ class Simulation:
             pull = th * self._spring_pull(self.t + h) + (1 - th) * self._spring_pull(self.t)
             v = s.vel[:, :s.dim]
             imp[:, :s.dim] += pull - self._k[:, None] * (s.pos + h * th * v)
-        return s.vel.reshape(-1) + self.inv_mhat * (h * imp.reshape(-1))
+        minv = self.inverse_mass() if minv is None else minv
+        if minv is not self.inv_mhat:      # polyhedra: explicit gyroscopic torque -ω × I_w ω
+            w = s.vel[:, 3:]
+            Iw = world_inertia(s.rotations(), s.inertia_body)
+            gyro = -np.cross(w, np.einsum("bij,bj->bi", Iw, w))
+            gyro[self._locked] = 0.0
+            imp[:, 3:] += gyro
+        return s.vel.reshape(-1) + self._apply(minv, h * imp.reshape(-1))
 
     # ------------------------------------------------------------------ step
     def _detection_distance(self) -> float:
@@ -229,10 +270,13 @@ class Simulation:
         C = detect(s, self._detection_distance())
         t1 = _time.perf_counter()
         v0 = s.vel.reshape(-1).copy()
-        vfree = self.free_velocity()
+        minv = self.inverse_mass()
+        vfree = self.free_velocity(minv)
         st = StepStats(t=self.t + h, n_detected=C.n, n_active=0)
         dv = np.zeros_like(v0)
         frame = ContactFrame.empty(d)
+        self.last_problem = self.last_result = self.last_active = None
+        A = None
         if C.n:
             E = contact_frames(C.normal)
             uN0 = local_velocity(s, C, v0, E)[:, 0]
@@ -250,16 +294,16 @@ class Simulation:
                 r0 = self._warm(A.key) if self.warm_start else None
                 form = self._formulation(A.mu)
                 if self.form == "local":
-                    W = delassus(Ha, self.inv_mhat)
+                    W = delassus(Ha, minv)
                     prob = FrictionContactProblem(W, Ha.T @ vfree + w, A.mu, dim, name=f"step t={self.t:.6g}")
                 else:
-                    prob = self._global_problem(Ha, vfree, w, A.mu)
+                    prob = self._global_problem(Ha, vfree, w, A.mu, minv)
                 t2 = _time.perf_counter()
                 res = solve(prob, solver=self.solver, formulation=form, tol=self.tol,
                             max_iter=self.max_iter, r0=r0, **self.solver_options)
                 t3 = _time.perf_counter()
                 r = res.r.reshape(-1, dim)
-                dv = self.inv_mhat * (Ha @ res.r)
+                dv = self._apply(minv, Ha @ res.r)
                 self._ws_keys, order = np.sort(A.key), np.argsort(A.key)
                 self._ws_r = r[order]
                 force = np.einsum("ckd,ck->cd", Ea, r) / h
@@ -268,7 +312,7 @@ class Simulation:
                 st.solver, st.status, st.converged = res.solver, res.status, res.converged
                 st.error, st.iterations = res.error, res.iterations
                 st.time_assembly, st.time_solve = t2 - t1, t3 - t2
-                self.last_result = res
+                self.last_result, self.last_problem, self.last_active = res, prob, A
             else:
                 self._ws_keys, self._ws_r = np.zeros(0, np.int64), np.zeros((0, dim))
                 st.time_assembly = _time.perf_counter() - t1
@@ -279,14 +323,55 @@ class Simulation:
         V0 = v0.reshape(s.n_bodies, s.ndof)
         V1 = vnew.reshape(s.n_bodies, s.ndof)
         vm = th * V1 + (1 - th) * V0
-        s.pos = s.pos + h * vm[:, :d]
-        if d == 2:
-            s.angle = s.angle + h * vm[:, 2]
+        self._move(h * vm)
         s.vel = V1.copy()
+        if self.projection:
+            t4 = _time.perf_counter()
+            self._project_penetrations()
+            st.time_projection = _time.perf_counter() - t4
         self.t += h
         self.last_contacts = frame
         self.stats.append(st)
         return st
+
+    def _move(self, dq: np.ndarray) -> None:
+        """Displace every body by ``dq`` (n, ndof): translation, then rotation (angle or quaternion)."""
+        s, d = self.sys, self.sys.dim
+        s.pos = s.pos + dq[:, :d]
+        if d == 2:
+            s.angle = s.angle + dq[:, 2]
+        else:
+            s.orientation = quat_integrate(s.orientation, dq[:, 3:], 1.0)
+
+    def _project_penetrations(self, max_rounds: int = 3) -> None:
+        """Post-step projection on the gaps detected at the new positions (see the module docstring).
+
+        Each round detects contacts within ``margin``; if one penetrates deeper
+        than ``projection_tol`` (depth ``δ``), every pair within ``margin + 2δ``
+        (those the correction could close) is constrained and the positions
+        move by ``Δq = M̂⁻¹ H λ`` with
+        ``0 ≤ λ ⊥ g + tol/2 + W λ ≥ 0`` (frictionless, NSGS, tol 1e-10).  The
+        gaps are linear in ``Δq`` only to first order (rotations), hence up to
+        ``max_rounds`` rounds.
+        """
+        from ..solvers import solve
+
+        s, dim = self.sys, self.sys.dim
+        for _ in range(max_rounds):
+            D = detect(s, self.margin)
+            if D.n == 0 or D.gap.min() >= -self.projection_tol:
+                return
+            # pairs the displacement (at most ~ the depth) could close are constrained too
+            D = detect(s, self.margin - 2.0 * float(D.gap.min()))
+            minv = self.inverse_mass()
+            Hp, _ = assemble_H(s, D)
+            W = delassus(Hp, minv)
+            q = np.zeros(W.shape[0])
+            q[::dim] = D.gap + 0.5 * self.projection_tol     # leave half the tolerance: no chatter
+            prob = FrictionContactProblem(W, q, np.zeros(D.n), dim, name=f"projection t={self.t:.6g}")
+            res = solve(prob, solver="nsgs", formulation="frictionless", tol=1e-10)
+            self._move(self._apply(minv, Hp @ res.r).reshape(s.n_bodies, s.ndof))
+            self.n_projections += 1
 
     def _warm(self, keys: np.ndarray) -> Optional[np.ndarray]:
         if self._ws_keys.size == 0:
@@ -300,11 +385,11 @@ class Simulation:
         r0[hit] = self._ws_r[idx[hit]]
         return r0.reshape(-1)
 
-    def _global_problem(self, Ha, vfree, w, mu) -> GlobalFrictionContactProblem:
+    def _global_problem(self, Ha, vfree, w, mu, minv) -> GlobalFrictionContactProblem:
         """Global form ``M̂ v = H r + f``, ``u = Hᵀ v + w`` (locked dofs held at v_free)."""
         s = self.sys
         locked = self.inv_mhat == 0
-        M = mass_matrix(self.inv_mhat)
+        M = mass_matrix(minv)
         f = M @ vfree
         Hg = Ha
         if locked.any():
@@ -317,14 +402,22 @@ class Simulation:
     def frame(self) -> Frame:
         """Current state and the last step's contacts."""
         s = self.sys
-        return Frame(self.t, s.pos.copy(), s.angle.copy(), s.vel.copy(), self.last_contacts)
+        quat = None if s.orientation is None else s.orientation.copy()
+        return Frame(self.t, s.pos.copy(), s.angle.copy(), s.vel.copy(), self.last_contacts, quat)
 
     def energy(self) -> float:
         """Kinetic + gravity + spring potential energy (springs' driver at the current time)."""
         s = self.sys
         invm = s.inv_mass_diag.reshape(s.n_bodies, s.ndof)
         mdiag = np.where(invm > 0, 1.0 / np.where(invm > 0, invm, 1.0), 0.0)
-        ek = 0.5 * float(np.sum(mdiag * s.vel ** 2))
+        if s.dim == 3:      # full inertia tensors (locked rotations carry no kinetic energy)
+            mdiag[:, 3:] = 0.0
+            w = s.vel[:, 3:]
+            Iw = world_inertia(s.rotations(), s.inertia_body)
+            erot = 0.5 * np.einsum("bi,bij,bj->b", w, Iw, w)
+            ek = 0.5 * float(np.sum(mdiag * s.vel ** 2)) + float(erot[~self._locked].sum())
+        else:
+            ek = 0.5 * float(np.sum(mdiag * s.vel ** 2))
         ep = -float(np.sum(s.mass[:, None] * s.gravity[None] * s.pos))
         for sp_ in s.springs:
             dx = s.pos[sp_.body] - np.asarray(sp_.driver(self.t))
@@ -354,8 +447,6 @@ class Simulation:
         Trajectory
         """
         from tqdm.auto import tqdm
-
-        from .trajectory import Trajectory
 
         if n_steps is None:
             if t_end is None:

@@ -6,8 +6,9 @@ HDF5 layout (``h5py``)::
                  mu_default, restitution_default, format="socp_cd-trajectory-1"
     /geometry    is_poly, radius, mass, poly_vertices, poly_nv, poly_of_body,
                  halfspace_point, halfspace_normal, fixed_round_center, fixed_round_radius,
-                 fixed_poly_vertices, fixed_poly_nv
-    /frames      t (F,), pos (F,n,d), angle (F,n), vel (F,n,ndof),
+                 fixed_poly_vertices, fixed_poly_nv, and in 3D hull_vertices, hull_nv,
+                 hull_of_body (body-frame polyhedra of the hull bodies)
+    /frames      t (F,), pos (F,n,d), angle (F,n), vel (F,n,ndof), orientation (F,n,4) (3D only),
                  contact_offsets (F+1,), and per contact (concatenated over frames):
                  pairs, obstacle, point, normal, gap, r, force, key
     /stats       one entry per step: t, n_detected, n_active, iterations, error,
@@ -21,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ProblemFormatError
-from .stepper import ContactFrame, Frame, StepStats
+from .frames import ContactFrame, Frame, StepStats
 
 _FORMAT = "socp_cd-trajectory-1"
 _CFIELDS = ("pairs", "obstacle", "point", "normal", "gap", "r", "force", "key")
@@ -58,6 +59,8 @@ class Trajectory:
             "fixed_round_center": s.fixed_round[0], "fixed_round_radius": s.fixed_round[1],
             "fixed_poly_vertices": s.fixed_poly[0], "fixed_poly_nv": s.fixed_poly[1],
         }
+        if s.dim == 3:
+            geom.update({"hull_vertices": s.hulls.V, "hull_nv": s.hulls.NV, "hull_of_body": s.hull_of_body})
         meta = {"dim": s.dim, "ndof": s.ndof, "h": sim.h, "theta": sim.theta, "solver": sim.solver,
                 "formulation": sim.formulation or "auto", "n_bodies": s.n_bodies,
                 "gravity": np.asarray(s.gravity, dtype=np.float64), "mu_default": s.mu_default,
@@ -83,6 +86,13 @@ class Trajectory:
     @property
     def angle(self) -> np.ndarray:
         return np.stack([f.angle for f in self.frames])
+
+    @property
+    def orientation(self):
+        """Unit quaternions ``(w, x, y, z)``, (F, n, 4), or None in 2D."""
+        if not self.frames or self.frames[0].orientation is None:
+            return None
+        return np.stack([f.orientation for f in self.frames])
 
     @property
     def vel(self) -> np.ndarray:
@@ -112,6 +122,8 @@ class Trajectory:
             fr["pos"] = self.pos
             fr["angle"] = self.angle
             fr["vel"] = self.vel
+            if self.orientation is not None:
+                fr["orientation"] = self.orientation
             counts = [fm.contacts.n for fm in self.frames]
             fr["contact_offsets"] = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
             for name in _CFIELDS:
@@ -150,6 +162,7 @@ class Trajectory:
                 geom = {k: f["geometry"][k][()] for k in f["geometry"]}
                 fr = f["frames"]
                 t, pos, ang, vel = fr["t"][()], fr["pos"][()], fr["angle"][()], fr["vel"][()]
+                quat = fr["orientation"][()] if "orientation" in fr else None
                 off = fr["contact_offsets"][()]
                 cdata = {k: fr[k][()] for k in _CFIELDS}
                 stt = {k: f["stats"][k][()] for k in f["stats"]}
@@ -166,12 +179,15 @@ class Trajectory:
             for n in ("point", "normal", "force"):
                 c[n] = c[n].reshape(-1, d)
             c["r"] = c["r"].reshape(-1, d)
-            frames.append(Frame(float(t[k]), pos[k], ang[k], vel[k], ContactFrame(**c)))
+            frames.append(Frame(float(t[k]), pos[k], ang[k], vel[k], ContactFrame(**c),
+                                None if quat is None else quat[k]))
         stats = []
         n = len(stt.get("t", []))
         for k in range(n):
             kw = {}
             for fl in fields(StepStats):
+                if fl.name not in stt:          # written before the field existed: keep its default
+                    continue
                 v = stt[fl.name][k]
                 kw[fl.name] = v.decode() if isinstance(v, bytes) else v.item()
             stats.append(StepStats(**kw))
