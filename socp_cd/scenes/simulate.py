@@ -28,32 +28,13 @@ def step_with_problem(sim):
     """Advance ``sim`` by one step and return ``(stats, problem, result)`` of that step.
 
     ``problem`` (the step's :class:`~socp_cd.problem.FrictionContactProblem`
-    or global problem) and ``result`` (:class:`~socp_cd.solvers.result.SolverResult`)
-    are ``None`` when no contact was active.  This is the ONE place that reaches
-    into the stepper for the step's problem: the current
-    :class:`socp_cd.dynamics.Simulation` does not keep it, so the call to
-    :func:`socp_cd.solvers.solve` made inside ``Simulation.step`` is observed
-    for the duration of the step (not thread-safe).  Once ``Simulation``
-    exposes the step's problem and result, this becomes
-    ``st = sim.step(); return st, <problem attribute>, <result attribute>``.
+    or global problem, ``Simulation.last_problem``) and ``result``
+    (``Simulation.last_result``) are ``None`` when no contact was active.
     """
-    import importlib
-
-    solvers_module = importlib.import_module("socp_cd.solvers")   # the package, not socp_cd.solvers()
-    seen = {}
-    original = solvers_module.solve
-
-    def observed(problem, *args, **kwargs):
-        res = original(problem, *args, **kwargs)
-        seen["problem"], seen["result"] = problem, res
-        return res
-
-    solvers_module.solve = observed
-    try:
-        st = sim.step()
-    finally:
-        solvers_module.solve = original
-    return st, seen.get("problem"), seen.get("result")
+    st = sim.step()
+    if not st.n_active:
+        return st, None, None
+    return st, sim.last_problem, sim.last_result
 
 
 def fclib_name(name: str, step: int, iterations: int, n_contacts: int) -> str:
