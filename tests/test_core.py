@@ -74,7 +74,7 @@ def test_siconos_error_kernel_equals_reference(dim):
 
 
 # ------------------------------------------------------------------ one options contract
-SOLVER_CASES = [("nsgs", "coulomb", 3), ("clarabel", "coulomb", 3), ("newton", "coulomb", 3), ("cvxpy", "coulomb", 3),
+SOLVER_CASES = [("auto", "coulomb", 3), ("nsgs", "coulomb", 3), ("clarabel", "coulomb", 3), ("newton", "coulomb", 3), ("cvxpy", "coulomb", 3),
                 ("proxsuite", "faceted", 3)]
 
 
