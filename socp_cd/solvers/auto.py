@@ -2,7 +2,8 @@
 
 It models only what the problem requires and tries methods in an order chosen
 from cheap problem features, handing the best iterate so far to the next
-method as its warm start (rules and evidence: ``formulations/auto.md``):
+method as its warm start (Newton and NSGS; the De Saxcé fixed point starts
+cold, :data:`COLD_STAGES`) (rules and evidence: ``formulations/auto.md``):
 
 * formulation ``"frictionless"``, or ``"coulomb"`` with every ``mu = 0``
   (then the two laws coincide): the QP of Signorini's law (Clarabel) when
@@ -55,18 +56,19 @@ from .spec import SolverSpec
 _clock = time.perf_counter
 #: friction coefficient from which the fixed point is tried before NSGS
 HIGH_MU = 1.0
-#: Newton's stall window inside the chain (outer iterations without a 10 % gain)
-NEWTON_STALL_WINDOW = 30
 #: share of the remaining time budget a stage receives (the last stage: all)
 STAGE_SHARE = 0.5
 
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
-    "newton": (newton.SPEC, {"stall_window": NEWTON_STALL_WINDOW}),
+    "newton": (newton.SPEC, {}),
     "nsgs": (nsgs.SPEC, {}),
     "clarabel": (clarabel_backend.SPEC, {}),
     "clarabel_qp": (clarabel_backend.SPEC, {}),
 }
+#: stages started cold, not from the best iterate: the De Saxcé fixed point's first
+#: shift from a stalled Newton iterate cost accuracy on the tune split (formulations/auto.md)
+COLD_STAGES = ("clarabel", "clarabel_qp")
 
 OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'nsgs', 'clarabel', 'clarabel_qp' "
@@ -202,7 +204,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             opts["threshold"] = options["threshold"]
         t0 = _clock()
         try:
-            res = spec.func(target, form, tol=tol, max_iter=max_iter, r0=best_r, history=history,
+            start = None if (method in COLD_STAGES and k > 0) else best_r
+            res = spec.func(target, form, tol=tol, max_iter=max_iter, r0=start, history=history,
                             time_limit=stage_limit, verbose=verbose, inner_settings={}, **opts)
             r = np.asarray(res.r, dtype=np.float64).reshape(-1)
             st, its = res.status, int(res.iterations)
@@ -244,4 +247,4 @@ SPEC = SolverSpec(
     inner_settings="not applicable (rejected)", check=check)
 
 __all__ = ["auto_backend", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
-           "NEWTON_STALL_WINDOW", "STAGE_SHARE"]
+           "COLD_STAGES", "STAGE_SHARE"]
