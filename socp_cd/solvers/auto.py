@@ -200,6 +200,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 local = problem.to_local()
             target = local
         opts = dict(stage_opts)
+        if method == "newton" and best_r is not None:
+            opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
         if form == "tresca":
             opts["threshold"] = options["threshold"]
         t0 = _clock()
