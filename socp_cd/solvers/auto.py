@@ -110,6 +110,10 @@ def stage_order(problem, formulation, feats) -> tuple:
         return (("nsgs", "tresca"), ("clarabel", "tresca"))
     # exact Coulomb law: Newton first (fastest and most robust on the tune split);
     # high friction or 2D: the fixed point before NSGS
+    if feats["n_contacts"] == 1 and not feats["global"]:
+        # one contact: NSGS is one call of its local solver (exact in 2D, Alart–Curnier
+        # Newton in 3D) and costs a fraction of Newton's set-up
+        return (("nsgs", "coulomb"), ("newton", "coulomb"), ("clarabel", "coulomb"))
     if feats["mu_max"] >= HIGH_MU or feats["dim"] == 2:
         middle = (("clarabel", "coulomb"), ("nsgs", "coulomb"))
     else:
