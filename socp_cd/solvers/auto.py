@@ -2,8 +2,8 @@
 
 It models only what the problem requires and tries methods in an order chosen
 from cheap problem features, handing the best iterate so far to the next
-method as its warm start (Newton and NSGS; the De Saxcé fixed point starts
-cold, :data:`COLD_STAGES`) (rules and evidence: ``formulations/auto.md``):
+method as its warm start (the De Saxcé fixed point only when that iterate is
+close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
 
 * formulation ``"frictionless"``, or ``"coulomb"`` with every ``mu = 0``
   (then the two laws coincide): the QP of Signorini's law (Clarabel) when
@@ -66,9 +66,11 @@ _STAGES = {
     "clarabel": (clarabel_backend.SPEC, {}),
     "clarabel_qp": (clarabel_backend.SPEC, {}),
 }
-#: stages started cold, not from the best iterate: the De Saxcé fixed point's first
-#: shift from a stalled Newton iterate cost accuracy on the tune split (formulations/auto.md)
+#: stages started cold unless the best iterate's error is at most WARM_MAX: the De
+#: Saxcé fixed point's first shift from a far iterate (4e-4, 7e-3) cost accuracy on the
+#: tune split, from a close one (4e-6) it helped (formulations/auto.md)
 COLD_STAGES = ("clarabel", "clarabel_qp")
+WARM_MAX = 1e-5
 
 OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'nsgs', 'clarabel', 'clarabel_qp' "
@@ -210,7 +212,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             opts["threshold"] = options["threshold"]
         t0 = _clock()
         try:
-            start = None if (method in COLD_STAGES and k > 0) else best_r
+            start = (None if (method in COLD_STAGES and k > 0 and not best_err <= WARM_MAX)
+                     else best_r)
             res = spec.func(target, form, tol=tol, max_iter=max_iter, r0=start, history=history,
                             time_limit=stage_limit, verbose=verbose, inner_settings={}, **opts)
             r = np.asarray(res.r, dtype=np.float64).reshape(-1)
@@ -253,4 +256,4 @@ SPEC = SolverSpec(
     inner_settings="not applicable (rejected)", check=check)
 
 __all__ = ["auto_backend", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
-           "COLD_STAGES", "STAGE_SHARE"]
+           "COLD_STAGES", "WARM_MAX", "STAGE_SHARE"]
