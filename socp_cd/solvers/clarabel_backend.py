@@ -17,7 +17,8 @@ the velocities ``v``: ``min ½ vᵀMv − fᵀv s.t. Hᵀv + w + shift ∈ K*_mu
 constraint multipliers are the impulses ``r`` and ``W`` is never formed.
 Small ones (at most ``DENSE_CONDENSE_MAX`` dofs) are condensed instead by one
 dense LU of ``M`` (:func:`socp_cd.condensation.condense_dense`, ``info["condensed_dense"]``): the
-local path then runs the compiled residuals and Newton polish.  Every problem,
+local path then runs the compiled residuals and the polish (the Newton solver's
+local core, :func:`socp_cd.solvers.newton.newton_polish`).  Every problem,
 tiny ones included, goes through the one De Saxcé loop.
 
 Options (all keyword arguments of :func:`socp_cd.solve`)
@@ -96,7 +97,7 @@ DEFAULT_SETTINGS = dict(
 
 
 #: added for the De Saxcé loop on small local problems (``m <= desaxce.DENSE_MAX``): the
-#: compiled Newton polish finishes from the interior-point iterate, so Clarabel's
+#: Newton polish finishes from the interior-point iterate, so Clarabel's
 #: iterative refinement buys nothing there (measured: 5-30 % faster, same outcome on the
 #: shared data; see validation/conic_vs_siconos.py).  A solve that does not end "Solved"
 #: (rank-deficient ``W``: unbounded relaxation; large ``mu``) is redone with refinement,

@@ -255,8 +255,8 @@ def solve_cvxpy(problem, formulation, *, tol, max_iter=None, r0=None, history=Fa
     symmetric, otherwise the skew part goes to the outer fixed point
     (``law="associated"``, as the direct Clarabel path); ``"coulomb"`` always
     uses it. ``max_iter`` caps those outer iterations (default 50). As on the
-    direct path, the outer loop ends with the semismooth-Newton polish of the
-    natural map (counted in ``info["polish_iterations"]``); without it the 3D
+    direct path, the outer loop ends with the Newton solver's local core as
+    its polish (counted in ``info["polish_iterations"]``); without it the 3D
     fixed point stalls around 1e-6 on some problems.
     """
     _require_cvxpy()

@@ -34,26 +34,25 @@ Accelerations (each optional, measured by ``validation/desaxce_ablation.py``)
   the shift vector ``c = q_shift - q`` with a safeguard: the accelerated point
   is kept only while the fixed-point residual ``||T(c) - c||`` decreases,
   otherwise the memory is cleared and a plain step taken.
-* ``polish="newton"`` (default; any callable ``polish(problem, r, tol, options)
-  -> (r, info)`` of :mod:`socp_cd.solvers.polish` is accepted): a semismooth Newton method on the natural
-  map (:func:`socp_cd.solvers.polish.newton_polish`) started from an outer iterate once its
-  error is below ``polish_switch`` (retried after each 10x gain, and from the
-  best iterate at the end); steps counted in ``info["polish_iterations"]``,
-  the polished point kept only if its error is lower.  ``polish="nsgs"`` uses
-  socp_cd's NSGS backend instead (warm-started sweeps).
+* ``polish``: a callable ``polish(problem, r, tol, options) -> (r, info)``
+  received from the backend (``"newton"`` there: the proximal semismooth
+  Newton solver's local core, :func:`socp_cd.solvers.newton.newton_polish`,
+  warm-started from the outer iterate) once the outer error is below
+  ``polish_switch`` (retried after each 10x gain, and from the best iterate
+  at the end); its iterations are counted in ``info["polish_iterations"]``,
+  the polished point kept only if its error is lower.  ``options`` holds
+  ``max_iter``, ``law`` and ``cache`` (a dict kept across the calls of one
+  solve, so the polish forms its system once).
 
 Small problems (``m <= DENSE_MAX``)
 -----------------------------------
-``W`` is formed densely once and the residuals and the Newton polish run in
-compiled code (:mod:`socp_cd.solvers.kernels`).  A polish then costs
-less than one SOCP, so by default (``polish_switch=None``) it is tried from the
-first outer iterate on (every iterate for ``m <= CHEAP_POLISH_MAX``, otherwise
-after each 10x gain); when Newton stalls (degenerate problems) a bounded,
-warm-started NSGS polish (``nsgs_polish_sweeps`` sweeps) follows.  When the
-outer loop stops unconverged, the last polish from the best iterate gets
-``FINAL_POLISH_FACTOR * polish_max_iter`` Newton steps (high friction: the
-loop stalls near 1e-3 and Newton needs ~100 steps from there).  Larger
-problems keep ``polish_switch = 1e-5`` and the sparse Newton polish.
+``W`` is formed densely once and the residuals run in compiled code
+(:mod:`socp_cd.solvers.kernels`).  By default (``polish_switch=None``) the
+polish is tried from the first outer iterate on (every iterate for
+``m <= CHEAP_POLISH_MAX``, otherwise after each 10x gain).  When the outer
+loop stops unconverged, the last polish from the best iterate gets
+``FINAL_POLISH_FACTOR * polish_max_iter`` iterations.  Larger problems keep
+``polish_switch = 1e-5``.
 """
 from __future__ import annotations
 
@@ -428,9 +427,10 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
     **outer_options
         ``accel`` ("anderson" or None), ``memory`` (int), ``adaptive_tol``
         (bool), ``kappa``, ``inner_tol_max``, ``inner_tol_min`` (default
-        :func:`inner_tolerance`), ``polish`` ("newton", "nsgs", None or a
-        callable ``polish(problem, r, tol, options) -> (r, info)``, see
-        :mod:`socp_cd.solvers.polish`), ``polish_max_iter``, ``polish_switch``
+        :func:`inner_tolerance`), ``polish`` (None or a callable
+        ``polish(problem, r, tol, options) -> (r, info)``; the backends pass
+        :func:`socp_cd.solvers.newton.newton_polish` for "newton"),
+        ``polish_max_iter``, ``polish_switch``
         (error below which the polish is tried; None: ``inf`` for small dense
         problems, ``1e-5`` otherwise), ``patience`` (outer iterations without
         a 10 % improvement before declaring a stall), ``time_limit`` (seconds).
