@@ -148,12 +148,14 @@ def test_frictionless_asymmetric_goes_to_the_lcp():
 
 
 def test_exact_coulomb_starts_with_newton_and_orders_by_features():
-    lo, hi = _local(4, 3, 8, mu=0.3), _local(4, 3, 8, mu=2.0)
+    lo, hi = _local(auto.SMALL_NC + 1, 3, 8, mu=0.3), _local(auto.SMALL_NC + 1, 3, 8, mu=2.0)
     f_lo, f_hi = auto.features(lo, "coulomb"), auto.features(hi, "coulomb")
     assert [m for m, _ in auto.stage_order(lo, "coulomb", f_lo)][:3] == ["newton", "nsgs", "clarabel"]
     assert [m for m, _ in auto.stage_order(hi, "coulomb", f_hi)][:3] == ["newton", "clarabel", "nsgs"]
-    one = _local(1, 3, 8, mu=0.3)        # one contact: NSGS = one local solve
-    assert auto.stage_order(one, "coulomb", auto.features(one, "coulomb"))[0] == ("nsgs", "coulomb")
+    for nc in (1, 4):                   # small: NSGS first (one contact: one local solve)
+        small = _local(nc, 3, 8, mu=0.3)
+        order = auto.stage_order(small, "coulomb", auto.features(small, "coulomb"))
+        assert order[:2] == (("nsgs", "coulomb"), ("newton", "coulomb"))
     g = _global(1, n=4, nc=3)            # m = 9 > n = 4: W singular by structure
     assert auto.features(g, "coulomb")["structurally_rank_deficient"] is True
 

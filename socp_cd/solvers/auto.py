@@ -54,6 +54,8 @@ from .spec import SolverSpec
 
 #: the clock of the time budget (a module attribute so tests can drive it)
 _clock = time.perf_counter
+#: local problems with at most this many contacts start with NSGS
+SMALL_NC = 100
 #: friction coefficient from which the fixed point is tried before NSGS
 HIGH_MU = 1.0
 #: share of the remaining time budget a stage receives (the last stage: all)
@@ -112,10 +114,11 @@ def stage_order(problem, formulation, feats) -> tuple:
         return (("nsgs", "tresca"), ("clarabel", "tresca"))
     # exact Coulomb law: Newton first (fastest and most robust on the tune split);
     # high friction or 2D: the fixed point before NSGS
-    if feats["n_contacts"] == 1 and not feats["global"]:
-        # one contact: NSGS is one call of its local solver (exact in 2D, Alart–Curnier
-        # Newton in 3D) and costs a fraction of Newton's set-up
-        return (("nsgs", "coulomb"), ("newton", "coulomb"), ("clarabel", "coulomb"))
+    if feats["n_contacts"] <= SMALL_NC and not feats["global"]:
+        # small local problems: NSGS first (one contact: one call of its local solver);
+        # it costs a fraction of Newton's set-up and factorizations (formulations/auto.md)
+        return (("nsgs", "coulomb"), ("newton", "coulomb"), ("clarabel", "coulomb"),
+                ("newton", "coulomb"))
     if feats["mu_max"] >= HIGH_MU or feats["dim"] == 2:
         middle = (("clarabel", "coulomb"), ("nsgs", "coulomb"))
     else:
@@ -256,4 +259,4 @@ SPEC = SolverSpec(
     inner_settings="not applicable (rejected)", check=check)
 
 __all__ = ["auto_backend", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
-           "COLD_STAGES", "WARM_MAX", "STAGE_SHARE"]
+           "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC"]
