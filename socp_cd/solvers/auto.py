@@ -11,10 +11,12 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   Newton / NSGS on the law asked for;
 * ``"associated"``: one SOCP (Clarabel), then NSGS;
 * ``"tresca"``: NSGS, then Clarabel;
-* ``"coulomb"`` (exact law): the proximal semismooth Newton method
-  (:mod:`socp_cd.solvers.newton`), then — ordered by friction range and
-  dimension — NSGS sweeps and the Clarabel De Saxcé fixed point, then Newton
-  again from the best iterate when an earlier stage improved it.
+* ``"coulomb"`` (exact law): local problems with at most :data:`SMALL_NC`
+  contacts: NSGS, then the proximal semismooth Newton method
+  (:mod:`socp_cd.solvers.newton`), the Clarabel De Saxcé fixed point and
+  Newton again; larger or global problems: Newton, then — ordered by friction
+  range and dimension — NSGS and the fixed point, then Newton again from the
+  best iterate when an earlier stage improved it.
 
 The chain stops at the first stage whose error, recomputed from its ``r``
 (compiled kernel :func:`~socp_cd.solvers.kernels.cone.siconos_error` for the
