@@ -18,7 +18,7 @@ from socp_cd.solvers import solve
 from socp_cd.solvers import clarabel_backend as cb
 from socp_cd.solvers.conic_data import coulomb_cone_map, dual_cone_map, tresca_map
 from socp_cd.solvers import conic_data as cd
-from socp_cd.solvers.kernels import cone as kc, dense as kd, polish as kp
+from socp_cd.solvers.kernels import cone as kc, dense as kd
 from socp_cd.solvers.desaxce import desaxce_fixed_point
 
 TOL = 1e-8
@@ -398,17 +398,17 @@ def test_dense_condense_matches_to_local():
         condense_dense(bad)
 
 
-def test_dense_newton_converges_from_perturbed_solution():
+def test_newton_polish_converges_from_perturbed_solution():
     rng = np.random.default_rng(15)
     mu = np.array([0.3, 0.5, 0.2, 0.4])
     r_s, u_s = law_pair(["slide", "stick", "sep", "slide"], mu, 3, rng)
     W = spd(12, rng, 5.0)
     p = FrictionContactProblem(W, u_s - W @ r_s, mu, 3)
     r0 = r_s + 1e-3 * rng.normal(size=12)
-    rho = np.full(4, 12 / np.abs(np.diag(W)).sum())
-    r, its, e = kp.dense_newton(W, p.q, mu, 3, kc.LAW_COULOMB, r0, 1e-12, 30, rho, np.linalg.norm(p.q))
-    assert e <= 1e-12 and np.isclose(e, error(p, r), atol=1e-15)
-    assert np.allclose(r, r_s, atol=1e-9) and 1 <= its <= 30
+    from socp_cd.solvers.newton import newton_polish
+    r, info = newton_polish(p, r0, 1e-12, {"max_iter": 30, "law": "coulomb"})
+    assert info["error"] <= 1e-12 and np.isclose(info["error"], error(p, r), atol=1e-15)
+    assert np.allclose(r, r_s, atol=1e-9) and 1 <= info["iterations"] <= 30
 
 
 def test_small_problem_polish_from_first_iterate():
@@ -434,9 +434,9 @@ def test_small_problem_with_default_and_explicit_outer_options_agree():
 
 def test_small_problem_loop_continues_when_first_polish_fails(monkeypatch):
     # the first polish is disabled: the loop must continue from its iterate
-    from socp_cd.solvers import polish as pol
+    from socp_cd.solvers import newton as nt
     calls = []
-    real = pol.POLISHES["newton"]
+    real = nt.newton_polish
 
     def fails_first(problem, r, tol, options):
         calls.append(1)
@@ -444,7 +444,7 @@ def test_small_problem_loop_continues_when_first_polish_fails(monkeypatch):
             return r.copy(), {"iterations": 0, "error": np.inf}
         return real(problem, r, tol, options)
 
-    monkeypatch.setitem(pol.POLISHES, "newton", fails_first)
+    monkeypatch.setattr(nt, "newton_polish", fails_first)
     p = one_contact((-1.0, 2.0, 0.0))
     res = solve(p, "clarabel", "coulomb", tol=1e-10, history=True)
     assert res.converged and res.iterations >= 2

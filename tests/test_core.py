@@ -74,7 +74,7 @@ def test_siconos_error_kernel_equals_reference(dim):
 
 
 # ------------------------------------------------------------------ one options contract
-SOLVER_CASES = [("nsgs", "coulomb", 3), ("clarabel", "coulomb", 3), ("newton", "coulomb", 3), ("cvxpy", "coulomb", 3),
+SOLVER_CASES = [("auto", "coulomb", 3), ("nsgs", "coulomb", 3), ("clarabel", "coulomb", 3), ("newton", "coulomb", 3), ("cvxpy", "coulomb", 3),
                 ("proxsuite", "faceted", 3)]
 
 
@@ -281,7 +281,7 @@ def test_no_private_names_imported_across_modules():
 def test_one_compiled_implementation_of_each_kernel():
     src = {p: p.read_text() for p in (PKG / "solvers").rglob("*.py")}
     for name in ("def project_cone_block", "def project_cone_jacobian_block",
-                 "def error_parts", "def dense_newton"):
+                 "def error_parts", "def ac_blocks"):
         assert sum(t.count(name + "(") for t in src.values()) == 1, name
     # nobody re-implements the projection's side-region formula outside kernels/cone.py
     formula = "/ (1.0 + mu * mu)"

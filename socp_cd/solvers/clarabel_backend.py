@@ -17,7 +17,8 @@ the velocities ``v``: ``min ½ vᵀMv − fᵀv s.t. Hᵀv + w + shift ∈ K*_mu
 constraint multipliers are the impulses ``r`` and ``W`` is never formed.
 Small ones (at most ``DENSE_CONDENSE_MAX`` dofs) are condensed instead by one
 dense LU of ``M`` (:func:`socp_cd.condensation.condense_dense`, ``info["condensed_dense"]``): the
-local path then runs the compiled residuals and Newton polish.  Every problem,
+local path then runs the compiled residuals and the polish (the Newton solver's
+local core, :func:`socp_cd.solvers.newton.newton_polish`).  Every problem,
 tiny ones included, goes through the one De Saxcé loop.
 
 Options (all keyword arguments of :func:`socp_cd.solve`)
@@ -62,6 +63,7 @@ from ..errors import UnsupportedError
 from .conic_data import global_conic_data, local_conic_data
 from .desaxce import DENSE_MAX, OUTER_DEFAULTS, check_outer_options, desaxce_fixed_point
 from .options import check_unknown, inner_tolerance
+from . import newton
 from .polish import natural_map_newton
 from .result import SolverResult
 from .spec import SolverSpec
@@ -95,7 +97,7 @@ DEFAULT_SETTINGS = dict(
 
 
 #: added for the De Saxcé loop on small local problems (``m <= desaxce.DENSE_MAX``): the
-#: compiled Newton polish finishes from the interior-point iterate, so Clarabel's
+#: Newton polish finishes from the interior-point iterate, so Clarabel's
 #: iterative refinement buys nothing there (measured: 5-30 % faster, same outcome on the
 #: shared data; see validation/conic_vs_siconos.py).  A solve that does not end "Solved"
 #: (rank-deficient ``W``: unbounded relaxation; large ``mu``) is redone with refinement,
@@ -275,8 +277,9 @@ def _single_socp(problem, formulation, tol, options):
     polish = options.get("polish", "newton")
     if polish and formulation in ("associated", "frictionless") and status in USABLE:
         # interior-point iterates sit ~sqrt(gap) inside degenerate contacts: polish
-        # with the semismooth Newton method on the law's natural map (W formed for
-        # global problems), keep the polished point only if its residual is lower
+        # (frictionless = Coulomb with mu = 0: the Newton method's local core;
+        # associated: the natural-map Newton of socp_cd.solvers.polish), keep the
+        # polished point only if its residual is lower
         from ..laws import LAW_RESIDUALS
         if polish != "newton":
             raise UnsupportedError(f"polish must be 'newton' or None for {formulation!r}")
@@ -284,11 +287,13 @@ def _single_socp(problem, formulation, tol, options):
         e0 = law_err(problem, r)
         if e0 > tol:
             target = problem.to_local() if problem.is_global else problem
+            budget = options.get("polish_max_iter", 15)
             if formulation == "frictionless":
                 target = target.with_(mu=np.zeros(problem.n_contacts))
-            r_pol, its = natural_map_newton(target, r, tol=tol,
-                                            max_iter=options.get("polish_max_iter", 15),
-                                            law="associated")
+                r_pol, pinfo = newton.newton_polish(target, r, tol, {"max_iter": budget})
+                its = pinfo["iterations"]
+            else:
+                r_pol, its = natural_map_newton(target, r, tol=tol, max_iter=budget)
             info["polish_iterations"] = its
             if law_err(problem, r_pol) < e0:
                 r = r_pol
@@ -310,8 +315,8 @@ OPTIONS = {
     "kappa": "adaptive inner tolerance factor (default 1e-2)",
     "inner_tol_max": "loosest adaptive inner tolerance (default 1e-4)",
     "inner_tol_min": "tightest inner tolerance (default min(1e-10, tol/100))",
-    "polish": "'newton' (default), 'nsgs', None or a callable polish(problem, r, tol, options)",
-    "polish_max_iter": "Newton polish steps per call (default 15)",
+    "polish": "'newton' (default), None or a callable polish(problem, r, tol, options)",
+    "polish_max_iter": "Newton polish budget per call: outer proximal iterations (default 15)",
     "polish_switch": "error below which the polish is tried (default: per problem size)",
     "patience": "outer iterations without 10 % progress before 'stalled' (default 8)",
 }
@@ -370,6 +375,7 @@ def clarabel_solve(problem, formulation, *, tol, max_iter=None, r0=None, history
 
     factory.accepts_dense = True   # ClarabelInner takes a dense W_sym for small problems
     max_iter = max_iter or 100
+    outer["polish"] = newton.resolve_polish(outer.get("polish", "newton"))
     res = desaxce_fixed_point(problem, factory, tol=tol, max_iter=max_iter, r0=r0,
                               history=history, **outer)
     res.info["clarabel_status"] = res.info.get("inner_status")

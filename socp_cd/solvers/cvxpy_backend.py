@@ -34,6 +34,7 @@ import numpy as np
 
 from ..errors import UnsupportedError
 from .desaxce import desaxce_fixed_point
+from .newton import resolve_polish
 from .options import check_unknown, inner_tolerance
 from .spec import SolverSpec
 from .result import SolverResult
@@ -223,7 +224,7 @@ OPTIONS = {
     "accel": "outer acceleration (default 'anderson')", "memory": "Anderson memory (default 5)",
     "adaptive_tol": "adaptive inner tolerance (default False)", "kappa": "(default 1e-2)",
     "inner_tol_max": "(default 1e-4)", "inner_tol_min": "(default min(1e-10, tol/100))",
-    "polish": "'newton' (default), 'nsgs', None or a callable",
+    "polish": "'newton' (default), None or a callable",
     "polish_max_iter": "(default 15)", "polish_switch": "(default per problem size)",
     "patience": "(default 8)",
 }
@@ -254,8 +255,8 @@ def solve_cvxpy(problem, formulation, *, tol, max_iter=None, r0=None, history=Fa
     symmetric, otherwise the skew part goes to the outer fixed point
     (``law="associated"``, as the direct Clarabel path); ``"coulomb"`` always
     uses it. ``max_iter`` caps those outer iterations (default 50). As on the
-    direct path, the outer loop ends with the semismooth-Newton polish of the
-    natural map (counted in ``info["polish_iterations"]``); without it the 3D
+    direct path, the outer loop ends with the Newton solver's local core as
+    its polish (counted in ``info["polish_iterations"]``); without it the 3D
     fixed point stalls around 1e-6 on some problems.
     """
     _require_cvxpy()
@@ -277,6 +278,7 @@ def solve_cvxpy(problem, formulation, *, tol, max_iter=None, r0=None, history=Fa
 
         if outer_law == "associated":
             options["law"] = "associated"
+        options["polish"] = resolve_polish(options.get("polish", "newton"))
         return desaxce_fixed_point(problem, factory, tol=tol,
                                    max_iter=DEFAULT_MAX_ITER if max_iter is None else max_iter,
                                    r0=r0, history=history, **options)

@@ -34,30 +34,30 @@ Accelerations (each optional, measured by ``validation/desaxce_ablation.py``)
   the shift vector ``c = q_shift - q`` with a safeguard: the accelerated point
   is kept only while the fixed-point residual ``||T(c) - c||`` decreases,
   otherwise the memory is cleared and a plain step taken.
-* ``polish="newton"`` (default; any callable ``polish(problem, r, tol, options)
-  -> (r, info)`` of :mod:`socp_cd.solvers.polish` is accepted): a semismooth Newton method on the natural
-  map (:func:`socp_cd.solvers.polish.newton_polish`) started from an outer iterate once its
-  error is below ``polish_switch`` (retried after each 10x gain, and from the
-  best iterate at the end); steps counted in ``info["polish_iterations"]``,
-  the polished point kept only if its error is lower.  ``polish="nsgs"`` uses
-  socp_cd's NSGS backend instead (warm-started sweeps).
+* ``polish``: a callable ``polish(problem, r, tol, options) -> (r, info)``
+  received from the backend (``"newton"`` there: the proximal semismooth
+  Newton solver's local core, :func:`socp_cd.solvers.newton.newton_polish`,
+  warm-started from the outer iterate) once the outer error is below
+  ``polish_switch`` (retried after each 10x gain, and from the best iterate
+  at the end); its iterations are counted in ``info["polish_iterations"]``,
+  the polished point kept only if its error is lower.  ``options`` holds
+  ``max_iter``, ``law`` and ``cache`` (a dict kept across the calls of one
+  solve, so the polish forms its system once).
 
 Small problems (``m <= DENSE_MAX``)
 -----------------------------------
-``W`` is formed densely once and the residuals and the Newton polish run in
-compiled code (:mod:`socp_cd.solvers.kernels`).  A polish then costs
-less than one SOCP, so by default (``polish_switch=None``) it is tried from the
-first outer iterate on (every iterate for ``m <= CHEAP_POLISH_MAX``, otherwise
-after each 10x gain); when Newton stalls (degenerate problems) a bounded,
-warm-started NSGS polish (``nsgs_polish_sweeps`` sweeps) follows.  When the
-outer loop stops unconverged, the last polish from the best iterate gets
-``FINAL_POLISH_FACTOR * polish_max_iter`` Newton steps (high friction: the
-loop stalls near 1e-3 and Newton needs ~100 steps from there).  Larger
-problems keep ``polish_switch = 1e-5`` and the sparse Newton polish.
+``W`` is formed densely once and the residuals run in compiled code
+(:mod:`socp_cd.solvers.kernels`).  By default (``polish_switch=None``) the
+polish is tried from the first outer iterate on (every iterate for
+``m <= CHEAP_POLISH_MAX``, otherwise after each 10x gain).  When the outer
+loop stops unconverged, the last polish from the best iterate gets
+``FINAL_POLISH_FACTOR * polish_max_iter`` iterations.  Larger problems keep
+``polish_switch = 1e-5``.
 """
 from __future__ import annotations
 
 import time as _time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -69,10 +69,12 @@ from ..residuals import error as coulomb_error
 from .anderson import Anderson
 from .conic_data import dense_to_csr
 from .kernels.cone import LAW_ASSOCIATED, LAW_COULOMB
-from .kernels.dense import matvec
+from .kernels.dense import dense_error, dense_split, matvec
 from .options import inner_tolerance
-from .polish import POLISHES, DenseSystem
 from .result import SolverResult
+
+#: polish names accepted by the option check (the backends turn them into callables)
+POLISH_NAMES = ("newton",)
 
 #: Default outer options (see :func:`desaxce_fixed_point`).
 OUTER_DEFAULTS = dict(
@@ -101,11 +103,52 @@ FINAL_POLISH_FACTOR = 10
 SPARSE_POLISH_SWITCH = 1e-5
 
 
+@dataclass
+class DenseSystem:
+    """A small local problem formed densely once (compiled residuals of the outer loop).
+
+    Attributes
+    ----------
+    W, W_sym, W_skew : ndarray
+        ``W`` and its symmetric and skew parts.
+    asymmetry, scale : float
+        ``max|W - Wᵀ|`` and ``max|W|``.
+    q, mu : ndarray
+    norm_q : float
+    dim : int
+    """
+
+    W: np.ndarray
+    W_sym: np.ndarray
+    W_skew: np.ndarray
+    asymmetry: float
+    scale: float
+    q: np.ndarray
+    mu: np.ndarray
+    norm_q: float
+    dim: int
+
+    @classmethod
+    def of(cls, problem) -> "DenseSystem":
+        """Dense system of a local problem (``W`` in CSR)."""
+        W = problem.W
+        Wd, Ws, Wa, asym, scale, _ = dense_split(W.indptr, W.indices, W.data, problem.m)
+        q = np.ascontiguousarray(problem.q, dtype=np.float64)
+        return cls(Wd, Ws, Wa, float(asym), float(scale), q,
+                   np.ascontiguousarray(problem.mu, dtype=np.float64),
+                   float(np.sqrt(np.dot(q, q))), problem.dim)
+
+    def error(self, r, law_code=LAW_COULOMB):
+        """``(error, u)`` of ``r`` (``u = W r + q`` recomputed, compiled)."""
+        u = np.empty(r.shape[0])
+        return float(dense_error(self.W, self.q, r, self.mu, self.dim, law_code, self.norm_q, u)), u
+
+
 class _Workspace:
     """Per-solve data of the outer loop: ``W_s``, ``W_a`` and the residual evaluator.
 
     For local problems with ``m <= DENSE_MAX`` ``W`` is densified once
-    (:class:`~socp_cd.solvers.polish.DenseSystem`): every residual is one
+    (:class:`DenseSystem`): every residual is one
     compiled call and the polish runs compiled.  Otherwise the sparse
     ``problem.symmetric_part()`` / :func:`socp_cd.error` path is used.
     """
@@ -176,8 +219,8 @@ def check_outer_options(outer_options) -> dict:
     if opts["law"] not in ("coulomb", "associated"):
         raise UnsupportedError(f"law must be 'coulomb' or 'associated', got {opts['law']!r}")
     pol = opts["polish"]
-    if pol is not None and not callable(pol) and pol not in POLISHES:
-        raise UnsupportedError(f"polish must be one of {sorted(POLISHES)}, None or a callable, "
+    if pol is not None and not callable(pol) and pol not in POLISH_NAMES:
+        raise UnsupportedError(f"polish must be one of {list(POLISH_NAMES)}, None or a callable, "
                                f"got {pol!r}")
     return opts
 
@@ -211,7 +254,11 @@ class FixedPoint:
         # retry the polish after a 10x gain (every iterate for a cheap dense polish)
         self.retry_factor = 1.0 if (self.ws.dense and problem.m <= CHEAP_POLISH_MAX) else 0.1
         pol = opts["polish"]
-        self.polish = POLISHES[pol] if isinstance(pol, str) else pol
+        if isinstance(pol, str):
+            raise UnsupportedError(f"polish {pol!r}: the backend passes the polish as a callable "
+                                   "(socp_cd.solvers.newton.resolve_polish)")
+        self.polish = pol
+        self._polish_cache = {}
         self.accel = Anderson(opts["memory"]) if opts["accel"] == "anderson" else None
         self.info = {"polish_iterations": 0, "polish_calls": 0}
         self._local = None
@@ -238,24 +285,17 @@ class FixedPoint:
 
     def polish_from(self, r_start, budget):
         """Polish from ``r_start``; returns ``(r, err)`` of the polished point or None."""
-        law = self.opts["law"]
-        if self.ws.dense:
-            target, options = self.problem, {"max_iter": budget, "law": law, "dense": self.ws.system}
-        else:
-            if self.problem.is_global and self._local is None:
-                self._local = self.problem.to_local()   # the polish works on W (formed once)
-            target = self._local if self._local is not None else self.problem
-            options = {"max_iter": budget, "law": law}
+        if self.problem.is_global and self._local is None:
+            self._local = self.problem.to_local()   # the polish works on W (formed once)
+        target = self._local if self._local is not None else self.problem
+        options = {"max_iter": budget, "law": self.opts["law"], "cache": self._polish_cache}
         r_pol, pinfo = self.polish(target, r_start, self.tol, options)
         if pinfo.get("available") is False:
             return None
         self.info["polish_iterations"] += int(pinfo.get("iterations", 0))
         self.info["polish_calls"] += 1
-        if "nsgs_sweeps" in pinfo:
-            self.info["nsgs_polish_sweeps"] = (self.info.get("nsgs_polish_sweeps", 0)
-                                               + pinfo["nsgs_sweeps"])
         r_pol = np.asarray(r_pol, dtype=np.float64)
-        return r_pol, self.ws.error(r_pol) if not self.ws.dense else float(pinfo["error"])
+        return r_pol, self.ws.error(r_pol)
 
     @staticmethod
     def keep_better(out, r_best, e_best, hist):
@@ -387,9 +427,10 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
     **outer_options
         ``accel`` ("anderson" or None), ``memory`` (int), ``adaptive_tol``
         (bool), ``kappa``, ``inner_tol_max``, ``inner_tol_min`` (default
-        :func:`inner_tolerance`), ``polish`` ("newton", "nsgs", None or a
-        callable ``polish(problem, r, tol, options) -> (r, info)``, see
-        :mod:`socp_cd.solvers.polish`), ``polish_max_iter``, ``polish_switch``
+        :func:`inner_tolerance`), ``polish`` (None or a callable
+        ``polish(problem, r, tol, options) -> (r, info)``; the backends pass
+        :func:`socp_cd.solvers.newton.newton_polish` for "newton"),
+        ``polish_max_iter``, ``polish_switch``
         (error below which the polish is tried; None: ``inf`` for small dense
         problems, ``1e-5`` otherwise), ``patience`` (outer iterations without
         a 10 % improvement before declaring a stall), ``time_limit`` (seconds).

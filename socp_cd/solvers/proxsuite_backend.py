@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from .newton import resolve_polish
 from ..errors import UnsupportedError
 from ..laws import LAW_RESIDUALS
 from ..faceted import DEFAULT_FACETS, check_facets, cone_matrix, faceted_error
@@ -291,7 +292,7 @@ def solve_proxsuite(problem, formulation, *, tol, max_iter=None, r0=None, histor
         return res
     # 2D coulomb: De Saxcé fixed point, every inner problem a QP on the exact wedge
     from .desaxce import desaxce_fixed_point
-    options.setdefault("polish", None)
+    options["polish"] = resolve_polish(options.get("polish"))
 
     def factory(prob, W_sym):
         return cone_qp(prob, W_sym, qp_max_iter=qp_max_iter)

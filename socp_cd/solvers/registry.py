@@ -147,7 +147,7 @@ def _resolve(solver, table):
     return table[solver]
 
 
-def solve(problem, solver="nsgs", formulation: str = "coulomb", *, tol: float = 1e-8,
+def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 1e-8,
           max_iter: int | None = None, r0=None, history: bool = False, crosscheck: str | None = None,
           time_limit: float | None = None, verbose: bool = False, inner_settings: dict | None = None,
           **options) -> SolverResult:
@@ -159,8 +159,9 @@ def solve(problem, solver="nsgs", formulation: str = "coulomb", *, tol: float = 
     ----------
     problem : FrictionContactProblem or GlobalFrictionContactProblem
     solver : str or callable
-        ``"nsgs"``, ``"clarabel"``, ``"cvxpy"``, ``"proxsuite"`` (see
-        :func:`solvers`), or a solver function with the signature of
+        ``"auto"`` (default: a portfolio of the methods below, see
+        :mod:`socp_cd.solvers.auto`), ``"newton"``, ``"nsgs"``, ``"clarabel"``,
+        ``"cvxpy"``, ``"proxsuite"`` (see :func:`solvers`), or a solver function with the signature of
         :class:`~socp_cd.solvers.spec.SolverSpec` ``func``.
     formulation : str
         Contact law: ``"coulomb"`` (exact, default), ``"associated"``,

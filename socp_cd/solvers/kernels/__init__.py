@@ -7,7 +7,7 @@
   :mod:`socp_cd.residuals`; ``tests/test_kernels.py`` holds them equal.
 * :mod:`.dense` — dense linear algebra without BLAS (LU with partial
   pivoting, mat-vec, ``W`` split, condensation of a small global problem).
-* :mod:`.polish` — the semismooth Newton polish on the natural map (dense).
+* :mod:`.newton_ac` — the Alart–Curnier function and its generalized Jacobian (Newton solver).
 
 Modules here import nothing from ``socp_cd`` outside this package.
 """

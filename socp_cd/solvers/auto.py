@@ -1,0 +1,264 @@
+"""``solver="auto"``: a portfolio that chains the built-in methods (the default of ``solve()``).
+
+It models only what the problem requires and tries methods in an order chosen
+from cheap problem features, handing the best iterate so far to the next
+method as its warm start (the De Saxcé fixed point only when that iterate is
+close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
+
+* formulation ``"frictionless"``, or ``"coulomb"`` with every ``mu = 0``
+  (then the two laws coincide): the QP of Signorini's law (Clarabel) when
+  ``W`` is symmetric, else the LCP by projected Gauss–Seidel (NSGS); then
+  Newton / NSGS on the law asked for;
+* ``"associated"``: one SOCP (Clarabel), then NSGS;
+* ``"tresca"``: NSGS, then Clarabel;
+* ``"coulomb"`` (exact law): local problems with at most :data:`SMALL_NC`
+  contacts: NSGS, then the proximal semismooth Newton method
+  (:mod:`socp_cd.solvers.newton`), the Clarabel De Saxcé fixed point and
+  Newton again; larger or global problems: Newton, then — ordered by friction
+  range and dimension — NSGS and the fixed point, then Newton again from the
+  best iterate when an earlier stage improved it.
+
+The chain stops at the first stage whose error, recomputed from its ``r``
+(compiled kernel :func:`~socp_cd.solvers.kernels.cone.siconos_error` for the
+local Coulomb law, the NumPy law residual otherwise), meets ``tol``; the
+dispatcher then recomputes it once more independently.  The returned ``r`` is
+the best iterate of all stages (never worse than any stage).
+
+Options
+-------
+methods : sequence of str, optional
+    Explicit stage order (names among ``"newton"``, ``"nsgs"``, ``"clarabel"``
+    and ``"clarabel_qp"`` (Clarabel on the frictionless QP)) instead of the
+    feature-based one.
+
+Common options (:mod:`socp_cd.solvers.options`): ``tol``; ``max_iter`` caps
+*each* stage, in that stage's own units (Newton outer iterations, NSGS sweeps,
+fixed-point outer iterations; None: each method's default); ``time_limit`` is
+a *total* budget in seconds: each stage receives a share of what remains (the
+last stage all of it) and no stage starts once it is spent; ``r0`` is the
+warm start of the first stage; ``inner_settings`` does not apply (stages run
+with their own defaults) and is rejected when non-empty.  ``info["path"]``
+lists every stage: ``{"method", "formulation", "iterations", "time", "error",
+"status"}``; ``info["features"]`` the features the order was chosen from.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import InvalidProblemError, UnsupportedError
+from ..laws import LAW_RESIDUALS, law_parameters
+from . import clarabel_backend, newton, nsgs
+from .kernels.cone import siconos_error
+from .result import SolverResult
+from .spec import SolverSpec
+
+#: the clock of the time budget (a module attribute so tests can drive it)
+_clock = time.perf_counter
+#: local problems with at most this many contacts start with NSGS
+SMALL_NC = 100
+#: friction coefficient from which the fixed point is tried before NSGS
+HIGH_MU = 1.0
+#: share of the remaining time budget a stage receives (the last stage: all)
+STAGE_SHARE = 0.5
+
+#: stage name -> (spec, solver-specific options passed to it)
+_STAGES = {
+    "newton": (newton.SPEC, {}),
+    "nsgs": (nsgs.SPEC, {}),
+    "clarabel": (clarabel_backend.SPEC, {}),
+    "clarabel_qp": (clarabel_backend.SPEC, {}),
+}
+#: stages started cold unless the best iterate's error is at most WARM_MAX: the De
+#: Saxcé fixed point's first shift from a far iterate (4e-4, 7e-3) cost accuracy on the
+#: tune split, from a close one (4e-6) it helped (formulations/auto.md)
+COLD_STAGES = ("clarabel", "clarabel_qp")
+WARM_MAX = 1e-5
+
+OPTIONS = {
+    "methods": "explicit stage order, names among 'newton', 'nsgs', 'clarabel', 'clarabel_qp' "
+               "(default: chosen from the problem's features)",
+    "threshold": "Tresca threshold per contact (formulation 'tresca')",
+}
+
+
+def features(problem, formulation) -> dict:
+    """Cheap features the stage order is chosen from (no allocation of size ``m``² or rank test).
+
+    Returns
+    -------
+    dict
+        ``dim``, ``n_contacts``, ``global``, ``mu_max``, ``frictionless``
+        (every ``mu = 0``) and ``structurally_rank_deficient`` (global problems
+        with more contact unknowns than degrees of freedom, ``m > n``: then
+        ``W = Hᵀ M⁻¹ H`` is singular; None for local problems, whose rank is not
+        tested).
+    """
+    mu = problem.mu
+    mu_max = float(mu.max()) if mu.shape[0] else 0.0
+    glob = problem.is_global
+    return {"dim": problem.dim, "n_contacts": problem.n_contacts, "global": glob,
+            "mu_max": mu_max, "frictionless": formulation == "frictionless" or mu_max == 0.0,
+            "structurally_rank_deficient": (problem.m > problem.n_dofs) if glob else None}
+
+
+def stage_order(problem, formulation, feats) -> tuple:
+    """Stage names ``(method, formulation)`` for ``problem`` (rules: ``formulations/auto.md``)."""
+    if feats["frictionless"] and formulation in ("coulomb", "frictionless"):
+        first = ("clarabel_qp", "frictionless") if problem.is_symmetric else ("nsgs", "frictionless")
+        rest = ((("newton", "coulomb"), ("nsgs", "coulomb")) if formulation == "coulomb"
+                else (("nsgs", "frictionless"),))
+        return (first,) + tuple(s for s in rest if s != first)
+    if formulation == "associated":
+        return (("clarabel", "associated"), ("nsgs", "associated"))
+    if formulation == "tresca":
+        return (("nsgs", "tresca"), ("clarabel", "tresca"))
+    # exact Coulomb law: Newton first (fastest and most robust on the tune split);
+    # high friction or 2D: the fixed point before NSGS
+    if feats["n_contacts"] <= SMALL_NC and not feats["global"]:
+        # small local problems: NSGS first (one contact: one call of its local solver);
+        # it costs a fraction of Newton's set-up and factorizations (formulations/auto.md)
+        return (("nsgs", "coulomb"), ("newton", "coulomb"), ("clarabel", "coulomb"),
+                ("newton", "coulomb"))
+    if feats["mu_max"] >= HIGH_MU or feats["dim"] == 2:
+        middle = (("clarabel", "coulomb"), ("nsgs", "coulomb"))
+    else:
+        middle = (("nsgs", "coulomb"), ("clarabel", "coulomb"))
+    return (("newton", "coulomb"),) + middle + (("newton", "coulomb"),)
+
+
+class _Judge:
+    """Stage error of an ``r`` for the law asked for (compiled kernel on local Coulomb problems)."""
+
+    def __init__(self, problem, formulation, params):
+        self.problem, self.formulation, self.params = problem, formulation, params
+        self.fast = formulation == "coulomb" and not problem.is_global
+        if self.fast:
+            self.q = problem.q
+            self.mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
+            self.norm_q = float(np.sqrt(np.dot(self.q, self.q)))
+
+    def __call__(self, r) -> float:
+        if r is None or r.shape != (self.problem.m,) or not np.all(np.isfinite(r)):
+            return np.inf
+        with np.errstate(all="ignore"):
+            if self.fast:
+                e = siconos_error(r, self.problem.W @ r + self.q, self.mu, self.problem.dim,
+                                  self.norm_q)
+            else:
+                e = LAW_RESIDUALS[self.formulation](self.problem, r, None, **self.params)
+        e = float(e)
+        return e if np.isfinite(e) else np.inf
+
+
+def check(problem, options, inner_settings) -> None:
+    """Reject ``inner_settings`` (not applicable) and a bad ``methods`` list before any work."""
+    if inner_settings:
+        raise UnsupportedError("solver 'auto': inner_settings does not apply (each stage runs with "
+                               "its own defaults); choose a solver to pass native settings")
+    methods = options.get("methods")
+    if methods is not None:
+        if isinstance(methods, str) or not hasattr(methods, "__iter__"):
+            raise InvalidProblemError("methods", f"must be a sequence of stage names, got {methods!r}")
+        methods = tuple(methods)
+        bad = [m for m in methods if m not in _STAGES]
+        if bad or not methods:
+            raise InvalidProblemError("methods", f"stage names must be among {sorted(_STAGES)}, "
+                                                 f"got {list(methods)!r}")
+
+
+def _explicit_order(methods, formulation):
+    order = []
+    for m in methods:
+        form = "frictionless" if m == "clarabel_qp" else formulation
+        order.append((m, form))
+    return tuple(order)
+
+
+def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
+                 time_limit=None, verbose=False, inner_settings=None, **options) -> SolverResult:
+    """Portfolio backend for :func:`socp_cd.solve` (see the module docstring)."""
+    t_start = _clock()
+    params = law_parameters(formulation, options)
+    feats = features(problem, formulation)
+    methods = options.get("methods")
+    order = (_explicit_order(methods, formulation) if methods is not None
+             else stage_order(problem, formulation, feats))
+    judge = _Judge(problem, formulation, params)
+    best_r = None if r0 is None else np.array(r0, dtype=np.float64)
+    best_err = judge(best_r) if best_r is not None else np.inf
+    best_v, best_stage = None, -1
+    local = None
+    path, hist = [], ([] if history else None)
+    iterations, status, message = 0, "max_iter", ""
+    version, ran = 0, set()       # version: bumped whenever the best iterate changes
+    for k, (method, form) in enumerate(order):
+        if (method, form, version) in ran:
+            continue    # same deterministic method from the same start: nothing to gain
+        ran.add((method, form, version))
+        stage_limit = None
+        if time_limit is not None:
+            left = time_limit - (_clock() - t_start)
+            if left <= 0.0:
+                status, message = "time_limit", f"time budget {time_limit:g} s spent"
+                break
+            stage_limit = left if k == len(order) - 1 else max(STAGE_SHARE * left, 1e-6)
+        spec, stage_opts = _STAGES[method]
+        target = problem
+        if problem.is_global and form not in spec.global_native:
+            if local is None:
+                local = problem.to_local()
+            target = local
+        opts = dict(stage_opts)
+        if method == "newton" and best_r is not None:
+            opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
+        if form == "tresca":
+            opts["threshold"] = options["threshold"]
+        t0 = _clock()
+        try:
+            start = (None if (method in COLD_STAGES and k > 0 and not best_err <= WARM_MAX)
+                     else best_r)
+            res = spec.func(target, form, tol=tol, max_iter=max_iter, r0=start, history=history,
+                            time_limit=stage_limit, verbose=verbose, inner_settings={}, **opts)
+            r = np.asarray(res.r, dtype=np.float64).reshape(-1)
+            st, its = res.status, int(res.iterations)
+        except Exception as exc:  # noqa: BLE001 - one failing stage hands over to the next
+            r, st, its, res = None, "numerical_error", 0, None
+            message = f"{method}: {type(exc).__name__}: {exc}"
+        dt = _clock() - t0
+        err = judge(r)
+        path.append({"method": method, "formulation": form, "iterations": its, "time": dt,
+                     "error": err, "status": st})
+        iterations += its
+        if history and res is not None and res.history:
+            hist.extend(res.history)
+        if err < best_err:
+            best_r, best_err, best_stage = r, err, k
+            best_v = res.v if (res is not None and target is problem) else None
+            version += 1
+        status = st if st != "converged" else "stalled"
+        if best_err <= tol:
+            status, message = "converged", f"{method} met tol"
+            break
+    if best_r is None:
+        best_r = np.zeros(problem.m)
+    if status != "converged" and not message:
+        message = f"no stage met tol; best error {best_err:.3e}"
+    if verbose:
+        print("auto: " + " -> ".join(f"{s['method']}({s['error']:.1e})" for s in path))
+    info = {"path": path, "features": feats, "best_stage": best_stage}
+    return SolverResult(r=best_r, v=best_v, status=status, iterations=iterations, history=hist,
+                        info=info, message=message)
+
+
+SPEC = SolverSpec(
+    "auto", auto_backend, ("coulomb", "associated", "tresca", "frictionless"),
+    global_native=("coulomb", "associated"), dims=(2, 3),
+    description="portfolio: models only what the law needs, chains newton / nsgs / clarabel "
+                "from cheap problem features, warm-starting each stage from the best iterate",
+    default_max_iter=newton.DEFAULT_MAX_ITER, options=OPTIONS,
+    inner_settings="not applicable (rejected)", check=check)
+
+__all__ = ["auto_backend", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
+           "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC"]

@@ -1,0 +1,171 @@
+"""solver="auto" (issue 10 item 3): honest convergence, recorded path, never worse than a stage,
+routing by law, warm start handed on, the common options honoured."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import socp_cd
+from socp_cd.errors import InvalidProblemError, UnsupportedError
+from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem
+from socp_cd.solvers import auto
+from socp_cd.solvers.result import SolverResult
+from socp_cd.solvers.spec import SolverSpec
+
+
+def _local(nc=5, dim=3, seed=0, mu=0.5, rank_deficient=False, skew=0.0):
+    rng = np.random.default_rng(seed)
+    m = nc * dim
+    A = rng.standard_normal((m, m // 2 if rank_deficient else m))
+    W = A @ A.T + (0.0 if rank_deficient else 0.1 * m) * np.eye(m)
+    if skew:
+        S = rng.standard_normal((m, m))
+        W = W + skew * (S - S.T)
+    q = rng.standard_normal(m)
+    q[::dim] -= 1.0                 # approaching contacts: a non-trivial solution
+    return FrictionContactProblem(W, q, mu, dim)
+
+
+def _global(seed=0, n=6, nc=3):
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((n, n))
+    H = rng.standard_normal((n, 3 * nc))
+    return GlobalFrictionContactProblem(A @ A.T + n * np.eye(n), H, rng.standard_normal(n),
+                                        -np.abs(rng.standard_normal(3 * nc)), 0.4, 3)
+
+
+FAMILIES = [
+    ("spd3", lambda s: _local(5, 3, s)),
+    ("spd2", lambda s: _local(6, 2, s)),
+    ("rank_deficient", lambda s: _local(6, 3, s, rank_deficient=True)),
+    ("asymmetric", lambda s: _local(4, 3, s, skew=0.3)),
+    ("high_mu", lambda s: _local(5, 3, s, mu=2.0)),
+    ("global", lambda s: _global(s)),
+]
+
+
+@pytest.mark.parametrize("name,make", FAMILIES, ids=[f[0] for f in FAMILIES])
+@pytest.mark.parametrize("tol", [1e-6, 1e-12])
+def test_converged_only_when_recomputed_error_meets_tol(name, make, tol):
+    for seed in range(3):
+        p = make(seed)
+        res = socp_cd.solve(p, tol=tol)            # auto is the default
+        assert res.solver == "auto"
+        err = socp_cd.error(p, res.r)
+        assert res.converged == (err <= tol), (name, seed, err, res.status)
+        # never worse than the best stage it tried (stage errors: compiled kernel)
+        best = min(s["error"] for s in res.info["path"])
+        assert err <= best * (1 + 1e-8) + 1e-300, (name, seed, err, res.info["path"])
+
+
+def test_path_records_every_stage():
+    p = _local(6, 3, 1, mu=0.8)
+    res = socp_cd.solve(p, "auto", tol=1e-10, methods=("nsgs", "clarabel", "newton"), max_iter=3)
+    path = res.info["path"]
+    assert [s["method"] for s in path] == ["nsgs", "clarabel", "newton"][:len(path)]
+    assert all(set(s) == {"method", "formulation", "iterations", "time", "error", "status"}
+               for s in path)
+    assert res.iterations == sum(s["iterations"] for s in path)
+    assert all(s["iterations"] <= 3 for s in path)           # max_iter caps each stage
+    if not res.converged:
+        assert len(path) == 3
+
+
+def _spy_stage(log, name, result_r=None, status="max_iter", clock=None, cost=0.0):
+    """A fake stage recording its ``r0`` and ``time_limit``."""
+    def func(problem, formulation, *, tol, max_iter, r0, history, time_limit, verbose,
+             inner_settings, **options):
+        log.append({"name": name, "r0": None if r0 is None else r0.copy(),
+                    "time_limit": time_limit})
+        if clock is not None:
+            clock[0] += cost
+        r = np.full(problem.m, 0.1 * len(log)) if result_r is None else result_r
+        return SolverResult(r=r, status=status, iterations=1)
+    return SolverSpec(name, func, ("coulomb",), global_native=("coulomb",))
+
+
+def test_warm_start_is_the_best_iterate_so_far(monkeypatch):
+    p = _local(4, 3, 2)
+    log = []
+    r_first = socp_cd.solve(p, "nsgs", tol=1e-14, max_iter=4).r   # close, not converged
+    monkeypatch.setitem(auto._STAGES, "nsgs", (_spy_stage(log, "a", r_first), {}))
+    monkeypatch.setitem(auto._STAGES, "clarabel", (_spy_stage(log, "b"), {}))   # a bad stage
+    monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage(log, "c"), {}))
+    r0 = np.zeros(p.m)
+    res = socp_cd.solve(p, "auto", tol=1e-14, r0=r0, methods=("nsgs", "clarabel", "newton"))
+    assert np.array_equal(log[0]["r0"], r0)
+    if socp_cd.error(p, r_first) <= auto.WARM_MAX:        # the fixed point: warm only when close
+        assert np.array_equal(log[1]["r0"], r_first)
+    else:
+        assert log[1]["r0"] is None
+    assert np.array_equal(log[2]["r0"], r_first)          # b was worse: a's iterate handed on
+    assert np.array_equal(res.r, r_first) and res.info["best_stage"] == 0
+
+
+def test_a_failing_stage_hands_over(monkeypatch):
+    def boom(*a, **k):
+        raise RuntimeError("native failure")
+    monkeypatch.setitem(auto._STAGES, "clarabel", (SolverSpec("x", boom, ("coulomb",)), {}))
+    p = _local(3, 3, 4)
+    res = socp_cd.solve(p, "auto", methods=("clarabel", "newton"))
+    assert res.info["path"][0]["status"] == "numerical_error"
+    assert res.info["path"][1]["method"] == "newton" and res.converged
+
+
+def test_time_limit_is_a_total_budget(monkeypatch):
+    clock = [0.0]
+    monkeypatch.setattr(auto, "_clock", lambda: clock[0])
+    log = []
+    for name in ("nsgs", "clarabel", "newton"):
+        monkeypatch.setitem(auto._STAGES, name, (_spy_stage(log, name, clock=clock, cost=1.0), {}))
+    p = _local(3, 3, 5)
+    res = socp_cd.solve(p, "auto", tol=1e-14, time_limit=1.5,
+                        methods=("nsgs", "clarabel", "newton"))
+    assert res.status == "time_limit"
+    assert len(log) == 2                         # the third stage never starts: budget spent
+    assert log[0]["time_limit"] == pytest.approx(0.75)      # a share of what remains
+    assert log[1]["time_limit"] == pytest.approx(0.25)      # of the 0.5 s left
+
+
+@pytest.mark.parametrize("formulation,first", [("coulomb", ("clarabel_qp", "frictionless")),
+                                               ("frictionless", ("clarabel_qp", "frictionless")),
+                                               ("associated", ("clarabel", "associated"))])
+def test_routing_models_only_what_the_law_needs(formulation, first):
+    p = _local(5, 3, 6, mu=0.0 if formulation != "associated" else 0.5)
+    res = socp_cd.solve(p, "auto", formulation, tol=1e-8)
+    s0 = res.info["path"][0]
+    assert (s0["method"], s0["formulation"]) == first
+    assert res.converged and res.error == pytest.approx(socp_cd.solve(p, "nsgs", formulation).error,
+                                                        abs=1e-8)
+
+
+def test_frictionless_asymmetric_goes_to_the_lcp():
+    p = _local(4, 3, 7, mu=0.0, skew=0.2)
+    res = socp_cd.solve(p, "auto")
+    assert (res.info["path"][0]["method"], res.info["path"][0]["formulation"]) == \
+        ("nsgs", "frictionless")
+    assert res.converged
+
+
+def test_exact_coulomb_starts_with_newton_and_orders_by_features():
+    lo, hi = _local(auto.SMALL_NC + 1, 3, 8, mu=0.3), _local(auto.SMALL_NC + 1, 3, 8, mu=2.0)
+    f_lo, f_hi = auto.features(lo, "coulomb"), auto.features(hi, "coulomb")
+    assert [m for m, _ in auto.stage_order(lo, "coulomb", f_lo)][:3] == ["newton", "nsgs", "clarabel"]
+    assert [m for m, _ in auto.stage_order(hi, "coulomb", f_hi)][:3] == ["newton", "clarabel", "nsgs"]
+    for nc in (1, 4):                   # small: NSGS first (one contact: one local solve)
+        small = _local(nc, 3, 8, mu=0.3)
+        order = auto.stage_order(small, "coulomb", auto.features(small, "coulomb"))
+        assert order[:2] == (("nsgs", "coulomb"), ("newton", "coulomb"))
+    g = _global(1, n=4, nc=3)            # m = 9 > n = 4: W singular by structure
+    assert auto.features(g, "coulomb")["structurally_rank_deficient"] is True
+
+
+def test_options_rejected_like_every_solver():
+    p = _local(2, 3, 9)
+    with pytest.raises(UnsupportedError, match="valid options"):
+        socp_cd.solve(p, "auto", no_such_option=1)
+    with pytest.raises(UnsupportedError, match="inner_settings"):
+        socp_cd.solve(p, "auto", inner_settings={"max_iter": 3})
+    with pytest.raises(InvalidProblemError) as exc:
+        socp_cd.solve(p, "auto", methods=("newton", "lemke"))
+    assert exc.value.field == "methods"
