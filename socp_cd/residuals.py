@@ -12,7 +12,7 @@ That measure mixes the units of ``r`` and ``u`` (``rho = 1``, one common
 denominator), so a problem written in unbalanced units can pass it with a
 wrong ``r`` (``W`` and ``q`` times 1e8: loaded contacts that separate, hidden
 by a huge ``||u||``).  :func:`balanced_error` is the same measure in balanced
-units (:func:`contact_scales`: unit diagonal blocks of ``W``, ``||q|| = 1``);
+units (:func:`contact_scales`: unit diagonal blocks of ``W``, ``q`` of unit RMS);
 it does not depend on the units the problem was written in, and
 :func:`socp_cd.solve` requires it too (:func:`guard`) before calling a result
 converged.  See ``formulations/coulomb.md`` §9.
@@ -140,10 +140,12 @@ def contact_scales(problem) -> tuple[np.ndarray, np.ndarray]:
     """Per-contact unit factors that balance a problem: ``r = a r~``, ``u = b u~``.
 
     With ``d_i`` the mean diagonal entry of the block ``W_ii`` and
-    ``s = 1/sqrt(d)``, ``sigma = ||s q||`` (1 when zero),
+    ``s = 1/sqrt(d)``, ``sigma = ||s q|| / sqrt(m)`` (1 when zero),
     ``a_i = sigma s_i`` and ``b_i = sigma / s_i``; the balanced problem is
     ``u~ = W~ r~ + q~`` with ``W~ = S W S`` (unit mean diagonal per block,
-    symmetric when ``W`` is) and ``q~ = S q / sigma`` (unit norm).
+    symmetric when ``W`` is) and ``q~ = S q / sigma`` (entries of unit root
+    mean square: interior-point tolerances are absolute-ish, so entries of
+    order one rather than a unit norm).
 
     One positive scalar per contact maps ``K_mu`` and ``K*_mu`` onto
     themselves and preserves ``û ⊥ r``, so the law, hence the solution set,

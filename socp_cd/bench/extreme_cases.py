@@ -1,5 +1,10 @@
 """The extreme cases of the stability suite and their problem builder (no campaign import).
 
+Besides problems at the edges of the data range, the suite holds copies of
+the default manufactured problem that must get the same answer
+(:mod:`socp_cd.bench.transforms`): other units (``q`` and ``W, q`` times
+``1e±8``), renumbered contacts, duplicated contacts.
+
 :mod:`socp_cd.bench.campaign` rebuilds a referenced extreme problem inside a
 worker through :func:`build`; :mod:`socp_cd.bench.extremes` runs the suite.
 """
@@ -9,6 +14,7 @@ import numpy as np
 
 from ..problem import FrictionContactProblem
 from .generators import manufactured
+from .transforms import duplicated, permuted, rescaled
 
 #: name -> (description, keyword arguments of :func:`manufactured`).
 CASES = {
@@ -23,6 +29,14 @@ CASES = {
                      dict(contact_scale=1e6, q_scale=1e4)),
     "grazing": ("70% grazing contacts (r = 0 and u = 0)", dict(mix=(0.1, 0.1, 0.1, 0.7))),
     "all_grazing": ("every contact grazing: q = 0, solution r = 0", dict(mix=(0, 0, 0, 1))),
+    "q*1e8": ("q × 1e8: impulses and velocities in other units", dict(transform=("rescaled", 1.0, 1e8))),
+    "q*1e-8": ("q × 1e-8", dict(transform=("rescaled", 1.0, 1e-8))),
+    "Wq*1e8": ("W and q × 1e8: velocities in other units, same impulses",
+               dict(transform=("rescaled", 1e8, 1e8))),
+    "Wq*1e-8": ("W and q × 1e-8", dict(transform=("rescaled", 1e-8, 1e-8))),
+    "permuted": ("contacts renumbered at random", dict(transform=("permuted",))),
+    "duplicated": ("every 3rd contact twice (rank-deficient W, same u)",
+                   dict(transform=("duplicated",))),
     "zero_contacts": ("no contact at all (must be rejected)", None),
     "large": ("10^4 contacts", dict()),
 }
@@ -44,7 +58,16 @@ def build(case: str, n_contacts: int = 50, dim: int = 3, seed: int = 0) -> Frict
                                       name="zero_contacts")
     kw = dict(kw)
     mu = kw.pop("mu", 0.3)
-    return manufactured(n_contacts, dim, mu, seed=seed, name=f"extreme[{case}]-{dim}d-{n_contacts}", **kw)
+    transform = kw.pop("transform", None)
+    p = manufactured(n_contacts, dim, mu, seed=seed, name=f"extreme[{case}]-{dim}d-{n_contacts}", **kw)
+    if transform is None:
+        return p
+    kind = transform[0]
+    if kind == "rescaled":
+        return rescaled(p, *transform[1:])[0]
+    if kind == "permuted":
+        return permuted(p, np.random.default_rng(seed).permutation(p.n_contacts))[0]
+    return duplicated(p, np.arange(0, p.n_contacts, 3))[0]
 
 
 __all__ = ["CASES", "build"]

@@ -7,8 +7,11 @@ many redundant contacts (rank-deficient ``W``); badly scaled data (entries of
 ``W`` spanning ``1e-6 .. 1e6``, ``q`` scaled by ``1e4``); grazing contacts
 (``r = 0`` and ``û = 0`` at once); zero contacts (must be rejected at
 construction with :class:`~socp_cd.InvalidProblemError`); and a large
-problem (``10^4`` contacts).  For every solver the suite records an honest
-status, the achieved error, and whether anything non-finite came out.
+problem (``10^4`` contacts); and copies of the default problem in other
+units (``q`` and ``W, q`` times ``1e±8``), with contacts renumbered or
+duplicated, which must get the same answer.  For every solver the suite
+records an honest status, the achieved error, and whether anything
+non-finite came out.
 """
 from __future__ import annotations
 

@@ -5,7 +5,7 @@ solution up to units, but a backend's internal tests (interior-point
 tolerances, step sizes, Siconos' error with ``rho = 1``) are not unit-free.
 :func:`socp_cd.solve` therefore hands every backend the *balanced* problem of
 :func:`socp_cd.residuals.contact_scales` (``W~ = S W S``: unit mean diagonal
-per contact block; ``q~ = S q / sigma``: unit norm) and maps the answer back:
+per contact block; ``q~ = S q / sigma``: unit root mean square) and maps the answer back:
 ``r = a r~``.  One positive scalar per contact keeps the cones and the law;
 the factors are equivariant, so every written form of the problem reaches the
 backend as the same balanced problem (up to rounding) and gets the same
