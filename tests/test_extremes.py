@@ -70,3 +70,22 @@ def test_markdown_table_lists_every_case(records):
         if case != "large":
             assert f"| {case} (" in md
     assert md.count("| zero_contacts (2d, 0) | " + " | ".join(["rejected"] * len(solvers))) == 1
+
+
+VARIANTS = ("q*1e8", "q*1e-8", "Wq*1e8", "Wq*1e-8", "permuted", "duplicated")
+
+
+def test_copies_in_other_units_order_or_duplicated_get_the_default_answer(records):
+    """Issue 14: the same problem in other units, renumbered or with duplicated contacts
+    gets the same outcome and the same velocity (vs the exact one) for every solver."""
+    solvers, recs = records
+    by = {(r["problem"].split(" ")[0], r["problem"].split(" ")[1], r["solver"]): r for r in recs}
+    for s in solvers:
+        for dim in ("(2d,", "(3d,"):
+            base = by[("default", dim, s)]
+            for v in VARIANTS:
+                r = by[(v, dim, s)]
+                assert r["status"] == base["status"], (v, dim, s, r["status"], base["status"])
+                if v.startswith(("q*", "Wq*")) and not s.startswith("siconos"):
+                    # the backend sees the same balanced problem: the same path
+                    assert r["iterations"] == base["iterations"], (v, dim, s)

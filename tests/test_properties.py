@@ -33,7 +33,7 @@ U_AGREEMENT = 1e-5
 
 FAST = settings(max_examples=6, deadline=None, derandomize=True,
                 suppress_health_check=[HealthCheck.too_slow])
-HEAVY = settings(max_examples=8, deadline=None, derandomize=True,
+HEAVY = settings(max_examples=20, deadline=None, derandomize=True,
                  suppress_health_check=[HealthCheck.too_slow])
 
 

@@ -29,6 +29,7 @@ CASES = {
                      dict(contact_scale=1e6, q_scale=1e4)),
     "grazing": ("70% grazing contacts (r = 0 and u = 0)", dict(mix=(0.1, 0.1, 0.1, 0.7))),
     "all_grazing": ("every contact grazing: q = 0, solution r = 0", dict(mix=(0, 0, 0, 1))),
+    "default": ("the default problem (mu = 0.3, mass ratio 10): base of the copies below", dict()),
     "q*1e8": ("q × 1e8: impulses and velocities in other units", dict(transform=("rescaled", 1.0, 1e8))),
     "q*1e-8": ("q × 1e-8", dict(transform=("rescaled", 1.0, 1e-8))),
     "Wq*1e8": ("W and q × 1e8: velocities in other units, same impulses",
