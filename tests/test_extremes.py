@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import socp_cd
-from socp_cd.bench.extremes import CASES, build, extremes_markdown, honest, run_extremes
+from socp_cd.bench.extremes import CASES, COPIES, build, extremes_markdown, honest, run_extremes
 from socp_cd.bench.records import RUN_STATUSES
 from socp_cd.errors import InvalidProblemError
 
@@ -72,7 +72,7 @@ def test_markdown_table_lists_every_case(records):
     assert md.count("| zero_contacts (2d, 0) | " + " | ".join(["rejected"] * len(solvers))) == 1
 
 
-VARIANTS = ("q*1e8", "q*1e-8", "Wq*1e8", "Wq*1e-8", "permuted", "duplicated")
+VARIANTS = COPIES
 
 
 def test_copies_in_other_units_order_or_duplicated_get_the_default_answer(records):
@@ -89,3 +89,16 @@ def test_copies_in_other_units_order_or_duplicated_get_the_default_answer(record
                 if v.startswith(("q*", "Wq*")) and not s.startswith("siconos"):
                     # the backend sees the same balanced problem: the same path
                     assert r["iterations"] == base["iterations"], (v, dim, s)
+
+
+def test_markdown_summarizes_the_copies(records):
+    _, recs = records
+    md = extremes_markdown(recs)
+    assert "## Copies of `default`" in md
+    rows = {line.split(" | ")[0][2:]: line.split(" | ")[1]
+            for line in md.split("## Copies")[1].split("## Cases")[0].splitlines()
+            if line.startswith("| ") and "/" in line}
+    assert set(rows) == {r["solver"] for r in recs}
+    for s, frac in rows.items():                # every copy gets the default's outcome
+        same, total = map(int, frac.split("/"))
+        assert same == total and total in (6, 12), (s, frac)

@@ -109,6 +109,37 @@ def _cell(rec: dict) -> str:
     return f"{mark} {e}{flags}"
 
 
+#: cases that are copies of ``"default"`` (other units, order, duplicates): same answer expected
+COPIES = ("q*1e8", "q*1e-8", "Wq*1e8", "Wq*1e-8", "permuted", "duplicated")
+
+
+def _copies_summary(records, solvers) -> list[str]:
+    """Per solver: on how many copies of ``default`` the outcome (status) is the default's."""
+    by = {(r["problem"].split(" ")[0], r["problem"].split(" ")[1], r["solver"]): r for r in records}
+    dims = sorted({r["problem"].split(" ")[1] for r in records if r["problem"].startswith("default ")})
+    if not dims:
+        return []
+    out = ["", "## Copies of `default` (same problem in other units, renumbered, duplicated contacts)", "",
+           "Outcome equal to the `default` row's, per solver (copies × dims); the copies that differ.", "",
+           "| solver | same outcome | differing copies |", "|---|---:|---|"]
+    for s in solvers:
+        same, total, diff = 0, 0, []
+        for d in dims:
+            base = by.get(("default", d, s))
+            for c in COPIES:
+                r = by.get((c, d, s))
+                if base is None or r is None or base["status"] in ("unsupported", "rejected"):
+                    continue
+                total += 1
+                if r["status"] == base["status"]:
+                    same += 1
+                else:
+                    diff.append(f"{c} {d.strip('(,')}: {r['status']}")
+        if total:
+            out.append(f"| {s} | {same}/{total} | {'; '.join(diff)} |")
+    return out
+
+
 def extremes_markdown(records) -> str:
     """Markdown: case × solver matrix of outcome and achieved error, then the details."""
     cases = list(dict.fromkeys(r["problem"] for r in records))
@@ -126,6 +157,7 @@ def extremes_markdown(records) -> str:
              "| case | " + " | ".join(solvers) + " |", "|---|" + "---|" * len(solvers)]
     for c in cases:
         lines.append(f"| {c} | " + " | ".join(_cell(cell[(c, s)]) if (c, s) in cell else "" for s in solvers) + " |")
+    lines += _copies_summary(records, solvers)
     lines += ["", "## Cases", ""]
     for name, (desc, _) in CASES.items():
         lines.append(f"- **{name}**: {desc}")
@@ -137,4 +169,4 @@ def extremes_markdown(records) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["CASES", "build", "extreme_problems", "run_extremes", "extremes_markdown", "honest"]
+__all__ = ["CASES", "COPIES", "build", "extreme_problems", "run_extremes", "extremes_markdown", "honest"]
