@@ -30,7 +30,8 @@ def test_extreme_cases_have_their_advertised_property():
 @pytest.fixture(scope="module")
 def records():
     solvers = [n for n, s in socp_cd.solvers().items() if "coulomb" in s["formulations"]]
-    return solvers, run_extremes(solvers, tol=1e-6, time_limit=30.0, size=6, large=0, dims=(2, 3))
+    return solvers, run_extremes(solvers, tol=1e-6, time_limit=30.0, size=6, large=0, dims=(2, 3),
+                                 shared=())
 
 
 def test_every_solver_every_case_has_a_valid_outcome(records):
@@ -102,3 +103,21 @@ def test_markdown_summarizes_the_copies(records):
     for s, frac in rows.items():                # every copy gets the default's outcome
         same, total = map(int, frac.split("/"))
         assert same == total and total in (6, 12), (s, frac)
+
+
+def test_copies_of_a_shared_problem():
+    from socp_cd.bench.extreme_cases import SHARED_BASES
+    from socp_cd.bench.extremes import extreme_problems
+    from socp_cd.data import shared_problems_dir
+    d = shared_problems_dir()
+    if d is None or not (d / SHARED_BASES[1]).is_file():
+        pytest.skip("shared problems not available")
+    base = socp_cd.read_problem(d / SHARED_BASES[1])
+    up = build("Wq*1e8", source=SHARED_BASES[1])
+    assert np.allclose(up.q, 1e8 * base.q) and np.allclose(up.W.toarray(), 1e8 * base.W.toarray())
+    dup = build("duplicated", source=SHARED_BASES[1])
+    assert dup.n_contacts == base.n_contacts + len(range(0, base.n_contacts, 3))
+    refs = extreme_problems(size=6, large=0, dims=(2,), cases=["mu=0"], shared=SHARED_BASES[1:])
+    assert [r.name.split(" ")[0] for r in refs[:7]] == ["default", *COPIES]
+    with pytest.raises(ValueError, match="not a copy"):
+        build("mu=10", source=SHARED_BASES[1])

@@ -12,6 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..data import shared_problems_dir
+from ..errors import UnsupportedError
+from ..io import read_problem
 from ..problem import FrictionContactProblem
 from .generators import manufactured
 from .transforms import duplicated, permuted, rescaled
@@ -43,8 +46,28 @@ CASES = {
 }
 
 
-def build(case: str, n_contacts: int = 50, dim: int = 3, seed: int = 0) -> FrictionContactProblem:
+#: cases that are copies of ``"default"`` (other units, order, duplicates): same answer expected
+COPIES = ("q*1e8", "q*1e-8", "Wq*1e8", "Wq*1e-8", "permuted", "duplicated")
+
+#: shared problems whose copies the suite also runs (issue 14: Clarabel claimed a false
+#: success on the first at W, q x 1e8, and failed or stalled on the second at q x 1e+-8)
+SHARED_BASES = ("fc2d_granularflowonwall_00667_00000.dat", "FrictionContactProblem00237.dat")
+
+
+def _shared_base(source: str):
+    d = shared_problems_dir()
+    if d is None or not (d / source).is_file():
+        raise UnsupportedError(f"shared problem {source!r} not found (see socp_cd.data)")
+    return read_problem(d / source)
+
+
+def build(case: str, n_contacts: int = 50, dim: int = 3, seed: int = 0,
+          source: str | None = None) -> FrictionContactProblem:
     """Build the problem of an extreme case (see :data:`CASES`).
+
+    With ``source`` (a shared problem's file name), ``case`` must be
+    ``"default"`` or one of :data:`COPIES`: that copy of the shared problem
+    (``n_contacts`` and ``dim`` are then the file's).
 
     Raises
     ------
@@ -54,13 +77,19 @@ def build(case: str, n_contacts: int = 50, dim: int = 3, seed: int = 0) -> Frict
     if case not in CASES:
         raise ValueError(f"unknown extreme case {case!r}; known: {sorted(CASES)}")
     kw = CASES[case][1]
+    if source is not None and case not in ("default",) + COPIES:
+        raise ValueError(f"case {case!r} is not a copy: it cannot be applied to {source!r}")
     if kw is None:
         return FrictionContactProblem(np.zeros((0, 0)), np.zeros(0), np.zeros(0), dim,
                                       name="zero_contacts")
     kw = dict(kw)
     mu = kw.pop("mu", 0.3)
     transform = kw.pop("transform", None)
-    p = manufactured(n_contacts, dim, mu, seed=seed, name=f"extreme[{case}]-{dim}d-{n_contacts}", **kw)
+    if source is not None:
+        p = _shared_base(source)
+    else:
+        p = manufactured(n_contacts, dim, mu, seed=seed, name=f"extreme[{case}]-{dim}d-{n_contacts}",
+                         **kw)
     if transform is None:
         return p
     kind = transform[0]
@@ -71,4 +100,4 @@ def build(case: str, n_contacts: int = 50, dim: int = 3, seed: int = 0) -> Frict
     return duplicated(p, np.arange(0, p.n_contacts, 3))[0]
 
 
-__all__ = ["CASES", "build"]
+__all__ = ["CASES", "COPIES", "SHARED_BASES", "build"]

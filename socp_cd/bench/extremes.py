@@ -20,14 +20,30 @@ import math
 from pathlib import Path
 
 
+from ..errors import UnsupportedError
 from .campaign import run_campaign
 from .problem_refs import ProblemRef
 from .tasks import default_solvers
-from .extreme_cases import CASES, build
+from .extreme_cases import CASES, COPIES, SHARED_BASES, build
 
-def extreme_problems(size: int = 50, large: int = 10_000, dims=(3,), cases=None, seed: int = 0):
-    """Problem refs of the suite (``large`` sets the size of the ``"large"`` case; 0 drops it)."""
+def extreme_problems(size: int = 50, large: int = 10_000, dims=(3,), cases=None, seed: int = 0,
+                     shared=()):
+    """Problem refs of the suite (``large`` sets the size of the ``"large"`` case; 0 drops it).
+
+    ``shared``: shared problem file names whose ``default`` and :data:`COPIES` are added
+    (named ``"<case> (<file stem>, <contacts>)"``); files not found are left out.
+    """
     out = []
+    for source in shared:
+        try:
+            n = build("default", source=source).n_contacts
+        except UnsupportedError:
+            continue
+        stem = source.rsplit(".", 1)[0]
+        for case in ("default",) + COPIES:
+            kw = dict(case=case, n_contacts=0, dim=0, seed=seed, source=source)
+            out.append(ProblemRef(f"{case} ({stem}, {n})", "extremes",
+                                  generator=json.dumps(kw, sort_keys=True), builder="extremes"))
     for case in (cases or CASES):
         if case == "large" and not large:
             continue
@@ -41,7 +57,8 @@ def extreme_problems(size: int = 50, large: int = 10_000, dims=(3,), cases=None,
 
 def run_extremes(solvers=None, tol: float = 1e-6, time_limit: float = 20.0, *, size: int = 50,
                  large: int = 10_000, large_time_limit: float = 60.0, dims=(3,), cases=None,
-                 csv_path=None, md_path=None, dask=None, verbose=False) -> list[dict]:
+                 shared=SHARED_BASES, csv_path=None, md_path=None, dask=None,
+                 verbose=False) -> list[dict]:
     """Run the extremes suite for every solver and optionally write the tables.
 
     Parameters
@@ -57,6 +74,9 @@ def run_extremes(solvers=None, tol: float = 1e-6, time_limit: float = 20.0, *, s
     dims : tuple
     cases : list of str, optional
         Subset of :data:`CASES`.
+    shared : sequence of str
+        Shared problems (file names) whose ``default`` and :data:`COPIES` also run
+        (default :data:`SHARED_BASES`, the problems of issue 14; () for none).
     csv_path, md_path : path, optional
         Where to append the records and write the Markdown table (built from
         the whole CSV table, so runs for other dims/solvers accumulate).
@@ -69,7 +89,7 @@ def run_extremes(solvers=None, tol: float = 1e-6, time_limit: float = 20.0, *, s
         One record per (case, solver).
     """
     solvers = solvers or default_solvers()
-    probs = extreme_problems(size, large, dims, cases)
+    probs = extreme_problems(size, large, dims, cases, shared=shared)
     small = [p for p in probs if not p.name.startswith("large")]
     big = [p for p in probs if p.name.startswith("large")]
     common = dict(solvers=solvers, tolerances=[tol], suite="extremes", csv_path=csv_path, dask=dask,
@@ -107,10 +127,6 @@ def _cell(rec: dict) -> str:
     mark = "ok" if rec["success"] else st
     flags = ("" if honest(rec) else " (claimed converged)") + (" NaN!" if rec["nan"] else "")
     return f"{mark} {e}{flags}"
-
-
-#: cases that are copies of ``"default"`` (other units, order, duplicates): same answer expected
-COPIES = ("q*1e8", "q*1e-8", "Wq*1e8", "Wq*1e-8", "permuted", "duplicated")
 
 
 def _copies_summary(records, solvers) -> list[str]:
@@ -169,4 +185,4 @@ def extremes_markdown(records) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["CASES", "COPIES", "build", "extreme_problems", "run_extremes", "extremes_markdown", "honest"]
+__all__ = ["CASES", "COPIES", "SHARED_BASES", "build", "extreme_problems", "run_extremes", "extremes_markdown", "honest"]
