@@ -136,10 +136,14 @@ def _copies_summary(records, solvers) -> list[str]:
     if not dims:
         return []
     out = ["", "## Copies of `default` (same problem in other units, renumbered, duplicated contacts)", "",
-           "Outcome equal to the `default` row's, per solver (copies × dims); the copies that differ.", "",
-           "| solver | same outcome | differing copies |", "|---|---:|---|"]
+           "Per solver: copies (× bases: generated 2D/3D and shared problems) whose outcome equals "
+           "the `default` row's; the copies that differ; the largest velocity error "
+           "`||u - u*|| / ||u*||` against the exact `u*` over the copies marked `ok` "
+           "(generated bases only: the shared problems have no exact solution).",
+           "", "| solver | same outcome | differing copies | max u error of `ok` copies |",
+           "|---|---:|---|---:|"]
     for s in solvers:
-        same, total, diff = 0, 0, []
+        same, total, diff, uerr = 0, 0, [], []
         for d in dims:
             base = by.get(("default", d, s))
             for c in COPIES:
@@ -151,8 +155,11 @@ def _copies_summary(records, solvers) -> list[str]:
                     same += 1
                 else:
                     diff.append(f"{c} {d.strip('(,')}: {r['status']}")
+                if r["success"] and math.isfinite(r["u_error"]):
+                    uerr.append(r["u_error"])
         if total:
-            out.append(f"| {s} | {same}/{total} | {'; '.join(diff)} |")
+            worst = f"{max(uerr):.1e}" if uerr else "—"
+            out.append(f"| {s} | {same}/{total} | {'; '.join(diff)} | {worst} |")
     return out
 
 
