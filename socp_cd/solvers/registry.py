@@ -213,7 +213,8 @@ def solve(problem, solver="nsgs", formulation: str = "coulomb", *, tol: float = 
     r0 : array_like, optional
         Initial guess (warm start) for solvers that use one.
     history : bool
-        Record the error per iteration when the solver supports it.
+        Record the error per iteration when the solver supports it (measured
+        by the backend on the balanced problem it was given, see Notes).
     crosscheck : str, optional
         Name of a reference solver (``"nsgs"``) run on the same problem; the
         relative discrepancy in ``u`` is stored in ``result.info["crosscheck"]``
@@ -230,6 +231,20 @@ def solve(problem, solver="nsgs", formulation: str = "coulomb", *, tol: float = 
     Returns
     -------
     SolverResult
+
+    Notes
+    -----
+    Units: the backend solves the local problem in balanced units
+    (:mod:`socp_cd.solvers.scaling`; a global problem solved natively is
+    passed as is) and ``r`` is mapped back, so the same problem written in
+    other units (``q`` or ``W, q`` times any factor, contacts rescaled one
+    by one) gets the same answer.  ``converged`` needs Siconos' error
+    ``<= tol`` and the units guard ``info["guard"]["value"] <= tol``
+    (:func:`socp_cd.residuals.guard`: the same measure in balanced units, and
+    ``u`` computable to ``tol`` from ``r``).  When the backend claims
+    convergence and the two measures disagree, the backend is run once more
+    with a tolerance tightened by the gap (``info["retry"]``).
+    ``result.trivial`` says whether ``r = 0`` already met ``tol``.
 
     Raises
     ------
