@@ -238,19 +238,25 @@ def guard(problem, r, u=None, scales=None, law=None, **params) -> dict:
     if not (np.all(np.isfinite(rs)) and np.all(np.isfinite(us))):
         return {"error": float("inf"), "rounding": float("inf"), "value": float("inf")}
     balanced = BalancedView(problem, b)
-    out = {"error": (law or error)(balanced, rs, us, **params)}
-    floor = max(float(np.linalg.norm(balanced.q_local)), float(np.linalg.norm(us)))
-    out["rounding"] = _EPS * float(np.linalg.norm(rs)) / (floor if floor > _EPS else 1.0)
+    with np.errstate(all="ignore"):      # overflow ends as inf below, never nan
+        out = {"error": (law or error)(balanced, rs, us, **params)}
+        floor = max(float(np.linalg.norm(balanced.q_local)), float(np.linalg.norm(us)))
+        out["rounding"] = _EPS * float(np.linalg.norm(rs)) / (floor if floor > _EPS else 1.0)
     out["value"] = max(out["error"], out["rounding"])
     if law is None or law is error:
-        norm = error_normalization(balanced, rs, us)
-        gap = fenchel_young_gap(rs, us, problem.mu, problem.dim)
-        out.update({
-            "cone": float(np.max(in_cone_violation(rs, problem.mu, problem.dim))) / norm,
-            "normal_velocity": float(np.max(normal_velocity_violation(us, problem.dim))) / norm,
-            "complementarity": float(np.sum(np.abs(gap))) / norm ** 2,
-        })
+        with np.errstate(all="ignore"):
+            out.update(_coulomb_parts(rs, us, problem, error_normalization(balanced, rs, us)))
     return {k: (v if np.isfinite(v) else float("inf")) for k, v in out.items()}
+
+
+def _coulomb_parts(rs, us, problem, norm) -> dict:
+    """Feasibility and complementarity parts of the balanced Coulomb residual (see :func:`guard`)."""
+    gap = fenchel_young_gap(rs, us, problem.mu, problem.dim)
+    return {
+        "cone": float(np.max(in_cone_violation(rs, problem.mu, problem.dim))) / norm,
+        "normal_velocity": float(np.max(normal_velocity_violation(us, problem.dim))) / norm,
+        "complementarity": float(np.sum(np.abs(gap))) / norm ** 2,
+    }
 
 
 def balanced_error(problem, r, u=None, scales=None) -> float:
