@@ -92,12 +92,14 @@ def law_residual(problem, formulation, r, u=None, **params) -> float:
     return LAW_RESIDUALS[formulation](problem, r, u, **law_parameters(formulation, params))
 
 
-def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) -> SolverResult:
+def _finalize(problem, res: SolverResult, formulation: str, tol: float, params,
+              scales=None) -> SolverResult:
     """Recompute u and residuals and set honest ``converged``/``status``.
 
     ``converged`` needs the law's residual ``<= tol`` and the units guard
     (:func:`socp_cd.residuals.guard`, reported in ``info["guard"]``) ``<= tol``;
-    ``trivial`` records whether ``r = 0`` already meets ``tol``.
+    ``trivial`` records whether ``r = 0`` already meets ``tol``.  ``scales``: the
+    problem's :func:`~socp_cd.residuals.contact_scales` when already known.
     """
     r = np.asarray(res.r, dtype=np.float64).reshape(-1)
     res.tol = tol
@@ -128,7 +130,7 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) 
         res.status = "numerical_error"
         res.message = (res.message + "; " if res.message else "") + "non-finite residual"
     res.error = law
-    res.info["guard"] = checked = guard(problem, r, res.u, law=LAW_RESIDUALS[formulation],
+    res.info["guard"] = checked = guard(problem, r, res.u, scales, law=LAW_RESIDUALS[formulation],
                                         **law_parameters(formulation, params))
     res.converged = bool(law <= tol and checked["value"] <= tol)
     if res.converged:
@@ -290,7 +292,8 @@ def solve(problem, solver="nsgs", formulation: str = "coulomb", *, tol: float = 
     res = _run_backend(spec, target, scaling, formulation, tol, r0, time_limit, **run)
     claimed = res.status
     res.solver, res.formulation = name, formulation
-    res = _finalize(problem, res, formulation, tol, options)
+    scales = None if scaling is None or target is not problem else (scaling.a, scaling.b)
+    res = _finalize(problem, res, formulation, tol, options, scales)
     checked = res.info["guard"]
     if claimed == "converged" and not res.converged and np.isfinite(res.error) and (
             (res.error <= tol) != (checked["error"] <= tol) or checked["rounding"] > tol):
@@ -310,7 +313,7 @@ def solve(problem, solver="nsgs", formulation: str = "coulomb", *, tol: float = 
             res.info["retry"] = {"tol": tighter, "first_error": first.error,
                                  "first_guard": first.info["guard"]["value"],
                                  "first_iterations": first.iterations}
-            res = _finalize(problem, res, formulation, tol, options)
+            res = _finalize(problem, res, formulation, tol, options, scales)
     res.time = _time.perf_counter() - t0
     if target is not problem:
         res.info["condensed_to_local"] = True

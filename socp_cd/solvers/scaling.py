@@ -37,8 +37,11 @@ class Scaling:
 
     def problem(self, problem: FrictionContactProblem) -> FrictionContactProblem:
         """The balanced problem ``u~ = (S W S) r~ + S q / sigma``."""
-        S = sp.diags(np.sqrt(self.a / self.b))          # s_i = 1/sqrt(d_i)
-        W = (S @ problem.W @ S).tocsr()
+        s = np.sqrt(self.a / self.b)                    # s_i = 1/sqrt(d_i)
+        Wc = problem.W.tocsr()
+        rows = np.repeat(np.arange(problem.m), np.diff(Wc.indptr))
+        W = sp.csr_matrix((Wc.data * (s[rows] * s[Wc.indices]), Wc.indices, Wc.indptr),
+                          shape=Wc.shape)                # S W S, same sparsity, one copy
         return FrictionContactProblem(
             W, problem.q / self.b, problem.mu, problem.dim, source=problem.source,
             name=problem.name, info=problem.info,
