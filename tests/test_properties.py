@@ -179,17 +179,19 @@ def test_dispatcher_refuses_the_false_success():
     assert res.info["guard"]["value"] > TOL and "guard" in res.message
 
 
-def test_a_huge_impulse_in_the_null_space_of_w_is_not_a_solution():
+@pytest.mark.parametrize("R", [1e6, 1e12])
+def test_a_huge_impulse_in_the_null_space_of_w_is_not_a_solution(R):
     """Two opposite contacts on one body (2D), both separating: r = (R, 0, R, 0) squeezes
     the body with impulses that cancel (W r = 0, u = q), so each loaded contact
-    separates, yet the Siconos error is ~1/R (it divides by ||r||).  Clarabel returns
-    such r (1e13 .. 1e60) on unbounded relaxations of redundant problems."""
+    separates, yet the Siconos error is ~1/R (it divides by ||r||).  Clarabel returned
+    such r (||r|| 6e6 .. 1e60, u wrong by 64 %) on unbounded relaxations of redundant
+    problems; the guard divides by the velocity scale instead."""
     H = np.array([[1.0, 0.0, -1.0, 0.0], [0.0, 1.0, 0.0, -1.0]])
     p = FrictionContactProblem(H.T @ H, np.array([0.5, 0.0, 0.5, 0.0]), 0.5, 2)
-    r = np.array([1e12, 0.0, 1e12, 0.0])
-    assert np.allclose(p.velocity(r), p.q) and socp_cd.error(p, r) <= 1e-12
+    r = np.array([R, 0.0, R, 0.0])
+    assert np.allclose(p.velocity(r), p.q) and socp_cd.error(p, r) <= 1e-6
     g = guard(p, r)
-    assert g["rounding"] > 1e-6 and g["value"] > TOL
+    assert g["error"] > 0.1 and g["complementarity"] > 0.1 and g["value"] > 1e-6
 
 
 def _shared(name):
