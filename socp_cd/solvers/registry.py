@@ -274,10 +274,11 @@ def solve(problem, solver="nsgs", formulation: str = "coulomb", *, tol: float = 
     other units (``q`` or ``W, q`` times any factor, contacts rescaled one
     by one) gets the same answer.  ``converged`` needs Siconos' error
     ``<= tol`` and the units guard ``info["guard"]["value"] <= tol``
-    (:func:`socp_cd.residuals.guard`: the same measure in balanced units, and
-    ``u`` computable to ``tol`` from ``r``).  When the backend claims
-    convergence and the two measures disagree, the backend is run once more
-    with a tolerance tightened by the gap (``info["retry"]``).
+    (:func:`socp_cd.residuals.guard`: the law's residual in balanced units
+    relative to the velocity scale, and ``u`` computable to ``tol`` from
+    ``r``).  When the backend claims convergence and ``solve`` refuses it,
+    the backend is run once more with a tolerance tightened by the gap; the
+    retry is kept only if it converges (``info["retry"]``).
     ``result.trivial`` says whether ``r = 0`` already met ``tol``.
 
     Raises
