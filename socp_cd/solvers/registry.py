@@ -178,7 +178,8 @@ def _retry(first, problem, spec, target, scaling, scales, formulation, tol, opti
     are proportional), the run warm-started from its ``r`` unless that ``r`` is too
     large for ``u = W r + q`` to mean anything (then from ``r = 0``).  The retry is
     kept when it converged; otherwise the first answer (the backend's at the
-    requested ``tol``) stays.  Either way ``info["retry"]`` records it.
+    requested ``tol``) stays.  Either way ``iterations`` counts both runs
+    and ``info["retry"]`` records them.
     """
     checked = first.info["guard"]
     gap = max(first.error, checked["value"]) / tol
@@ -198,6 +199,7 @@ def _retry(first, problem, spec, target, scaling, scales, formulation, tol, opti
         res.info["retry"] = dict(record, kept="retry")
         return res
     first.info["retry"] = dict(record, kept="first")
+    first.iterations += res.iterations
     return first
 
 
