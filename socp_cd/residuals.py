@@ -227,7 +227,9 @@ def guard(problem, r, u=None, scales=None, law=None, **params) -> dict:
         can be computed at all from this ``r`` (``W~`` has a unit diagonal,
         so ``W~ r~`` carries an absolute rounding error of about
         ``eps ||r~||``).  ``"value"``: the larger of the two; the guard holds
-        when it is ``<= tol``.  For Coulomb also the parts of the residual,
+        when it is ``<= tol``.  ``"balanced_siconos"``: the same residual with
+        Siconos' normalization, what a backend given the balanced problem
+        measures.  For Coulomb also the parts of the residual,
         relative to ``V``: ``"cone"`` (max distance of ``r~_i`` to
         ``K_mu``), ``"normal_velocity"`` (max ``-u~_N``),
         ``"complementarity"`` (``sum_i |r~_i · û~_i| / V^2``).
@@ -241,14 +243,16 @@ def guard(problem, r, u=None, scales=None, law=None, **params) -> dict:
     with np.errstate(all="ignore"):
         rs, us = r / a, u / b
     if not (np.all(np.isfinite(rs)) and np.all(np.isfinite(us))):
-        return {"error": float("inf"), "rounding": float("inf"), "value": float("inf")}
+        return {"error": float("inf"), "rounding": float("inf"), "value": float("inf"),
+                "balanced_siconos": float("inf")}
     balanced = BalancedView(problem, b)
     with np.errstate(all="ignore"):      # overflow ends as inf below, never nan
         vel = max(float(np.linalg.norm(balanced.q_local)), float(np.linalg.norm(us)))
         vel = vel if vel > _EPS else 1.0
         # the law's residuals divide by Siconos' normalization: rescale to the velocity one
         siconos = error_normalization(balanced, rs, us)
-        out = {"error": (law or error)(balanced, rs, us, **params) * (siconos / vel)}
+        measured = (law or error)(balanced, rs, us, **params)
+        out = {"error": measured * (siconos / vel), "balanced_siconos": measured}
         out["rounding"] = _EPS * float(np.linalg.norm(rs)) / vel
     out["value"] = max(out["error"], out["rounding"])
     if law is None or law is error:

@@ -111,7 +111,8 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params,
         res.converged = False
         res.status = "numerical_error"
         res.error = res.coulomb_error = float("inf")
-        res.info["guard"] = {"error": float("inf"), "rounding": float("inf"), "value": float("inf")}
+        res.info["guard"] = {"error": float("inf"), "rounding": float("inf"), "value": float("inf"),
+                             "balanced_siconos": float("inf")}
         res.message = res.message or "backend returned non-finite or mis-sized impulses"
         return res
     res.r = r
@@ -174,16 +175,20 @@ def _retry(first, problem, spec, target, scaling, scales, formulation, tol, opti
     """One more backend run when it claimed convergence and the recomputed checks disagree.
 
     The backend met ``tol`` by its own test (in the balanced units it saw), not by
-    the dispatcher's.  The tolerance is tightened by the gap (errors near a solution
-    are proportional), the run warm-started from its ``r`` unless that ``r`` is too
+    the dispatcher's.  The tolerance is tightened by the gap between its measure
+    (``guard["balanced_siconos"]``) and ours (errors near a solution are
+    proportional), the run warm-started from its ``r`` unless that ``r`` is too
     large for ``u = W r + q`` to mean anything (then from ``r = 0``).  The retry is
     kept when it converged; otherwise the first answer (the backend's at the
     requested ``tol``) stays.  Either way ``iterations`` counts both runs
     and ``info["retry"]`` records them.
     """
     checked = first.info["guard"]
-    gap = max(first.error, checked["value"]) / tol
-    tighter = max(0.5 * tol / gap, 1e-3 * tol) if gap > 1 else tol
+    # the backend measures the balanced residual with Siconos' normalization; ask it for
+    # that measure scaled down by how far ours exceed it
+    worst = max(first.error, checked["value"])
+    measured = min(checked.get("balanced_siconos", tol), tol)
+    tighter = max(0.5 * tol * measured / worst, 1e-3 * tol) if worst > 0 else tol
     start = first.r if checked["rounding"] <= tol else np.zeros(problem.m)
     left = None if time_limit is None else time_limit - (_time.perf_counter() - t0)
     if left is not None and left <= 0:
