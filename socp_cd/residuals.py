@@ -7,6 +7,15 @@ The reference measure is Siconos' relative error (``fc3d_compute_error``)::
 with ``F`` the natural map (rho = 1, see :mod:`socp_cd.cones`). When the three
 norms are all below machine epsilon the absolute value is returned, as Siconos
 does. The 2D problems use the same formula with ``||u_T|| = |u_T|``.
+
+That measure mixes the units of ``r`` and ``u`` (``rho = 1``, one common
+denominator), so a problem written in unbalanced units can pass it with a
+wrong ``r`` (``W`` and ``q`` times 1e8: loaded contacts that separate, hidden
+by a huge ``||u||``).  :func:`balanced_error` is the same measure in balanced
+units (:func:`contact_scales`: unit diagonal blocks of ``W``, ``q`` of unit RMS);
+it does not depend on the units the problem was written in, and
+:func:`socp_cd.solve` requires it too (:func:`guard`) before calling a result
+converged.  See ``formulations/coulomb.md`` §9.
 """
 from __future__ import annotations
 
@@ -105,5 +114,167 @@ def complementarity(problem, r, u=None) -> dict:
     }
 
 
-__all__ = ["error", "checked_pair", "absolute_error", "error_normalization", "contact_errors",
+def _block_diagonal_scale(problem) -> np.ndarray:
+    """Mean diagonal entry of each contact block of ``W`` (``(n_contacts,)``).
+
+    Local problems read it from ``W``; global problems use the Jacobi estimate
+    ``diag(H^T diag(M)^-1 H)`` (no factorization: a scale, not a solve).
+    """
+    if problem.is_global:
+        dM = np.abs(problem.M.diagonal())
+        with np.errstate(divide="ignore"):
+            inv = np.where(dM > 0, 1.0 / dM, 0.0)
+        H = problem.H.tocsr()
+        diag = np.asarray(H.multiply(H).T @ inv).reshape(-1)
+    else:
+        diag = problem.W.diagonal()
+    d = np.abs(diag).reshape(problem.n_contacts, problem.dim).mean(axis=1)
+    good = np.isfinite(d) & (d > 0)
+    if not np.all(good):   # a contact with no stiffness of its own: the typical scale
+        fill = float(np.exp(np.mean(np.log(d[good])))) if np.any(good) else 1.0
+        d = np.where(good, d, fill)
+    return d
+
+
+def contact_scales(problem) -> tuple[np.ndarray, np.ndarray]:
+    """Per-contact unit factors that balance a problem: ``r = a r~``, ``u = b u~``.
+
+    With ``d_i`` the mean diagonal entry of the block ``W_ii`` and
+    ``s = 1/sqrt(d)``, ``sigma = ||s q|| / sqrt(m)`` (1 when zero),
+    ``a_i = sigma s_i`` and ``b_i = sigma / s_i``; the balanced problem is
+    ``u~ = W~ r~ + q~`` with ``W~ = S W S`` (unit mean diagonal per block,
+    symmetric when ``W`` is) and ``q~ = S q / sigma`` (entries of unit root
+    mean square: interior-point tolerances are absolute-ish, so entries of
+    order one rather than a unit norm).
+
+    One positive scalar per contact maps ``K_mu`` and ``K*_mu`` onto
+    themselves and preserves ``û ⊥ r``, so the law, hence the solution set,
+    is the same in both units.  The factors are equivariant: writing the
+    problem in other units (``W -> alpha W``, ``q -> beta q``, or any positive
+    per-contact rescaling) gives the same balanced problem up to rounding.
+
+    Parameters
+    ----------
+    problem : FrictionContactProblem or GlobalFrictionContactProblem
+
+    Returns
+    -------
+    a, b : ndarray, shape (m,)
+        Factors of ``r`` and ``u``, repeated over each contact's components.
+    """
+    d = _block_diagonal_scale(problem)
+    s = 1.0 / np.sqrt(d)
+    sigma = float(np.linalg.norm(np.repeat(s, problem.dim) * problem.q_local)) / np.sqrt(problem.m)
+    if not (np.isfinite(sigma) and sigma > 0):
+        sigma = 1.0
+    a = np.repeat(sigma * s, problem.dim)
+    b = np.repeat(sigma / s, problem.dim)
+    return a, b
+
+
+class BalancedView:
+    """A problem's ``q``, ``mu`` and ``dim`` in balanced units, for residuals given ``u``.
+
+    ``q_local = q / b`` (:func:`contact_scales`); reactions are validated by
+    the original problem.  It has no ``W``: the residuals read ``W`` only to
+    recompute ``u``, so always pass ``u`` (in balanced units) with it.
+    """
+
+    is_global = False
+
+    def __init__(self, problem, b):
+        self._problem = problem
+        self.q_local = problem.q_local / b
+        self.mu, self.dim, self.source = problem.mu, problem.dim, problem.source
+        self.n_contacts, self.m = problem.n_contacts, problem.m
+
+    def check_reaction(self, r, name: str = "r") -> np.ndarray:
+        """Validated by the original problem (length, finiteness)."""
+        return self._problem.check_reaction(r, name)
+
+
+def guard(problem, r, u=None, scales=None, law=None, **params) -> dict:
+    """Scale-aware solution check: the law's residual in balanced units (and its parts).
+
+    Parameters
+    ----------
+    problem : FrictionContactProblem or GlobalFrictionContactProblem
+    r : array_like, shape (m,)
+    u : array_like, optional
+        ``W r + q`` (recomputed when not given).
+    scales : tuple, optional
+        ``(a, b)`` from :func:`contact_scales` (computed when not given).
+    law : callable, optional
+        Residual ``law(problem, r, u, **params)`` of the law solved (one of
+        ``socp_cd.laws.LAW_RESIDUALS``); default Coulomb, :func:`error`.
+    **params
+        The law's parameters in the caller's units (a Tresca ``threshold``,
+        a bound on ``||r_T||``, is divided by ``a`` like ``r``).
+
+    Returns
+    -------
+    dict
+        ``"error"``: the law's residual of ``r~ = r/a``, ``u~ = u/b`` on the
+        balanced problem (:func:`contact_scales`), relative to the velocity
+        scale ``V = max(||q~||, ||u~||)`` rather than Siconos'
+        ``max(||q~||, ||r~||, ||u~||)``: in balanced units impulses and
+        velocities are commensurate (``||r~|| / V`` lies between 2e-3 and 7
+        for the NSGS and Clarabel answers of every shared local problem), so
+        the two agree within that factor, except when ``r~`` is huge -- a
+        component in the null space of ``W`` (redundant contacts), which
+        must not hide an O(1) residual.  ``"rounding"``:
+        ``eps ||r~|| / V``, the relative accuracy to which ``u = W r + q``
+        can be computed at all from this ``r`` (``W~`` has a unit diagonal,
+        so ``W~ r~`` carries an absolute rounding error of about
+        ``eps ||r~||``).  ``"value"``: the larger of the two; the guard holds
+        when it is ``<= tol``.  ``"balanced_siconos"``: the same residual with
+        Siconos' normalization, what a backend given the balanced problem
+        measures.  For Coulomb also the parts of the residual,
+        relative to ``V``: ``"cone"`` (max distance of ``r~_i`` to
+        ``K_mu``), ``"normal_velocity"`` (max ``-u~_N``),
+        ``"complementarity"`` (``sum_i |r~_i · û~_i| / V^2``).
+        None of them depends on the units the problem is written in.
+    """
+    r, u = checked_pair(problem, r, u)
+    a, b = contact_scales(problem) if scales is None else scales
+    if "threshold" in params and params["threshold"] is not None:
+        params = dict(params, threshold=np.asarray(params["threshold"], dtype=np.float64)
+                      / a[::problem.dim])
+    with np.errstate(all="ignore"):
+        rs, us = r / a, u / b
+    if not (np.all(np.isfinite(rs)) and np.all(np.isfinite(us))):
+        return {"error": float("inf"), "rounding": float("inf"), "value": float("inf"),
+                "balanced_siconos": float("inf")}
+    balanced = BalancedView(problem, b)
+    with np.errstate(all="ignore"):      # overflow ends as inf below, never nan
+        vel = max(float(np.linalg.norm(balanced.q_local)), float(np.linalg.norm(us)))
+        vel = vel if vel > _EPS else 1.0
+        # the law's residuals divide by Siconos' normalization: rescale to the velocity one
+        siconos = error_normalization(balanced, rs, us)
+        measured = (law or error)(balanced, rs, us, **params)
+        out = {"error": measured * (siconos / vel), "balanced_siconos": measured}
+        out["rounding"] = _EPS * float(np.linalg.norm(rs)) / vel
+    out["value"] = max(out["error"], out["rounding"])
+    if law is None or law is error:
+        with np.errstate(all="ignore"):
+            out.update(_coulomb_parts(rs, us, problem, vel))
+    return {k: (v if np.isfinite(v) else float("inf")) for k, v in out.items()}
+
+
+def _coulomb_parts(rs, us, problem, norm) -> dict:
+    """Feasibility and complementarity parts of the balanced Coulomb residual (see :func:`guard`)."""
+    gap = fenchel_young_gap(rs, us, problem.mu, problem.dim)
+    return {
+        "cone": float(np.max(in_cone_violation(rs, problem.mu, problem.dim))) / norm,
+        "normal_velocity": float(np.max(normal_velocity_violation(us, problem.dim))) / norm,
+        "complementarity": float(np.sum(np.abs(gap))) / norm ** 2,
+    }
+
+
+def balanced_error(problem, r, u=None, scales=None) -> float:
+    """Coulomb residual in balanced units, relative to the velocity scale (``guard(...)["error"]``)."""
+    return guard(problem, r, u, scales)["error"]
+
+
+__all__ = ["contact_scales", "BalancedView", "guard", "balanced_error", "error", "checked_pair", "absolute_error", "error_normalization", "contact_errors",
            "feasibility", "complementarity"]

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import socp_cd
-from socp_cd.bench.extremes import CASES, build, extremes_markdown, honest, run_extremes
+from socp_cd.bench.extremes import CASES, COPIES, build, extremes_markdown, honest, run_extremes
 from socp_cd.bench.records import RUN_STATUSES
 from socp_cd.errors import InvalidProblemError
 
@@ -30,7 +30,8 @@ def test_extreme_cases_have_their_advertised_property():
 @pytest.fixture(scope="module")
 def records():
     solvers = [n for n, s in socp_cd.solvers().items() if "coulomb" in s["formulations"]]
-    return solvers, run_extremes(solvers, tol=1e-6, time_limit=30.0, size=6, large=0, dims=(2, 3))
+    return solvers, run_extremes(solvers, tol=1e-6, time_limit=30.0, size=6, large=0, dims=(2, 3),
+                                 shared=())
 
 
 def test_every_solver_every_case_has_a_valid_outcome(records):
@@ -70,3 +71,53 @@ def test_markdown_table_lists_every_case(records):
         if case != "large":
             assert f"| {case} (" in md
     assert md.count("| zero_contacts (2d, 0) | " + " | ".join(["rejected"] * len(solvers))) == 1
+
+
+VARIANTS = COPIES
+
+
+def test_copies_in_other_units_order_or_duplicated_get_the_default_answer(records):
+    """Issue 14: the same problem in other units, renumbered or with duplicated contacts
+    gets the same outcome and the same velocity (vs the exact one) for every solver."""
+    solvers, recs = records
+    by = {(r["problem"].split(" ")[0], r["problem"].split(" ")[1], r["solver"]): r for r in recs}
+    for s in solvers:
+        for dim in ("(2d,", "(3d,"):
+            base = by[("default", dim, s)]
+            for v in VARIANTS:
+                r = by[(v, dim, s)]
+                assert r["status"] == base["status"], (v, dim, s, r["status"], base["status"])
+                if v.startswith(("q*", "Wq*")) and not s.startswith("siconos"):
+                    # the backend sees the same balanced problem: the same path
+                    assert r["iterations"] == base["iterations"], (v, dim, s)
+
+
+def test_markdown_summarizes_the_copies(records):
+    _, recs = records
+    md = extremes_markdown(recs)
+    assert "## Copies of `default`" in md
+    rows = {line.split(" | ")[0][2:]: line.split(" | ")[1]
+            for line in md.split("## Copies")[1].split("## Cases")[0].splitlines()
+            if line.startswith("| ") and "/" in line}
+    assert set(rows) == {r["solver"] for r in recs}
+    for s, frac in rows.items():                # every copy gets the default's outcome
+        same, total = map(int, frac.split("/"))
+        assert same == total and total in (6, 12), (s, frac)
+
+
+def test_copies_of_a_shared_problem():
+    from socp_cd.bench.extreme_cases import SHARED_BASES
+    from socp_cd.bench.extremes import extreme_problems
+    from socp_cd.data import shared_problems_dir
+    d = shared_problems_dir()
+    if d is None or not (d / SHARED_BASES[1]).is_file():
+        pytest.skip("shared problems not available")
+    base = socp_cd.read_problem(d / SHARED_BASES[1])
+    up = build("Wq*1e8", source=SHARED_BASES[1])
+    assert np.allclose(up.q, 1e8 * base.q) and np.allclose(up.W.toarray(), 1e8 * base.W.toarray())
+    dup = build("duplicated", source=SHARED_BASES[1])
+    assert dup.n_contacts == base.n_contacts + len(range(0, base.n_contacts, 3))
+    refs = extreme_problems(size=6, large=0, dims=(2,), cases=["mu=0"], shared=SHARED_BASES[1:])
+    assert [r.name.split(" ")[0] for r in refs[:7]] == ["default", *COPIES]
+    with pytest.raises(ValueError, match="not a copy"):
+        build("mu=10", source=SHARED_BASES[1])

@@ -7,8 +7,11 @@ many redundant contacts (rank-deficient ``W``); badly scaled data (entries of
 ``W`` spanning ``1e-6 .. 1e6``, ``q`` scaled by ``1e4``); grazing contacts
 (``r = 0`` and ``û = 0`` at once); zero contacts (must be rejected at
 construction with :class:`~socp_cd.InvalidProblemError`); and a large
-problem (``10^4`` contacts).  For every solver the suite records an honest
-status, the achieved error, and whether anything non-finite came out.
+problem (``10^4`` contacts); and copies of the default problem in other
+units (``q`` and ``W, q`` times ``1e±8``), with contacts renumbered or
+duplicated, which must get the same answer.  For every solver the suite
+records an honest status, the achieved error, and whether anything
+non-finite came out.
 """
 from __future__ import annotations
 
@@ -17,14 +20,30 @@ import math
 from pathlib import Path
 
 
+from ..errors import UnsupportedError
 from .campaign import run_campaign
 from .problem_refs import ProblemRef
 from .tasks import default_solvers
-from .extreme_cases import CASES, build
+from .extreme_cases import CASES, COPIES, SHARED_BASES, build
 
-def extreme_problems(size: int = 50, large: int = 10_000, dims=(3,), cases=None, seed: int = 0):
-    """Problem refs of the suite (``large`` sets the size of the ``"large"`` case; 0 drops it)."""
+def extreme_problems(size: int = 50, large: int = 10_000, dims=(3,), cases=None, seed: int = 0,
+                     shared=()):
+    """Problem refs of the suite (``large`` sets the size of the ``"large"`` case; 0 drops it).
+
+    ``shared``: shared problem file names whose ``default`` and :data:`COPIES` are added
+    (named ``"<case> (<file stem>, <contacts>)"``); files not found are left out.
+    """
     out = []
+    for source in shared:
+        try:
+            n = build("default", source=source).n_contacts
+        except UnsupportedError:
+            continue
+        stem = source.rsplit(".", 1)[0]
+        for case in ("default",) + COPIES:
+            kw = dict(case=case, n_contacts=0, dim=0, seed=seed, source=source)
+            out.append(ProblemRef(f"{case} ({stem}, {n})", "extremes",
+                                  generator=json.dumps(kw, sort_keys=True), builder="extremes"))
     for case in (cases or CASES):
         if case == "large" and not large:
             continue
@@ -38,7 +57,8 @@ def extreme_problems(size: int = 50, large: int = 10_000, dims=(3,), cases=None,
 
 def run_extremes(solvers=None, tol: float = 1e-6, time_limit: float = 20.0, *, size: int = 50,
                  large: int = 10_000, large_time_limit: float = 60.0, dims=(3,), cases=None,
-                 csv_path=None, md_path=None, dask=None, verbose=False) -> list[dict]:
+                 shared=SHARED_BASES, csv_path=None, md_path=None, dask=None,
+                 verbose=False) -> list[dict]:
     """Run the extremes suite for every solver and optionally write the tables.
 
     Parameters
@@ -54,6 +74,9 @@ def run_extremes(solvers=None, tol: float = 1e-6, time_limit: float = 20.0, *, s
     dims : tuple
     cases : list of str, optional
         Subset of :data:`CASES`.
+    shared : sequence of str
+        Shared problems (file names) whose ``default`` and :data:`COPIES` also run
+        (default :data:`SHARED_BASES`, the problems of issue 14; () for none).
     csv_path, md_path : path, optional
         Where to append the records and write the Markdown table (built from
         the whole CSV table, so runs for other dims/solvers accumulate).
@@ -66,7 +89,7 @@ def run_extremes(solvers=None, tol: float = 1e-6, time_limit: float = 20.0, *, s
         One record per (case, solver).
     """
     solvers = solvers or default_solvers()
-    probs = extreme_problems(size, large, dims, cases)
+    probs = extreme_problems(size, large, dims, cases, shared=shared)
     small = [p for p in probs if not p.name.startswith("large")]
     big = [p for p in probs if p.name.startswith("large")]
     common = dict(solvers=solvers, tolerances=[tol], suite="extremes", csv_path=csv_path, dask=dask,
@@ -106,6 +129,40 @@ def _cell(rec: dict) -> str:
     return f"{mark} {e}{flags}"
 
 
+def _copies_summary(records, solvers) -> list[str]:
+    """Per solver: on how many copies of ``default`` the outcome (status) is the default's."""
+    by = {(r["problem"].split(" ")[0], r["problem"].split(" ")[1], r["solver"]): r for r in records}
+    dims = sorted({r["problem"].split(" ")[1] for r in records if r["problem"].startswith("default ")})
+    if not dims:
+        return []
+    out = ["", "## Copies of `default` (same problem in other units, renumbered, duplicated contacts)", "",
+           "Per solver: copies (× bases: generated 2D/3D and shared problems) whose outcome equals "
+           "the `default` row's; the copies that differ; the largest velocity error "
+           "`||u - u*|| / ||u*||` against the exact `u*` over the copies marked `ok` "
+           "(generated bases only: the shared problems have no exact solution).",
+           "", "| solver | same outcome | differing copies | max u error of `ok` copies |",
+           "|---|---:|---|---:|"]
+    for s in solvers:
+        same, total, diff, uerr = 0, 0, [], []
+        for d in dims:
+            base = by.get(("default", d, s))
+            for c in COPIES:
+                r = by.get((c, d, s))
+                if base is None or r is None or base["status"] in ("unsupported", "rejected"):
+                    continue
+                total += 1
+                if r["status"] == base["status"]:
+                    same += 1
+                else:
+                    diff.append(f"{c} {d.strip('(,')}: {r['status']}")
+                if r["success"] and math.isfinite(r["u_error"]):
+                    uerr.append(r["u_error"])
+        if total:
+            worst = f"{max(uerr):.1e}" if uerr else "—"
+            out.append(f"| {s} | {same}/{total} | {'; '.join(diff)} | {worst} |")
+    return out
+
+
 def extremes_markdown(records) -> str:
     """Markdown: case × solver matrix of outcome and achieved error, then the details."""
     cases = list(dict.fromkeys(r["problem"] for r in records))
@@ -123,6 +180,7 @@ def extremes_markdown(records) -> str:
              "| case | " + " | ".join(solvers) + " |", "|---|" + "---|" * len(solvers)]
     for c in cases:
         lines.append(f"| {c} | " + " | ".join(_cell(cell[(c, s)]) if (c, s) in cell else "" for s in solvers) + " |")
+    lines += _copies_summary(records, solvers)
     lines += ["", "## Cases", ""]
     for name, (desc, _) in CASES.items():
         lines.append(f"- **{name}**: {desc}")
@@ -134,4 +192,4 @@ def extremes_markdown(records) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["CASES", "build", "extreme_problems", "run_extremes", "extremes_markdown", "honest"]
+__all__ = ["CASES", "COPIES", "SHARED_BASES", "build", "extreme_problems", "run_extremes", "extremes_markdown", "honest"]

@@ -6,7 +6,11 @@ inner_settings, **options) -> SolverResult`` fills ``r`` (and ``v``,
 ``iterations``, ``history``, ``info``, a provisional ``status``); :func:`solve`
 checks every argument first (:mod:`socp_cd.solvers.options`), times the call,
 recomputes ``u`` and the law's residual independently, and decides
-``converged`` — a solver never does.  Built-in solvers come from the explicit
+``converged`` — a solver never does.  Every backend receives the local
+problem in balanced units (:mod:`socp_cd.solvers.scaling`) and its ``r`` is
+mapped back, so the answer does not depend on the units the problem was
+written in; ``converged`` requires Siconos' error ``<= tol`` *and* the same
+measure in balanced units (:func:`socp_cd.residuals.guard`) ``<= tol``.  Built-in solvers come from the explicit
 table :mod:`socp_cd.solvers.table`; :func:`register` / :func:`unregister` add
 and remove others (tests, plug-ins).
 """
@@ -18,9 +22,11 @@ import numpy as np
 
 from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, check_threshold, law_parameters
+from ..residuals import guard
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
 from .options import COMMON_OPTIONS, check_common, check_unknown
 from .result import STATUSES, SolverResult
+from .scaling import balance
 from .spec import SolverSpec
 
 FORMULATIONS = ("coulomb", "associated", "tresca", "frictionless", "faceted")
@@ -86,16 +92,27 @@ def law_residual(problem, formulation, r, u=None, **params) -> float:
     return LAW_RESIDUALS[formulation](problem, r, u, **law_parameters(formulation, params))
 
 
-def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) -> SolverResult:
-    """Recompute u and residuals and set honest ``converged``/``status``."""
+def _finalize(problem, res: SolverResult, formulation: str, tol: float, params,
+              scales=None) -> SolverResult:
+    """Recompute u and residuals and set honest ``converged``/``status``.
+
+    ``converged`` needs the law's residual ``<= tol`` and the units guard
+    (:func:`socp_cd.residuals.guard`, reported in ``info["guard"]``) ``<= tol``;
+    ``trivial`` records whether ``r = 0`` already meets ``tol``.  ``scales``: the
+    problem's :func:`~socp_cd.residuals.contact_scales` when already known.
+    """
     r = np.asarray(res.r, dtype=np.float64).reshape(-1)
     res.tol = tol
+    err0 = problem.trivial_error()
+    res.trivial = None if err0 is None else bool(err0 <= tol)
     if r.shape[0] != problem.m or not np.all(np.isfinite(r)):
         res.r = np.where(np.isfinite(r), r, 0.0) if r.shape[0] == problem.m else np.zeros(problem.m)
         res.u = problem.velocity(res.r)
         res.converged = False
         res.status = "numerical_error"
         res.error = res.coulomb_error = float("inf")
+        res.info["guard"] = {"error": float("inf"), "rounding": float("inf"), "value": float("inf"),
+                             "balanced_siconos": float("inf")}
         res.message = res.message or "backend returned non-finite or mis-sized impulses"
         return res
     res.r = r
@@ -114,17 +131,81 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) 
         res.status = "numerical_error"
         res.message = (res.message + "; " if res.message else "") + "non-finite residual"
     res.error = law
-    res.converged = bool(law <= tol)
+    res.info["guard"] = checked = guard(problem, r, res.u, scales, law=LAW_RESIDUALS[formulation],
+                                        **law_parameters(formulation, params))
+    res.converged = bool(law <= tol and checked["value"] <= tol)
     if res.converged:
         res.status = "converged"
-    elif res.status == "converged":
+    elif res.status == "converged" or (law <= tol and res.status != "numerical_error"):
         # the backend believed it had converged, the recomputed residual disagrees
         res.status = "stalled"
-        res.message = (res.message + "; " if res.message else "") + (
-            f"backend stopped, but recomputed residual {law:.3e} > tol {tol:.1e}")
+        why = (f"recomputed residual {law:.3e} > tol {tol:.1e}" if law > tol else
+               f"error {law:.3e} <= tol but the units guard fails: balanced-units error "
+               f"{checked['error']:.3e}, rounding floor of u {checked['rounding']:.1e} "
+               f"(tol {tol:.1e})")
+        res.message = (res.message + "; " if res.message else "") + "backend stopped, but " + why
     if res.status not in STATUSES:
         raise AssertionError(f"backend produced unknown status {res.status!r}")
     return res
+
+
+def _run_backend(spec, target, scaling, formulation, tol, r0, time_limit, *, max_iter, history,
+                 verbose, inner_settings, options) -> SolverResult:
+    """Apply the scaling, run the backend, map ``r`` back (``scaling`` None: as is).
+
+    ``r0`` and a Tresca ``threshold`` are given in the caller's units.
+    """
+    if scaling is None:
+        return spec.func(target, formulation, tol=tol, max_iter=max_iter, r0=r0, history=history,
+                         time_limit=time_limit, verbose=verbose, inner_settings=inner_settings,
+                         **options)
+    scaled_options = dict(options)
+    if formulation == "tresca":
+        scaled_options["threshold"] = scaling.threshold_to_scaled(options["threshold"])
+    res = spec.func(scaling.problem(target), formulation, tol=tol, max_iter=max_iter,
+                    r0=scaling.reaction_to_scaled(r0), history=history, time_limit=time_limit,
+                    verbose=verbose, inner_settings=inner_settings, **scaled_options)
+    res.r = scaling.reaction_from_scaled(res.r)
+    res.info["scaling"] = scaling.describe()
+    return res
+
+
+def _retry(first, problem, spec, target, scaling, scales, formulation, tol, options, time_limit,
+           t0, run) -> SolverResult:
+    """One more backend run when it claimed convergence and the recomputed checks disagree.
+
+    The backend met ``tol`` by its own test (in the balanced units it saw), not by
+    the dispatcher's.  The tolerance is tightened by the gap between its measure
+    (``guard["balanced_siconos"]``) and ours (errors near a solution are
+    proportional), the run warm-started from its ``r`` unless that ``r`` is too
+    large for ``u = W r + q`` to mean anything (then from ``r = 0``).  The retry is
+    kept when it converged; otherwise the first answer (the backend's at the
+    requested ``tol``) stays.  Either way ``iterations`` counts both runs
+    and ``info["retry"]`` records them.
+    """
+    checked = first.info["guard"]
+    # the backend measures the balanced residual with Siconos' normalization; ask it for
+    # that measure scaled down by how far ours exceed it
+    worst = max(first.error, checked["value"])
+    measured = min(checked.get("balanced_siconos", tol), tol)
+    tighter = max(0.5 * tol * measured / worst, 1e-3 * tol) if worst > 0 else tol
+    start = first.r if checked["rounding"] <= tol else np.zeros(problem.m)
+    left = None if time_limit is None else time_limit - (_time.perf_counter() - t0)
+    if left is not None and left <= 0:
+        return first
+    res = _run_backend(spec, target, scaling, formulation, tighter, start, left, **run)
+    res.solver, res.formulation = first.solver, first.formulation
+    res = _finalize(problem, res, formulation, tol, options, scales)
+    record = {"tol": tighter, "first_error": first.error, "first_guard": checked["value"],
+              "first_iterations": first.iterations, "retry_error": res.error,
+              "retry_iterations": res.iterations}
+    if res.converged:
+        res.iterations += first.iterations
+        res.info["retry"] = dict(record, kept="retry")
+        return res
+    first.info["retry"] = dict(record, kept="first")
+    first.iterations += res.iterations
+    return first
 
 
 def _check_problem(problem):
@@ -174,7 +255,8 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
     r0 : array_like, optional
         Initial guess (warm start) for solvers that use one.
     history : bool
-        Record the error per iteration when the solver supports it.
+        Record the error per iteration when the solver supports it (measured
+        by the backend on the balanced problem it was given, see Notes).
     crosscheck : str, optional
         Name of a reference solver (``"nsgs"``) run on the same problem; the
         relative discrepancy in ``u`` is stored in ``result.info["crosscheck"]``
@@ -191,6 +273,21 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
     Returns
     -------
     SolverResult
+
+    Notes
+    -----
+    Units: the backend solves the local problem in balanced units
+    (:mod:`socp_cd.solvers.scaling`; a global problem solved natively is
+    passed as is) and ``r`` is mapped back, so the same problem written in
+    other units (``q`` or ``W, q`` times any factor, contacts rescaled one
+    by one) gets the same answer.  ``converged`` needs Siconos' error
+    ``<= tol`` and the units guard ``info["guard"]["value"] <= tol``
+    (:func:`socp_cd.residuals.guard`: the law's residual in balanced units
+    relative to the velocity scale, and ``u`` computable to ``tol`` from
+    ``r``).  When the backend claims convergence and ``solve`` refuses it,
+    the backend is run once more with a tolerance tightened by the gap; the
+    retry is kept only if it converges (``info["retry"]``).
+    ``result.trivial`` says whether ``r = 0`` already met ``tol``.
 
     Raises
     ------
@@ -230,14 +327,20 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
     if problem.is_global and formulation not in spec.global_native:
         target = problem.to_local()
     t0 = _time.perf_counter()
-    res = spec.func(target, formulation, tol=tol, max_iter=max_iter, r0=r0, history=history,
-                    time_limit=time_limit, verbose=verbose, inner_settings=inner_settings,
-                    **options)
-    res.time = _time.perf_counter() - t0
+    scaling = None if target.is_global else balance(target)
+    run = dict(max_iter=max_iter, history=history, verbose=verbose,
+               inner_settings=inner_settings, options=options)
+    res = _run_backend(spec, target, scaling, formulation, tol, r0, time_limit, **run)
+    claimed = res.status
     res.solver, res.formulation = name, formulation
+    scales = None if scaling is None or target is not problem else (scaling.a, scaling.b)
+    res = _finalize(problem, res, formulation, tol, options, scales)
+    if claimed == "converged" and not res.converged and np.isfinite(res.error):
+        res = _retry(res, problem, spec, target, scaling, scales, formulation, tol, options,
+                     time_limit, t0, run)
+    res.time = _time.perf_counter() - t0
     if target is not problem:
         res.info["condensed_to_local"] = True
-    res = _finalize(problem, res, formulation, tol, options)
     if crosscheck is not None:
         ref = solve(problem, solver=crosscheck, formulation=formulation, tol=tol,
                     **law_parameters(formulation, options))

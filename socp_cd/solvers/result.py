@@ -42,7 +42,16 @@ class SolverResult:
         Error per iteration when requested with ``history=True``.
     info : dict
         Backend-specific statistics (inner iterations, backend status string,
-        cross-check discrepancy, ...).
+        cross-check discrepancy, ...), and from :func:`socp_cd.solve`:
+        ``info["guard"]`` (the units guard, :func:`socp_cd.residuals.guard`:
+        Siconos' measure in balanced units, its feasibility and
+        complementarity parts, the rounding floor of ``u``; ``converged``
+        needs its ``"value" <= tol``) and
+        ``info["scaling"]`` (the balancing applied before the backend ran).
+    trivial : bool or None
+        True when ``r = 0`` already meets ``tol`` (``problem.trivial_error()
+        <= tol``, e.g. ``||q||`` about 1e-18): such a "convergence" is no win
+        for a study.  None when it could not be computed.
     message : str
         Human-readable explanation of the status.
     """
@@ -62,6 +71,7 @@ class SolverResult:
     history: Optional[list] = None
     info: dict = field(default_factory=dict)
     message: str = ""
+    trivial: Optional[bool] = None
 
     def __repr__(self) -> str:
         return (f"SolverResult(solver={self.solver!r}, formulation={self.formulation!r}, "
@@ -80,4 +90,6 @@ class SolverResult:
             "iterations": self.iterations,
             "time": self.time,
             "tol": self.tol,
+            "guard": self.info.get("guard", {}).get("value", float("nan")),
+            f"trivial@{self.tol:g}": self.trivial,
         }
