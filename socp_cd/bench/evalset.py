@@ -39,6 +39,7 @@ import numpy as np
 
 from ..errors import InvalidProblemError
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem, Solution
+from . import transforms
 from .generators import STATES, coulomb_pairs
 
 #: Friction coefficients of the manufactured family.
@@ -172,6 +173,7 @@ def manufacture(problem, mu: float, mix, seed: int):
 def rescaled(problem, factor: float, what: str):
     """``q × factor`` (``what="q"``) or ``(W, q) × factor`` (``what="Wq"``), solution mapped.
 
+    Local problems go through :func:`socp_cd.bench.transforms.rescaled`.
     Global problems scale ``(f, w)`` (``what="q"``) or ``(M⁻¹, w)`` through
     ``M / factor, f / factor`` (``what="Wq"``), which scales ``W`` and ``q``
     alike.
@@ -179,10 +181,10 @@ def rescaled(problem, factor: float, what: str):
     if what not in ("q", "Wq"):
         raise InvalidProblemError("what", f"must be 'q' or 'Wq', got {what!r}")
     lam = float(factor)
-    sol = problem.solution
-    r_s = None if sol is None or sol.r is None else sol.r * (lam if what == "q" else 1.0)
-    u_s = None if sol is None or sol.u is None else sol.u * lam
     if problem.is_global:
+        sol = problem.solution
+        r_s = None if sol is None or sol.r is None else sol.r * (lam if what == "q" else 1.0)
+        u_s = None if sol is None or sol.u is None else sol.u * lam
         if what == "q":
             M, f, w = problem.M, problem.f * lam, problem.w * lam
         else:
@@ -191,10 +193,8 @@ def rescaled(problem, factor: float, what: str):
         return GlobalFrictionContactProblem(M, problem.H, f, w, problem.mu, problem.dim,
                                             info=f"{problem.info}; {what} x {lam:g}",
                                             solution=Solution(r=r_s, u=u_s, v=v_s))
-    W = problem.W if what == "q" else problem.W * lam
-    return FrictionContactProblem(W, problem.q * lam, problem.mu, problem.dim,
-                                  info=f"{problem.info}; {what} x {lam:g}",
-                                  solution=Solution(r=r_s, u=u_s))
+    copy, _ = transforms.rescaled(problem, alpha=lam if what == "Wq" else 1.0, beta=lam)
+    return copy
 
 
 # ----------------------------------------------------------------- the set
