@@ -24,7 +24,6 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..problem import FrictionContactProblem, Solution
-from ..residuals import contact_scales
 
 
 @dataclass(frozen=True)
@@ -42,7 +41,7 @@ class Scaling:
         rows = np.repeat(np.arange(problem.m), np.diff(Wc.indptr))
         W = sp.csr_matrix((Wc.data * (s[rows] * s[Wc.indices]), Wc.indices, Wc.indptr),
                           shape=Wc.shape)                # S W S, same sparsity, one copy
-        return FrictionContactProblem(
+        return FrictionContactProblem.from_checked(   # derived from validated data
             W, problem.q / self.b, problem.mu, problem.dim, source=problem.source,
             name=problem.name, info=problem.info,
             solution=None if problem.solution is None else self._solution(problem.solution),
@@ -77,8 +76,9 @@ class Scaling:
 
 
 def balance(problem: FrictionContactProblem) -> Scaling:
-    """The :class:`Scaling` of a local problem (:func:`~socp_cd.residuals.contact_scales`)."""
-    a, b = contact_scales(problem)
+    """The :class:`Scaling` of a local problem (its cached ``balancing_scales``,
+    :func:`~socp_cd.residuals.contact_scales`)."""
+    a, b = problem.balancing_scales
     return Scaling(a, b, problem.dim)
 
 
