@@ -403,6 +403,38 @@ class FrictionContactProblem(_ProblemBase):
         self._init_meta(source, name, info, solution, guesses)
         return self
 
+    def rescaled(self, a, b) -> "FrictionContactProblem":
+        """The same problem in other units: ``r = a r~``, ``u = b u~`` (one factor per contact).
+
+        ``u~ = (S W S) r~ + q / b`` with ``S = diag(sqrt(a / b))`` (``W`` keeps its
+        sparsity; ``a / b`` must be constant over each contact's components
+        and positive, as :func:`socp_cd.residuals.contact_scales` gives);
+        stored solutions and guesses are converted (``v`` is dropped: not a
+        local quantity).  Built with :meth:`from_checked` (no validation).
+        """
+        s = np.sqrt(a / b)                              # s_i = 1/sqrt(d_i) for the balancing scales
+        Wc = self.W
+        rows = np.repeat(np.arange(self.m), np.diff(Wc.indptr))
+        W = sp.csr_matrix((Wc.data * (s[rows] * s[Wc.indices]), Wc.indices, Wc.indptr),
+                          shape=Wc.shape)                # S W S, same sparsity, one copy
+
+        def convert(sol: Solution) -> Solution:
+            return Solution(r=None if sol.r is None else sol.r / a,
+                            u=None if sol.u is None else sol.u / b)
+
+        return FrictionContactProblem.from_checked(
+            W, self.q / b, self.mu, self.dim, source=self.source, name=self.name, info=self.info,
+            solution=None if self.solution is None else convert(self.solution),
+            guesses=[convert(g) for g in self.guesses])
+
+    @cached_property
+    def balanced(self) -> "FrictionContactProblem":
+        """:meth:`rescaled` by :attr:`balancing_scales`, built once: the problem
+        :func:`socp_cd.solve` hands its backends (its ``q`` is read-only)."""
+        out = self.rescaled(*self.balancing_scales)
+        out.q.flags.writeable = False
+        return out
+
     # ------------------------------------------------------------------ algebra
     def velocity(self, r) -> np.ndarray:
         """Local velocity ``u = W r + q``."""
