@@ -5,8 +5,10 @@ guard (:func:`socp_cd.residuals.guard`).  For the Coulomb law it does so here
 with the compiled twins of the NumPy references
 (:func:`~socp_cd.solvers.kernels.cone.error_parts` /
 :func:`~socp_cd.solvers.kernels.cone.relative_error`, held equal to
-:func:`socp_cd.residuals.error` by ``tests/test_kernels.py``) and the
-per-problem norms and unit factors cached on the problem
+:func:`socp_cd.residuals.error` by ``tests/test_core.py``) and the
+compiled twin :func:`~socp_cd.solvers.kernels.cone.coulomb_violations` of
+:func:`socp_cd.residuals.coulomb_parts`, and the per-problem norms and unit
+factors cached on the problem
 (``q_norm``, ``balancing_scales``, ``balanced_q_norm``): on a one-contact
 problem the NumPy references cost several times the solve itself.
 ``tests/test_checks.py`` holds these functions equal to the references.
@@ -17,8 +19,8 @@ import math
 
 import numpy as np
 
-from ..residuals import coulomb_parts, finite_guard, guard_values
-from .kernels.cone import LAW_COULOMB, error_parts, relative_error
+from ..residuals import finite_guard, guard_values
+from .kernels.cone import LAW_COULOMB, coulomb_violations, error_parts, relative_error
 
 
 def _parts(problem, r, u):
@@ -51,7 +53,10 @@ def coulomb_guard(problem, r, u) -> dict:
     q_norm = problem.balanced_q_norm
     out = guard_values(float(relative_error(f2, r2, u2, q_norm)), math.sqrt(r2), math.sqrt(u2),
                        q_norm)
-    out.update(coulomb_parts(rs, us, problem, out["velocity_scale"]))
+    cone, normal, gap = coulomb_violations(rs, us, problem.mu, problem.dim)
+    vel = out["velocity_scale"]
+    with np.errstate(all="ignore"):    # as coulomb_parts (the NumPy reference)
+        out.update(cone=cone / vel, normal_velocity=normal / vel, complementarity=gap / vel ** 2)
     return finite_guard(out)
 
 
