@@ -19,6 +19,8 @@ converged.  See ``formulations/coulomb.md`` §9.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .cones import (fenchel_young_gap, in_cone_violation, natural_map,
@@ -278,7 +280,7 @@ def guard_values(measured, r_norm, u_norm, q_norm) -> dict:
 
 def finite_guard(out: dict) -> dict:
     """:func:`guard`'s record as returned: non-finite entries become ``inf``, no ``velocity_scale``."""
-    return {k: (v if np.isfinite(v) else float("inf")) for k, v in out.items()
+    return {k: (v if math.isfinite(v) else float("inf")) for k, v in out.items()
             if k != "velocity_scale"}
 
 
