@@ -618,6 +618,12 @@ class GlobalFrictionContactProblem(_ProblemBase):
                                       guesses=[Solution(r=g.r, u=g.u) for g in self.guesses])
 
     @cached_property
+    def local(self) -> FrictionContactProblem:
+        """:meth:`to_local`, computed once (what :func:`socp_cd.solve` condenses to
+        for a backend that does not solve the global form natively)."""
+        return self.to_local()
+
+    @cached_property
     def rank_report(self) -> RankReport:
         """Numerical and structural rank of ``H`` (see :func:`numerical_rank`)."""
         return numerical_rank(self.H)

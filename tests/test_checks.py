@@ -6,7 +6,7 @@ import pytest
 
 import socp_cd
 from socp_cd import residuals
-from socp_cd.problem import FrictionContactProblem, Solution
+from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem, Solution
 from socp_cd.solvers import checks
 from socp_cd.solvers.kernels import cone as kc
 
@@ -78,3 +78,15 @@ def test_rescaled_equals_the_validated_construction():
     # a solution of the balanced problem maps back to one of the original
     res = socp_cd.solve(fast, "nsgs", tol=1e-12, max_iter=1000)
     assert residuals.error(p, a * res.r) < 1e-9
+
+
+def test_global_problem_condensed_once():
+    rng = np.random.default_rng(5)
+    n, m = 12, 9
+    A = rng.standard_normal((n, n))
+    p = GlobalFrictionContactProblem(A @ A.T + n * np.eye(n), rng.standard_normal((n, m)),
+                                     rng.standard_normal(n), rng.standard_normal(m), 0.3, 3)
+    assert p.local is p.local
+    ref = p.to_local()
+    assert np.array_equal(p.local.W.toarray(), ref.W.toarray())
+    assert np.array_equal(p.local.q, ref.q)

@@ -333,7 +333,7 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
         options["threshold"] = check_threshold(problem, options.get("threshold"))
     target = problem
     if problem.is_global and formulation not in spec.global_native:
-        target = problem.to_local()
+        target = problem.local        # condensed once per problem
     t0 = _time.perf_counter()
     scaling = None if target.is_global else balance(target)
     run = dict(max_iter=max_iter, history=history, verbose=verbose,
