@@ -330,3 +330,28 @@ def test_from_frame_mapping_with_impulses():
     with pytest.raises(InvalidProblemError):
         from_frame({"positions": [[0.0, R]], "pairs": [[0, -1]], "points": [[0.0, 0.0]],
                     "impulses": [[0.0, 1.0]]}, masses=[M], volumes=[1.0])
+
+
+def test_trajectory_gravity_is_read_from_its_metadata(tmp_path):
+    """Regression (issue 11): gravity (0, -3.7) recorded in the file, not the default -9.81."""
+    from socp_cd.dynamics import Disk, Line, Scene, Simulation
+    from socp_cd.granular import from_hdf5, from_simulation
+    g = np.array([0.0, -3.7])
+    disks = [Disk(radius=0.3, position=(0.3 + 0.6 * k, 0.3), mu=0.3) for k in range(3)]
+    scene = Scene(bodies=disks, obstacles=[Line((0, 0), (0, 1))], gravity=tuple(g), mu=0.3)
+    sim = Simulation(scene, h=5e-3, tol=1e-10, max_iter=500)
+    for _ in range(20):
+        sim.step()
+    v_before = sim.sys.vel.copy()
+    sim.run(1, record_every=1, progress=False, path=tmp_path / "mars.h5")
+    disk = from_hdf5(tmp_path / "mars.h5")
+    live = from_simulation(sim, prev_vel=v_before)
+    np.testing.assert_allclose(disk.gravity, g)
+    np.testing.assert_allclose(disk.body_forces(), live.body_forces(), atol=1e-12)
+    # the floor carries m g with g = 3.7: each grain balanced, stress = the live one
+    assert np.abs(disk.resultants()).max() < 1e-9 * np.abs(disk.forces).max()
+    np.testing.assert_allclose(disk.forces[:, 1].sum(), 3.7 * disk.masses.sum(), rtol=1e-6)
+    np.testing.assert_allclose(moreau_stress(disk, 1.8 * 0.6), moreau_stress(live, 1.8 * 0.6),
+                               atol=1e-12)
+    with pytest.raises(InvalidProblemError):
+        from_hdf5(tmp_path / "mars.h5", gravity=[0.0, -3.7, 0.0])

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 from pathlib import Path
 
@@ -29,53 +30,161 @@ import numpy as np
 
 from socp_cd.granular import coordination_number, cut_traction, from_simulation, stress_report
 from socp_cd.granular.plot import draw_force_network, draw_grains
-from socp_cd.granular.samples import pour_talus, relax, talus_bed
+from socp_cd.granular.samples import TalusGrains, feed_batch, talus_bed, talus_simulation
+from tqdm.auto import tqdm
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
-BED_LENGTH = 60.0
 
 
-def run(n, slope, seed, h, max_steps, batch=8, steps_per_batch=150, tol=1e-6):
-    tal = talus_bed(slope_deg=slope, length=BED_LENGTH, mu=0.3)
-    t0 = time.perf_counter()
-    kw = dict(tol=tol, solver="nsgs", max_iter=3000)
+STATES = RESULTS / "states"          # heavy checkpoints and states: git-ignored
 
-    def fed(s, k):
-        if k % (5 * batch) == 0 or k == n:
-            st = s.stats[-1]
-            print(f"  poured {k}: t={s.t:.2f} contacts={st.n_active} it={st.iterations} "
-                  f"wall={time.perf_counter() - t0:.0f}s", flush=True)
 
-    sim = pour_talus(tal, n, batch=batch, steps_per_batch=steps_per_batch, h=h, seed=seed,
-                     sim_kwargs=kw, callback=fed)
-    pour_steps = int(np.ceil(n / batch)) * steps_per_batch
+def _save_checkpoint(path, grains, meta, rng):
+    """Write the pour/settle state atomically to HDF5 (grains, counters, RNG state)."""
+    import h5py
+    tmp = Path(str(path) + ".tmp")
+    with h5py.File(tmp, "w") as f:
+        for k in ("local", "nv", "pos", "angle", "vel", "mass", "inertia"):
+            f[k] = getattr(grains, k)
+        f.attrs["meta"] = json.dumps(meta)
+        f.attrs["rng"] = json.dumps(rng.bit_generator.state)
+    os.replace(tmp, path)
 
-    def progress(s, k):
-        if (k + 1) % 500 == 0:
-            v = np.linalg.norm(s.sys.vel[:, :2], axis=1)
-            st = s.stats[-1]
-            print(f"  settle step {k + 1}: contacts={st.n_active} it={st.iterations} "
-                  f"vmax={v.max():.3g} wall={time.perf_counter() - t0:.0f}s", flush=True)
 
-    # grains rolling away beyond the toe of the heap are not waited for
+def _load_checkpoint(path):
+    import h5py
+    with h5py.File(path, "r") as f:
+        grains = TalusGrains(*(np.asarray(f[k]) for k in ("local", "nv", "pos", "angle", "vel",
+                                                          "mass", "inertia")))
+        meta = json.loads(f.attrs["meta"])
+        rng = np.random.default_rng()
+        rng.bit_generator.state = json.loads(f.attrs["rng"])
+    return grains, meta, rng
+
+
+def _prune(tal, grains, d, bed_length):
+    """Drop grains that left the bed (beyond its end or fallen below it)."""
+    x, y = grains.pos[:, 0], grains.pos[:, 1]
+    keep = (x < bed_length - d) & (y > tal.bed_y(x) - 2 * d)
+    return grains.take(keep), int((~keep).sum())
+
+
+def run(n, slope, seed, h, *, batch=30, steps_per_batch=150, feed_width=8.0, bed_length=120.0,
+        settle_max=8000, v_tol=2e-3, tol=1e-4, max_iter=300, settle_iter=600, final_steps=5,
+        final_tol=1e-6, final_iter=20000, budget_s=np.inf, checkpoint=None, resume=False):
+    """Pour, settle and finish the talus; resumable from ``checkpoint`` (HDF5).
+
+    Phases: ``pour`` (batches of ``batch`` grains every ``steps_per_batch``
+    steps until ``n`` grains are on the bed), ``settle`` (until the heap's
+    grains move slower than ``v_tol``, ``settle_max`` steps or the wall-time
+    ``budget_s``), ``final`` (``final_steps`` steps at ``final_tol``: the
+    state analysed is the last of them, with its inertia forces).
+    """
+    tal = talus_bed(slope_deg=slope, length=bed_length, mu=0.3)
     d = 1.0
-    steps, prev, vmax = relax(sim, max_steps, v_tol=2e-3, min_steps=200, check_every=20,
-                              bodies=lambda s: heap_grains(s.sys.pos[:, 0], d),
-                              callback=progress)
+    if resume and checkpoint is not None and Path(checkpoint).exists():
+        grains, meta, rng = _load_checkpoint(checkpoint)
+        print(f"resumed {checkpoint}: phase {meta['phase']}, {grains.n} grains", flush=True)
+    else:
+        grains, rng = TalusGrains.empty(), np.random.default_rng(seed)
+        meta = dict(n=n, slope=slope, h=h, batch=batch, steps_per_batch=steps_per_batch,
+                    feed_width=feed_width, bed_length=bed_length, tol=tol, max_iter=max_iter,
+                    phase="pour", fed=0, lost=0, steps_pour=0, steps_settle=0, wall_pour=0.0,
+                    wall_settle=0.0, unconverged_pour=0, unconverged_settle=0, sim_time=0.0)
+    t_start = time.perf_counter()
+    kw = dict(tol=tol, solver="nsgs", max_iter=max_iter)
+
+    def save():
+        if checkpoint is not None:
+            _save_checkpoint(checkpoint, grains, meta, rng)
+
+    if meta["phase"] == "pour":
+        bar = tqdm(total=n, initial=grains.n, desc="talus pour", unit="grain", mininterval=10)
+        while grains.n < n:
+            t0 = time.perf_counter()
+            grains, lost = _prune(tal, grains, d, bed_length)
+            k = min(batch, n - grains.n)
+            grains = feed_batch(tal, grains, k, rng, feed_width=feed_width)
+            sim = talus_simulation(tal, grains, h, kw)
+            for _ in range(steps_per_batch):
+                st = sim.step()
+                meta["unconverged_pour"] += int(not st.converged)
+            grains = TalusGrains.from_simulation(sim)
+            meta["fed"] += k
+            meta["lost"] += lost
+            meta["steps_pour"] += steps_per_batch
+            meta["sim_time"] += steps_per_batch * h
+            meta["wall_pour"] += time.perf_counter() - t0
+            bar.update(grains.n - bar.n)
+            bar.set_postfix(contacts=st.n_active, it=st.iterations,
+                            ms_step=f"{1e3 * meta['wall_pour'] / meta['steps_pour']:.0f}")
+            save()
+        bar.close()
+        meta["phase"] = "settle"
+        save()
+    grains, lost = _prune(tal, grains, d, bed_length)
+    meta["lost"] += lost
+    tal.n_grains = grains.n
+    sim = talus_simulation(tal, grains, h, dict(kw, max_iter=settle_iter))
+    if meta["phase"] == "settle":
+        bar = tqdm(total=settle_max, initial=meta["steps_settle"], desc="talus settle",
+                   mininterval=10)
+        vmax = np.inf
+        t0 = time.perf_counter()
+        k0 = meta["steps_settle"]
+        while meta["steps_settle"] < settle_max:
+            st = sim.step()
+            meta["steps_settle"] += 1
+            meta["unconverged_settle"] += int(not st.converged)
+            meta["sim_time"] += h
+            if meta["steps_settle"] % 50 == 0:
+                x, y = sim.sys.pos[:, 0], sim.sys.pos[:, 1]
+                on = np.flatnonzero((x < bed_length) & (y > tal.bed_y(x) - d))
+                heap = on[heap_grains(x[on], d)]
+                vmax = float(np.linalg.norm(sim.sys.vel[heap, :2], axis=1).max())
+                bar.update(meta["steps_settle"] - bar.n)
+                bar.set_postfix(vmax=f"{vmax:.2e}", contacts=st.n_active, it=st.iterations)
+                if meta["steps_settle"] % 500 == 0:
+                    meta["wall_settle"] += time.perf_counter() - t0
+                    t0 = time.perf_counter()
+                    grains = TalusGrains.from_simulation(sim)
+                    save()
+                if vmax < v_tol or time.perf_counter() - t_start > budget_s:
+                    break
+        bar.close()
+        meta["wall_settle"] += time.perf_counter() - t0
+        meta["settle_vmax"] = vmax
+        meta["settle_reached_v_tol"] = bool(vmax < v_tol)
+        meta["settled_steps_run_here"] = meta["steps_settle"] - k0
+        meta["phase"] = "final"
+        grains = TalusGrains.from_simulation(sim)
+        save()
+    # final steps at tight tolerance; the analysed state is the last one, inertia included
+    sim.tol, sim.max_iter = final_tol, final_iter
+    t0 = time.perf_counter()
+    final = []
+    for _ in range(final_steps):
+        prev = sim.sys.vel.copy()
+        st = sim.step()
+        final.append(dict(converged=bool(st.converged), error=float(st.error),
+                          iterations=int(st.iterations), contacts=int(st.n_active)))
+    meta["wall_final"] = time.perf_counter() - t0
+    meta["final_steps"] = final
+    meta["final_tol"] = final_tol
     state = from_simulation(sim, prev_vel=prev)
     speed = np.linalg.norm(sim.sys.vel[:, :2], axis=1)
     heap = heap_grains(sim.sys.pos[:, 0], d)
-    info = dict(speed_p99=float(np.percentile(speed[heap], 99)),
-                n_moving=int(np.sum(speed[heap] > 2e-3)), x_fastest=float(sim.sys.pos[heap[
-                    np.argmax(speed[heap])], 0]), last_iterations=int(sim.stats[-1].iterations))
-    # each rebuilt Simulation restarts at t = 0: sim.t = last batch + settling
-    info.update(steps=pour_steps + steps, settle_steps=steps,
-                sim_time=(pour_steps - steps_per_batch) * h + sim.t,
-                wall_time=time.perf_counter() - t0, max_speed=vmax,
-                n_contacts=int(state.n_contacts),
-                unconverged_steps_settling=int(sum(not s.converged for s in sim.stats)))
-    return state, tal, sim, info
+    meta.update(max_speed=float(speed[heap].max()), speed_p99=float(np.percentile(speed[heap], 99)),
+                n_moving=int(np.sum(speed[heap] > v_tol)), n_contacts=int(state.n_contacts),
+                steps=meta["steps_pour"] + meta["steps_settle"] + final_steps,
+                wall_time=meta["wall_pour"] + meta["wall_settle"] + meta["wall_final"],
+                n_grains=grains.n)
+    meta["ms_per_step_pour"] = 1e3 * meta["wall_pour"] / max(meta["steps_pour"], 1)
+    meta["ms_per_step_settle"] = 1e3 * meta["wall_settle"] / max(meta["steps_settle"], 1)
+    meta["phase"] = "done"
+    save()
+    return state, tal, sim, meta
 
 
 def save_state(path, state, info, n, slope):
@@ -236,27 +345,41 @@ def figure(state, tal, rows, fit, res, path):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=200)
+    ap.add_argument("--n", type=int, default=2000)
     ap.add_argument("--slope", type=float, default=10.0)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--h", type=float, default=4e-3)
-    ap.add_argument("--max-steps", type=int, default=5000, help="settling steps")
-    ap.add_argument("--quick", action="store_true", help="48 grains (smoke run)")
+    ap.add_argument("--bed-length", type=float, default=120.0)
+    ap.add_argument("--batch", type=int, default=30)
+    ap.add_argument("--steps-per-batch", type=int, default=150)
+    ap.add_argument("--settle-max", type=int, default=8000, help="settling steps (at most)")
+    ap.add_argument("--budget-min", type=float, default=np.inf,
+                    help="stop settling after this many minutes of wall time (this invocation)")
+    ap.add_argument("--tag", default=None, help="run name (default talus<n>_s<slope>)")
+    ap.add_argument("--resume", action="store_true", help="continue from the run's checkpoint")
+    ap.add_argument("--quick", action="store_true", help="60 grains on a short bed (smoke run)")
     ap.add_argument("--reanalyse", action="store_true",
-                    help="reuse validation/results/talus_state.npz instead of simulating")
+                    help="reuse the run's settled state instead of simulating")
     args = ap.parse_args(argv)
-    n = 48 if args.quick else args.n
-    npz = RESULTS / "talus_state.npz"
+    if args.quick:
+        args.n, args.bed_length, args.batch, args.steps_per_batch = 60, 30.0, 20, 100
+        args.settle_max = min(args.settle_max, 1500)
+    n = args.n
+    tag = args.tag or f"talus{n}_s{args.slope:g}" + ("_quick" if args.quick else "")
+    STATES.mkdir(parents=True, exist_ok=True)
+    npz = STATES / f"{tag}.npz"
     if args.reanalyse:
         state, info, n, slope = load_state(npz)
-        tal = talus_bed(slope_deg=slope, length=BED_LENGTH, mu=0.3)
-        tal.n_grains = n
         args.slope = slope
     else:
-        state, tal, sim, info = run(n, args.slope, args.seed, args.h, args.max_steps)
-        if not args.quick:
-            RESULTS.mkdir(parents=True, exist_ok=True)
-            save_state(npz, state, info, n, args.slope)
+        state, tal, sim, info = run(n, args.slope, args.seed, args.h, batch=args.batch,
+                                    steps_per_batch=args.steps_per_batch,
+                                    bed_length=args.bed_length, settle_max=args.settle_max,
+                                    budget_s=60 * args.budget_min,
+                                    checkpoint=STATES / f"{tag}.h5", resume=args.resume)
+        save_state(npz, state, info, info["n_grains"], args.slope)
+    tal = talus_bed(slope_deg=args.slope, length=info["bed_length"], mu=0.3)
+    tal.n_grains = n = state.n_bodies
     d = float(2 * np.mean([np.sqrt(v / np.pi) for v in state.volumes]))  # area-equivalent diameter
     res, rows, fit = measure(state, tal, d)
     res.update(info, n=n, h=args.h)

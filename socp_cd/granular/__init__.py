@@ -4,14 +4,15 @@ Moreau's average stress from the internal moment and its decomposition into
 an external-action term plus the Love–Weber tensor (:mod:`.stress`), tractions
 across cuts compared with the continuum ``σ n`` (:mod:`.cuts`), contact
 statistics (:mod:`.stats`), all on a plain :class:`GranularState`
-(:mod:`.state`) that adapters build from simulator frames
-(:func:`from_simulation`, :func:`from_trajectory`, :func:`from_hdf5`,
-:func:`from_frame`).  Scene builders for the experiments (biaxial box,
+(:mod:`.state`) built from generic frames (:func:`from_frame`) or, by
+:mod:`.adapters`, from simulator objects (:func:`from_simulation`,
+:func:`from_trajectory`, :func:`from_hdf5`).  Scene builders for the experiments (biaxial box,
 talus poured in batches) are in :mod:`.samples`, drawing helpers in
 :mod:`.plot`; both import the simulator / matplotlib lazily.
 """
 from .cuts import CutSweep, cauchy_deviation, continuum_traction, cut_sweep, cut_traction
-from .state import GranularState, from_frame, from_hdf5, from_simulation, from_trajectory
+from .adapters import from_hdf5, from_simulation, from_trajectory
+from .state import GranularState, from_frame
 from .stats import (ForceDistribution, contact_counts, coordination_number, fabric_tensor,
                     force_distribution, rattlers)
 from .stress import (StressReport, asymmetry, external_stress, internal_moment, moreau_stress,

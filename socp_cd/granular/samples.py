@@ -17,8 +17,8 @@ import numpy as np
 
 from ..errors import InvalidProblemError
 
-__all__ = ["random_convex_polygon", "BiaxialBox", "biaxial_box_scene", "Talus", "talus_bed", "pour_talus",
-           "relax"]
+__all__ = ["random_convex_polygon", "BiaxialBox", "biaxial_box_scene", "Talus", "talus_bed", "TalusGrains",
+           "talus_simulation", "feed_batch", "pour_talus", "relax"]
 
 
 def random_convex_polygon(rng, radius: float, n_min: int = 5, n_max: int = 8,
@@ -126,21 +126,106 @@ def talus_bed(slope_deg: float = 10.0, length: float = 60.0, bed_radius: float =
                  bed_radius=bed_radius, mu=mu)
 
 
-def _rebuild(sim, extra, talus, h, sim_kwargs):
-    """A new Simulation with the current bodies of ``sim`` (if any) plus ``extra``."""
+@dataclass
+class TalusGrains:
+    """The poured grains as plain arrays (what a checkpoint stores).
+
+    ``local[k, :nv[k]]`` are the vertices of grain ``k`` in its body frame
+    (padding repeats the last vertex); ``vel`` is ``(vx, vy, omega)``.
+    """
+
+    local: np.ndarray       #: (n, vmax, 2)
+    nv: np.ndarray          #: (n,)
+    pos: np.ndarray         #: (n, 2)
+    angle: np.ndarray       #: (n,)
+    vel: np.ndarray         #: (n, 3)
+    mass: np.ndarray        #: (n,)
+    inertia: np.ndarray     #: (n,)
+
+    @classmethod
+    def empty(cls, vmax: int = 8) -> "TalusGrains":
+        z = np.zeros(0)
+        return cls(np.zeros((0, vmax, 2)), np.zeros(0, np.int64), np.zeros((0, 2)), z,
+                   np.zeros((0, 3)), z, z)
+
+    @classmethod
+    def from_simulation(cls, sim) -> "TalusGrains":
+        """The polygons of a running simulation (bodies ``0..n-1``)."""
+        S = sim.sys
+        k = S.poly_of_body
+        vmax = S.poly_local.shape[1]
+        local = np.zeros((S.n_bodies, max(vmax, 8), 2))
+        local[:, :vmax] = S.poly_local[k]
+        local[:, vmax:] = S.poly_local[k][:, -1:]
+        return cls(local, S.poly_nv[k].astype(np.int64), S.pos.copy(), S.angle.copy(),
+                   S.vel.copy(), S.mass.copy(), S.inertia.copy())
+
+    @property
+    def n(self) -> int:
+        return int(self.pos.shape[0])
+
+    def take(self, keep) -> "TalusGrains":
+        """The grains selected by ``keep`` (mask or indices)."""
+        return TalusGrains(*(a[keep] for a in (self.local, self.nv, self.pos, self.angle, self.vel,
+                                                self.mass, self.inertia)))
+
+    def world(self) -> np.ndarray:
+        """World vertices ``(n, vmax, 2)``."""
+        c, s = np.cos(self.angle)[:, None], np.sin(self.angle)[:, None]
+        L = self.local
+        return np.stack([c * L[..., 0] - s * L[..., 1] + self.pos[:, 0, None],
+                         s * L[..., 0] + c * L[..., 1] + self.pos[:, 1, None]], axis=-1)
+
+
+def talus_simulation(talus: Talus, grains: TalusGrains, h: float, sim_kwargs=None):
+    """A Simulation of ``grains`` (bodies ``0..n-1``, same order) on the talus bed."""
     from ..dynamics.bodies import Polygon
     from ..dynamics.scene import Scene
     from ..dynamics.stepper import Simulation
-    bodies = []
-    if sim is not None:
-        S = sim.sys
-        for b in range(S.n_bodies):
-            k = S.poly_of_body[b]
-            bodies.append(Polygon(S.poly_local[k, :S.poly_nv[k]], position=S.pos[b], angle=S.angle[b],
-                                  velocity=S.vel[b, :2], omega=S.vel[b, 2], mass=S.mass[b],
-                                  inertia=S.inertia[b], mu=talus.mu))
-    scene = Scene(bodies=bodies + extra, obstacles=talus.obstacles, mu=talus.mu, restitution=0.0)
-    return Simulation(scene, h=h, **sim_kwargs)
+    bodies = [Polygon(grains.local[b, :grains.nv[b]], position=grains.pos[b], angle=grains.angle[b],
+                      velocity=grains.vel[b, :2], omega=grains.vel[b, 2], mass=grains.mass[b],
+                      inertia=grains.inertia[b], mu=talus.mu) for b in range(grains.n)]
+    scene = Scene(bodies=bodies, obstacles=talus.obstacles, mu=talus.mu, restitution=0.0)
+    return Simulation(scene, h=h, **dict(sim_kwargs or {}))
+
+
+def feed_batch(talus: Talus, grains: TalusGrains, k: int, rng, *, r_mean: float = 0.5,
+               spread: float = 0.3, feed_width: float = 4.0, drop: float = 1.0) -> TalusGrains:
+    """``grains`` plus ``k`` new random polygons placed above the heap near the wall.
+
+    The new grains sit on a lattice ``drop`` mean diameters above the highest
+    vertex of the feed zone ``0 < x < feed_width`` diameters, at rest.
+    """
+    from ..dynamics.bodies import Polygon
+    d = 2 * r_mean
+    cell = d * (1 + spread) * 1.05
+    per_row = max(1, int(feed_width * d // cell))
+    top = float(talus.bed_y(0.0)) + talus.bed_radius
+    if grains.n:
+        V = grains.world()
+        feed = V[..., 0].max(axis=1) < feed_width * d + d
+        if feed.any():
+            top = max(top, float(V[feed, :, 1].max()))
+    vmax = grains.local.shape[1]
+    new = []
+    for m in range(k):
+        row, col = divmod(m, per_row)
+        x = (col + 0.5) * cell + rng.uniform(-0.05, 0.05) * d
+        y = top + drop * d + (row + 0.5) * cell
+        r = r_mean * rng.uniform(1 - spread, 1 + spread)
+        P = Polygon(random_convex_polygon(rng, r), position=(x, y), mu=talus.mu)
+        loc = np.asarray(P.vertices, float)     # re-centred on the centroid by Polygon
+        pad = np.empty((vmax, 2))
+        pad[:len(loc)] = loc
+        pad[len(loc):] = loc[-1]
+        new.append((pad, len(loc), np.asarray(P.position, float), float(P.angle), P.mass, P.inertia))
+    add = TalusGrains(np.array([a[0] for a in new]).reshape(-1, vmax, 2),
+                      np.array([a[1] for a in new], np.int64), np.array([a[2] for a in new]).reshape(-1, 2),
+                      np.array([a[3] for a in new]), np.zeros((len(new), 3)),
+                      np.array([a[4] for a in new]), np.array([a[5] for a in new]))
+    return TalusGrains(*(np.concatenate([a, b]) for a, b in zip(
+        (grains.local, grains.nv, grains.pos, grains.angle, grains.vel, grains.mass, grains.inertia),
+        (add.local, add.nv, add.pos, add.angle, add.vel, add.mass, add.inertia))))
 
 
 def pour_talus(talus: Talus, n: int, *, batch: int = 8, steps_per_batch: int = 150,
@@ -151,10 +236,9 @@ def pour_talus(talus: Talus, n: int, *, batch: int = 8, steps_per_batch: int = 1
 
     The simulator compiles a fixed scene, so pouring is done by rebuilding
     the simulation (same grains, positions, orientations and velocities) with
-    a new batch placed ``drop`` mean diameters above the highest grain of the
-    feed zone ``0 < x < feed_width`` diameters; each batch falls and
-    avalanches for ``steps_per_batch`` steps.  Small drops keep the impact
-    speed low, as in a slow pour.
+    a new batch from :func:`feed_batch`; each batch falls and avalanches for
+    ``steps_per_batch`` steps.  Small drops keep the impact speed low, as in a
+    slow pour.  (``validation/talus.py`` runs the same loop with checkpoints.)
 
     Returns
     -------
@@ -162,37 +246,20 @@ def pour_talus(talus: Talus, n: int, *, batch: int = 8, steps_per_batch: int = 1
         The simulation holding all ``n`` grains (bodies ``0..n-1``), after the
         last batch's steps (not yet settled: see :func:`relax`).
     """
-    from ..dynamics.bodies import Polygon
     rng = np.random.default_rng(seed)
-    d = 2 * r_mean
-    sim_kwargs = dict(sim_kwargs or {})
+    grains = TalusGrains.empty()
     sim = None
-    poured = 0
-    cell = d * (1 + spread) * 1.05
-    per_row = max(1, int(feed_width * d // cell))
-    while poured < n:
-        k = min(batch, n - poured)
-        if sim is None:
-            top = float(talus.bed_y(0.0)) + talus.bed_radius
-        else:
-            V = sim.sys.poly_world()
-            feed = V[..., 0].max(axis=1) < feed_width * d + d
-            top = max(float(V[feed, :, 1].max()) if feed.any() else -np.inf,
-                      float(talus.bed_y(0.0)) + talus.bed_radius)
-        extra = []
-        for m in range(k):
-            row, col = divmod(m, per_row)
-            x = (col + 0.5) * cell + rng.uniform(-0.05, 0.05) * d
-            y = top + drop * d + (row + 0.5) * cell
-            r = r_mean * rng.uniform(1 - spread, 1 + spread)
-            extra.append(Polygon(random_convex_polygon(rng, r), position=(x, y), mu=talus.mu))
-        sim = _rebuild(sim, extra, talus, h, sim_kwargs)
-        poured += k
-        talus.n_grains = poured
+    while grains.n < n:
+        if sim is not None:
+            grains = TalusGrains.from_simulation(sim)
+        grains = feed_batch(talus, grains, min(batch, n - grains.n), rng, r_mean=r_mean,
+                            spread=spread, feed_width=feed_width, drop=drop)
+        sim = talus_simulation(talus, grains, h, sim_kwargs)
+        talus.n_grains = grains.n
         for _ in range(steps_per_batch):
             sim.step()
         if callback is not None:
-            callback(sim, poured)
+            callback(sim, grains.n)
     return sim
 
 
