@@ -10,7 +10,8 @@ statistics (:mod:`.stats`), all on a plain :class:`GranularState`
 talus poured in batches) are in :mod:`.samples`, drawing helpers in
 :mod:`.plot`; both import the simulator / matplotlib lazily.
 """
-from .cuts import CutSweep, cauchy_deviation, continuum_traction, cut_sweep, cut_traction
+from .cuts import (CutSweep, cauchy_deviation, continuum_traction, cut_sweep, cut_traction,
+                   region_balance)
 from .adapters import from_hdf5, from_simulation, from_trajectory
 from .state import GranularState, from_frame
 from .stats import (ForceDistribution, contact_counts, coordination_number, fabric_tensor,
@@ -22,7 +23,7 @@ __all__ = [
     "GranularState", "from_frame", "from_hdf5", "from_simulation", "from_trajectory",
     "internal_moment", "moreau_stress", "weber_stress", "external_stress", "stress_report",
     "StressReport", "principal", "asymmetry", "relative_difference", "sample_mask",
-    "cut_traction", "cut_sweep", "CutSweep", "continuum_traction", "cauchy_deviation",
+    "cut_traction", "cut_sweep", "CutSweep", "region_balance", "continuum_traction", "cauchy_deviation",
     "contact_counts", "rattlers", "coordination_number", "force_distribution",
     "ForceDistribution", "fabric_tensor",
 ]
