@@ -50,8 +50,9 @@ class BiaxialBox:
 def biaxial_box_scene(n: int = 200, r_min: float = 0.35, r_max: float = 0.65,
                       pressure=(1.0, 2.0), mu: float = 0.3, mu_wall: float = 0.0,
                       wall_mass_factor: float = 2.0,
-                      gravity=(0.0, 0.0), seed: int = 0, loose: float = 1.15) -> BiaxialBox:
-    """Polydisperse disks in a pressure-controlled biaxial box.
+                      gravity=(0.0, 0.0), seed: int = 0, loose: float = 1.15,
+                      shape: str = "disk") -> BiaxialBox:
+    """Polydisperse disks (or random convex polygons) in a pressure-controlled biaxial box.
 
     The grains start on a loose square lattice (cell ``loose * 2 r_max``).
     The left line ``x = 0`` and bottom line ``y = 0`` are fixed; the right and
@@ -60,7 +61,8 @@ def biaxial_box_scene(n: int = 200, r_min: float = 0.35, r_max: float = 0.65,
     load is a force, so the final pressure is ``P * L0 / L``, which the
     analysis recomputes from the actual wall forces).  The moving walls are
     frictionless (so they cannot drift sideways); the fixed lines have friction
-    ``mu_wall``.
+    ``mu_wall``.  ``shape="polygon"``: random convex polygons of 5–8 sides
+    (:func:`random_convex_polygon`) with circumradii drawn like the disk radii.
 
     Returns
     -------
@@ -70,6 +72,8 @@ def biaxial_box_scene(n: int = 200, r_min: float = 0.35, r_max: float = 0.65,
     from ..dynamics.scene import Scene
     if n < 4:
         raise InvalidProblemError("n", "need at least 4 grains")
+    if shape not in ("disk", "polygon"):
+        raise InvalidProblemError("shape", f"must be 'disk' or 'polygon', got {shape!r}")
     rng = np.random.default_rng(seed)
     cols = int(np.ceil(np.sqrt(n)))
     rows = int(np.ceil(n / cols))
@@ -78,7 +82,10 @@ def biaxial_box_scene(n: int = 200, r_min: float = 0.35, r_max: float = 0.65,
     radii = rng.uniform(r_min, r_max, n)
     ij = np.array([(k % cols, k // cols) for k in range(n)])
     pos = (ij + 0.5) * cell + rng.uniform(-0.05, 0.05, (n, 2)) * cell
-    grains = [Disk(radius=r, position=p, mu=mu) for r, p in zip(radii, pos)]
+    if shape == "disk":
+        grains = [Disk(radius=r, position=p, mu=mu) for r, p in zip(radii, pos)]
+    else:
+        grains = [Polygon(random_convex_polygon(rng, r), position=p, mu=mu) for r, p in zip(radii, pos)]
     m_grains = sum(g.mass for g in grains)
     t = 2 * r_max
     big = 3 * max(W0, H0)
