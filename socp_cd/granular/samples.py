@@ -3,9 +3,11 @@
 * :func:`biaxial_box_scene` — polydisperse disks in a box closed by two fixed
   lines (left, bottom) and two movable, frictionless, non-rotating wall bodies
   (right, top) pushed by constant forces: a pressure-controlled biaxial cell.
-* :func:`talus_bed` + :func:`pour_talus` — random convex polygons (5–8 sides)
-  poured in small batches near a vertical wall onto a rough slope made of
-  fixed disks.
+* :func:`talus_bed`, :class:`TalusGrains`, :func:`feed_batch`,
+  :func:`talus_simulation` — random convex polygons (5–8 sides) fed in batches
+  near a vertical wall onto a rough slope made of fixed disks; the simulator
+  compiles a fixed scene, so each batch rebuilds the simulation from the
+  grains' arrays (``validation/talus.py`` runs the loop, with checkpoints).
 * :func:`relax` — step until the grains are at rest.
 * :func:`random_convex_polygon` — the grain generator.
 """
@@ -18,7 +20,7 @@ import numpy as np
 from ..errors import InvalidProblemError
 
 __all__ = ["random_convex_polygon", "BiaxialBox", "biaxial_box_scene", "Talus", "talus_bed", "TalusGrains",
-           "talus_simulation", "feed_batch", "pour_talus", "relax"]
+           "talus_simulation", "feed_batch", "relax"]
 
 
 def random_convex_polygon(rng, radius: float, n_min: int = 5, n_max: int = 8,
@@ -233,41 +235,6 @@ def feed_batch(talus: Talus, grains: TalusGrains, k: int, rng, *, r_mean: float 
     return TalusGrains(*(np.concatenate([a, b]) for a, b in zip(
         (grains.local, grains.nv, grains.pos, grains.angle, grains.vel, grains.mass, grains.inertia),
         (add.local, add.nv, add.pos, add.angle, add.vel, add.mass, add.inertia))))
-
-
-def pour_talus(talus: Talus, n: int, *, batch: int = 8, steps_per_batch: int = 150,
-               r_mean: float = 0.5, spread: float = 0.3, feed_width: float = 4.0,
-               drop: float = 1.0, h: float = 4e-3, seed: int = 0, sim_kwargs=None,
-               callback=None):
-    """Pour ``n`` random convex polygons near the wall, ``batch`` at a time.
-
-    The simulator compiles a fixed scene, so pouring is done by rebuilding
-    the simulation (same grains, positions, orientations and velocities) with
-    a new batch from :func:`feed_batch`; each batch falls and avalanches for
-    ``steps_per_batch`` steps.  Small drops keep the impact speed low, as in a
-    slow pour.  (``validation/talus.py`` runs the same loop with checkpoints.)
-
-    Returns
-    -------
-    sim : Simulation
-        The simulation holding all ``n`` grains (bodies ``0..n-1``), after the
-        last batch's steps (not yet settled: see :func:`relax`).
-    """
-    rng = np.random.default_rng(seed)
-    grains = TalusGrains.empty()
-    sim = None
-    while grains.n < n:
-        if sim is not None:
-            grains = TalusGrains.from_simulation(sim)
-        grains = feed_batch(talus, grains, min(batch, n - grains.n), rng, r_mean=r_mean,
-                            spread=spread, feed_width=feed_width, drop=drop)
-        sim = talus_simulation(talus, grains, h, sim_kwargs)
-        talus.n_grains = grains.n
-        for _ in range(steps_per_batch):
-            sim.step()
-        if callback is not None:
-            callback(sim, grains.n)
-    return sim
 
 
 def relax(sim, max_steps: int, v_tol: float, bodies=None, min_steps: int = 0,
