@@ -78,13 +78,26 @@ def _prune(tal, grains, d, bed_length):
     return grains.take(keep), int((~keep).sum())
 
 
-def run(n, slope, seed, h, *, batch=30, steps_per_batch=150, feed_width=8.0, bed_length=120.0,
+def _airborne_in_feed(sim, feed_x):
+    """Number of grains of the feed zone without any contact in the last step (still falling)."""
+    p = sim.last_contacts.pairs
+    touching = np.zeros(sim.sys.n_bodies, bool)
+    touching[p[:, 0]] = True
+    touching[p[p[:, 1] >= 0, 1]] = True
+    return int(np.sum(~touching & (sim.sys.pos[:, 0] < feed_x)))
+
+
+def run(n, slope, seed, h, *, batch=32, steps_per_batch=100, max_wait=600, v0=2.0,
+        feed_width=12.0, bed_length=120.0,
         settle_max=8000, v_tol=2e-3, tol=1e-4, max_iter=300, settle_iter=600, quench=100,
-        quench_tol=1e-6, quench_iter=3000, final_tol=1e-8, final_iter=50000, budget_s=np.inf, checkpoint=None, resume=False):
+        quench_tol=1e-6, quench_iter=2000, final_tol=1e-8, final_iter=50000, budget_s=np.inf, checkpoint=None, resume=False):
     """Pour, settle and finish the talus; resumable from ``checkpoint`` (HDF5).
 
-    Phases: ``pour`` (batches of ``batch`` grains every ``steps_per_batch``
-    steps until ``n`` grains are on the bed), ``settle`` (until the heap's
+    Phases: ``pour`` (batches of ``batch`` grains, falling at ``v0`` from one
+    diameter above the heap within ``feed_width`` diameters of the wall; the
+    next batch comes after ``steps_per_batch`` steps once no grain of the feed
+    zone is airborne (at most ``max_wait`` more steps), until ``n`` grains are
+    on the bed), ``settle`` (until the heap's
     grains move slower than ``v_tol``, ``settle_max`` steps or the wall-time
     ``budget_s``), ``final``: ``quench`` steps each started from zero
     velocities at ``quench_tol`` (kinetic energy removed, gravity kept: the
@@ -101,7 +114,7 @@ def run(n, slope, seed, h, *, batch=30, steps_per_batch=150, feed_width=8.0, bed
     else:
         grains, rng = TalusGrains.empty(), np.random.default_rng(seed)
         meta = dict(n=n, slope=slope, h=h, batch=batch, steps_per_batch=steps_per_batch,
-                    feed_width=feed_width, bed_length=bed_length, tol=tol, max_iter=max_iter,
+                    feed_width=feed_width, v0=v0, bed_length=bed_length, tol=tol, max_iter=max_iter,
                     phase="pour", fed=0, lost=0, steps_pour=0, steps_settle=0, wall_pour=0.0,
                     wall_settle=0.0, unconverged_pour=0, unconverged_settle=0, sim_time=0.0)
     t_start = time.perf_counter()
@@ -117,16 +130,21 @@ def run(n, slope, seed, h, *, batch=30, steps_per_batch=150, feed_width=8.0, bed
             t0 = time.perf_counter()
             grains, lost = _prune(tal, grains, d, bed_length)
             k = min(batch, n - grains.n)
-            grains = feed_batch(tal, grains, k, rng, feed_width=feed_width)
+            grains = feed_batch(tal, grains, k, rng, feed_width=feed_width, v0=v0)
             sim = talus_simulation(tal, grains, h, kw)
-            for _ in range(steps_per_batch):
+            done = 0
+            while done < steps_per_batch + max_wait:
                 st = sim.step()
+                done += 1
                 meta["unconverged_pour"] += int(not st.converged)
+                if done >= steps_per_batch and done % 25 == 0 and \
+                        _airborne_in_feed(sim, (feed_width + 1) * d) == 0:
+                    break
             grains = TalusGrains.from_simulation(sim)
             meta["fed"] += k
             meta["lost"] += lost
-            meta["steps_pour"] += steps_per_batch
-            meta["sim_time"] += steps_per_batch * h
+            meta["steps_pour"] += done
+            meta["sim_time"] += done * h
             meta["wall_pour"] += time.perf_counter() - t0
             bar.update(grains.n - bar.n)
             bar.set_postfix(contacts=st.n_active, it=st.iterations,
@@ -435,10 +453,12 @@ def main(argv=None):
     ap.add_argument("--n", type=int, default=2000)
     ap.add_argument("--slope", type=float, default=10.0)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--h", type=float, default=4e-3)
+    ap.add_argument("--h", type=float, default=5e-3)
     ap.add_argument("--bed-length", type=float, default=120.0)
-    ap.add_argument("--batch", type=int, default=30)
-    ap.add_argument("--steps-per-batch", type=int, default=150)
+    ap.add_argument("--batch", type=int, default=64)
+    ap.add_argument("--steps-per-batch", type=int, default=100, help="minimum steps between batches")
+    ap.add_argument("--feed-width", type=float, default=16.0, help="feed zone width (diameters)")
+    ap.add_argument("--v0", type=float, default=3.0, help="speed of the fed grains")
     ap.add_argument("--settle-max", type=int, default=8000, help="settling steps (at most)")
     ap.add_argument("--budget-min", type=float, default=np.inf,
                     help="stop settling after this many minutes of wall time (this invocation)")
@@ -450,7 +470,8 @@ def main(argv=None):
                     help="reuse the run's settled state instead of simulating")
     args = ap.parse_args(argv)
     if args.quick:
-        args.n, args.bed_length, args.batch, args.steps_per_batch = 120, 25.0, 30, 100
+        args.n, args.bed_length, args.batch, args.steps_per_batch = 120, 25.0, 16, 60
+        args.feed_width = 8.0
         args.settle_max = min(args.settle_max, 1000)
     n = args.n
     tag = args.tag or f"talus{n}_s{args.slope:g}" + ("_quick" if args.quick else "")
@@ -461,11 +482,12 @@ def main(argv=None):
         args.slope = slope
     else:
         state, tal, sim, info = run(n, args.slope, args.seed, args.h, batch=args.batch,
-                                    steps_per_batch=args.steps_per_batch,
+                                    steps_per_batch=args.steps_per_batch, v0=args.v0,
+                                    feed_width=args.feed_width,
                                     bed_length=args.bed_length, settle_max=args.settle_max,
                                     budget_s=60 * args.budget_min,
                                     checkpoint=STATES / f"{tag}.h5", resume=args.resume,
-                                    quench=30 if args.quick else 100)
+                                    quench=30 if args.quick else 60)
         save_state(npz, state, info, info["n_grains"], args.slope)
     tal = talus_bed(slope_deg=args.slope, length=info["bed_length"], mu=0.3)
     tal.n_grains = n = state.n_bodies
@@ -511,8 +533,10 @@ def report(res):
         f"# Moreau's talus at {res['n_grains']} grains",
         "",
         f"{res['n_grains']} random convex polygons (5–8 sides, circumradius 0.5 ± 30 %), μ = 0.3, "
-        f"e = 0, poured {run['batch']} at a time every {run['steps_per_batch']} steps (h = {run['h']:g}) "
-        f"within {run['feed_width']:g} d of a vertical wall onto a rough bed of fixed disks at "
+        f"e = 0, fed {run['batch']} at a time (falling at {run.get('v0', 0):g} from 1 d above the heap, "
+        f"the next batch once the previous one has landed, at least {run['steps_per_batch']} steps "
+        f"apart; h = {run['h']:g}) within {run['feed_width']:g} d of a vertical wall onto a rough bed "
+        f"of fixed disks at "
         f"{res['slope_deg']:g}° ({run['fed']} fed, {run['lost']} ran off the bed end); feeding stopped, "
         f"the heap settled, then {run['quench_steps']} quench steps from zero velocities (NSGS tol "
         f"{run['quench_tol']:g}) and one static step at tol {run['final_tol']:g} (analysed: error "

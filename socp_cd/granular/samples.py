@@ -199,11 +199,14 @@ def talus_simulation(talus: Talus, grains: TalusGrains, h: float, sim_kwargs=Non
 
 
 def feed_batch(talus: Talus, grains: TalusGrains, k: int, rng, *, r_mean: float = 0.5,
-               spread: float = 0.3, feed_width: float = 4.0, drop: float = 1.0) -> TalusGrains:
+               spread: float = 0.3, feed_width: float = 4.0, drop: float = 1.0,
+               v0: float = 0.0) -> TalusGrains:
     """``grains`` plus ``k`` new random polygons placed above the heap near the wall.
 
     The new grains sit on a lattice ``drop`` mean diameters above the highest
-    vertex of the feed zone ``0 < x < feed_width`` diameters, at rest.
+    vertex of the feed zone ``0 < x < feed_width`` diameters, falling at speed
+    ``v0``.  The caller must let the previous batch land first (otherwise the
+    new batch is stacked above a falling one, higher and higher).
     """
     from ..dynamics.bodies import Polygon
     d = 2 * r_mean
@@ -228,9 +231,11 @@ def feed_batch(talus: Talus, grains: TalusGrains, k: int, rng, *, r_mean: float 
         pad[:len(loc)] = loc
         pad[len(loc):] = loc[-1]
         new.append((pad, len(loc), np.asarray(P.position, float), float(P.angle), P.mass, P.inertia))
+    vel = np.zeros((len(new), 3))
+    vel[:, 1] = -abs(float(v0))
     add = TalusGrains(np.array([a[0] for a in new]).reshape(-1, vmax, 2),
                       np.array([a[1] for a in new], np.int64), np.array([a[2] for a in new]).reshape(-1, 2),
-                      np.array([a[3] for a in new]), np.zeros((len(new), 3)),
+                      np.array([a[3] for a in new]), vel,
                       np.array([a[4] for a in new]), np.array([a[5] for a in new]))
     return TalusGrains(*(np.concatenate([a, b]) for a, b in zip(
         (grains.local, grains.nv, grains.pos, grains.angle, grains.vel, grains.mass, grains.inertia),
