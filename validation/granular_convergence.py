@@ -286,8 +286,11 @@ def figures(rows, out_dir, suffix=""):
             ax.loglog(N, y, mk + "-", color=col, mfc="none" if shape == "polygon" else col,
                       label=f"{lab} ({shape}s)")
             if key == "weber_moreau_rel" and len(R) >= 2:
-                k, _ = fit_exponent(N, y)
+                k, c = fit_exponent(N, y)
                 fits[f"{shape}_weber_moreau_rel"] = k
+                # N at which the fitted difference falls to 3 % and to 1 %
+                fits[f"{shape}_weber_moreau_N_at_3pct"] = float((0.03 / c) ** (1 / k)) if k < 0 else float("inf")
+                fits[f"{shape}_weber_moreau_N_at_1pct"] = float((0.01 / c) ** (1 / k)) if k < 0 else float("inf")
     ax.axhline(0.03, color="k", ls=":", lw=1)
     ax.set_xlabel("grains N")
     ax.set_ylabel("relative size")
@@ -324,8 +327,17 @@ def table(rows, fits):
             f"{r['inertia_over_mean_force']:.1e} | {r['final_error']:.1e} ({r['final_tol']:.0e}), "
             f"{r['final_iterations']} | {r['ms_per_step']:.0f} | "
             f"{r['wall_compress'] + r['wall_quench'] + r['wall_final']:.0f} |")
-    lines += ["", "Fitted exponents (RMS ∝ N^k, Weber–Moreau difference ∝ N^k; RMS ∝ (L/d)^k): " +
-              ", ".join(f"{k} {v:.2f}" for k, v in sorted(fits.items())), ""]
+    lines += ["", "Fits (RMS ∝ N^k, Weber–Moreau difference ∝ N^k, RMS ∝ (L/d)^k; N where the fitted "
+              "Weber–Moreau difference reaches 3 % / 1 %): " +
+              ", ".join(f"{k} {v:.3g}" for k, v in sorted(fits.items())), "",
+              "## Cut length (offset 0, 180 angles): RMS normal / shear", "",
+              "| shape | N | " + " | ".join(f"L = {f:g} side" for f in LENGTHS) + " |",
+              "|---|---|" + "---|" * len(LENGTHS)]
+    for r in sorted(rows, key=lambda r: (r["shape"], r["n_grains"])):
+        lines.append(f"| {r['shape']} | {r['n_grains']} | " + " | ".join(
+            f"{b['length_over_d']:.0f} d: {100 * b['rms_normal']:.0f} / {100 * b['rms_shear']:.0f} %"
+            for b in r["by_length"]) + " |")
+    lines.append("")
     return "\n".join(lines)
 
 
