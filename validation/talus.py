@@ -284,10 +284,11 @@ def line_angle(u, v):
 
 
 def _stats(values):
+    """Mean, spread (standard deviation over the cuts), median and count."""
     v = np.asarray(values, float)
     if v.size == 0:
-        return dict(mean=float("nan"), std=float("nan"), median=float("nan"), n=0)
-    return dict(mean=float(v.mean()), std=float(v.std()), median=float(np.median(v)), n=int(v.size))
+        return dict(mean=float("nan"), spread=float("nan"), median=float("nan"), n=0)
+    return dict(mean=float(v.mean()), spread=float(v.std()), median=float(np.median(v)), n=int(v.size))
 
 
 def measure(state, tal, d, depth_d=(3.0, 5.0, 8.0, 12.0), cut_len_d=4.0, wall_gap_d=5.0):
@@ -432,9 +433,9 @@ def figure(state, tal, rows, fit, res, path):
                     arrowprops=dict(arrowstyle="->", color="tab:purple", lw=1.0))
     fs, vc = res["free_surface_law_deg"], res["vertical_cut_deg"]
     ax.plot([], [], color="tab:green", label=f"traction on cuts parallel to the surface: "
-            f"{fs['mean']:.1f}° ± {fs['std']:.1f}° from the vertical")
+            f"{fs['mean']:.1f}° ± {fs['spread']:.1f}° from the vertical")
     ax.plot([], [], color="tab:purple", label=f"traction on vertical cuts: "
-            f"{vc['mean']:.1f}° ± {vc['std']:.1f}° from the surface direction")
+            f"{vc['mean']:.1f}° ± {vc['spread']:.1f}° from the surface direction")
     ax.plot([], [], color="crimson", label="contact forces (width ∝ |f|)")
     ax.set_aspect("equal")
     ax.set_xlim(-1, x_end)
@@ -548,17 +549,17 @@ def report(res):
         f"| repose angle of the free surface (fit over x ∈ [{res['heap_x_range'][0]:.0f}, "
         f"{res['heap_x_range'][1]:.0f}]) | {res['repose_angle_deg']:.1f}° ± "
         f"{res['repose_angle_fit_stderr_deg']:.1f}° (fit s.e.); local 8 d windows "
-        f"{loc['mean']:.1f}° ± {loc['std']:.1f}° ({loc['n']}) | above the bed's {res['slope_deg']:g}° |",
+        f"{loc['mean']:.1f}° ± {loc['spread']:.1f}° ({loc['n']}) | above the bed's {res['slope_deg']:g}° |",
         f"| traction on cuts parallel to the surface: angle from the vertical, per cut | "
-        f"{fs['mean']:.1f}° ± {fs['std']:.1f}° (median {fs['median']:.1f}°, {fs['n']} cuts); "
+        f"{fs['mean']:.1f}° ± {fs['spread']:.1f}° (median {fs['median']:.1f}°, {fs['n']} cuts); "
         f"resultant {res['free_surface_law_resultant_deg']:.1f}° | 0° (vertical) |",
         f"| traction on vertical cuts: angle from the surface direction, per cut | "
-        f"{vc['mean']:.1f}° ± {vc['std']:.1f}° (median {vc['median']:.1f}°, {vc['n']} cuts); "
+        f"{vc['mean']:.1f}° ± {vc['spread']:.1f}° (median {vc['median']:.1f}°, {vc['n']} cuts); "
         f"resultant {res['vertical_cut_resultant_deg']:.1f}° | 0° (parallel) |",
-        f"| reciprocal cuts, |n·T′ − n′·T| / mean(|T|, |T′|) per pair | mean {rc['mean']:.3f}, "
+        f"| reciprocal cuts, ‖n·T′ − n′·T‖ / mean(‖T‖, ‖T′‖) per pair | mean {rc['mean']:.3f}, "
         f"median {rc['median']:.3f}, max {rc['max']:.3f} ({rc['n']} pairs) | 0 |",
         f"| div σ + f = 0 on {db['n_regions']} rectangles ({db['grains_inside_min']}–"
-        f"{db['grains_inside_max']} grains): |boundary + load| / |load| | exact load: max "
+        f"{db['grains_inside_max']} grains): ‖boundary + load‖ / ‖load‖ | exact load: max "
         f"{db['exact_rel_max']:.1e}; gravity only: max {db['gravity_only_rel_max']:.1e} | 0 |",
         f"| Moreau tensor of the heap: asymmetry | {res['moreau_asymmetry']:.1e} | 0 |",
         f"| Weber vs Moreau, whole heap | {100 * res['weber_difference']:.1f} % | |",
@@ -572,8 +573,8 @@ def report(res):
         "reciprocal rel. |",
         "|---|---|---|---|"]
     for dp, v in res["by_depth"].items():
-        lines.append(f"| {dp} d | {v['surface']['mean']:.1f}° ± {v['surface']['std']:.1f}° ({v['surface']['n']}) | "
-                     f"{v['vertical']['mean']:.1f}° ± {v['vertical']['std']:.1f}° | "
+        lines.append(f"| {dp} d | {v['surface']['mean']:.1f}° ± {v['surface']['spread']:.1f}° ({v['surface']['n']}) | "
+                     f"{v['vertical']['mean']:.1f}° ± {v['vertical']['spread']:.1f}° | "
                      f"{v['reciprocal']['mean']:.3f} |")
     lines += ["", f"Run: {run['steps']} steps, {run['wall_time']:.0f} s wall "
               f"(pour {run['ms_per_step_pour']:.0f} ms/step, settle {run['ms_per_step_settle']:.0f} "
