@@ -6,7 +6,7 @@ gravity, pressure-controlled right/top walls with P_y = 2 P_x, see
 :func:`socp_cd.granular.samples.biaxial_box_scene`) is
 
 1. compressed by Moreau–Jean steps at a coarse NSGS tolerance (``--tol``, 100
-   sweeps) until both walls move slower than 5e-3,
+   sweeps) until both walls move slower than 2e-2 (then the quench finishes the job),
 2. quenched: ``--quench`` steps each started from zero velocities (kinetic
    energy removed, walls still loaded), which takes the packing to rest,
 3. solved once more from zero velocities at the tight tolerance ``--final-tol``:
@@ -62,10 +62,10 @@ N_ANGLES = 180
 
 
 # ---------------------------------------------------------------- simulation
-def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=5000, quench=200, tol=1e-3, max_iter=100,
+def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=3000, quench=200, tol=1e-3, max_iter=100,
                 quench_tol=1e-6, quench_iter=2000,
                 final_tol=1e-8, final_iter=50000, final_solver="nsgs", final_form="local",
-                v_wall=5e-3, label=""):
+                v_wall=2e-2, label=""):
     """Compress, quench and finish one biaxial sample; returns (state, W, H, info)."""
     box = biaxial_box_scene(n=n, pressure=PRESSURE, seed=seed, loose=1.05, mu_wall=0.3,
                             shape=shape)
@@ -360,7 +360,7 @@ def main(argv=None):
     ap.add_argument("--n", type=int, nargs="+", default=[200, 500, 1000, 2000, 5000])
     ap.add_argument("--shapes", nargs="+", default=["disk", "polygon"])
     ap.add_argument("--h", type=float, default=8e-3)
-    ap.add_argument("--max-steps", type=int, default=5000, help="compression steps (at most)")
+    ap.add_argument("--max-steps", type=int, default=3000, help="compression steps (at most)")
     ap.add_argument("--quench", type=int, default=200)
     ap.add_argument("--tol", type=float, default=1e-3)
     ap.add_argument("--final-tol", type=float, default=1e-8)

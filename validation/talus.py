@@ -90,7 +90,8 @@ def _airborne_in_feed(sim, feed_x):
 def run(n, slope, seed, h, *, batch=32, steps_per_batch=100, max_wait=600, v0=2.0,
         feed_width=12.0, bed_length=120.0,
         settle_max=8000, v_tol=2e-3, tol=1e-4, max_iter=300, settle_iter=600, quench=100,
-        quench_tol=1e-6, quench_iter=2000, final_tol=1e-8, final_iter=50000, budget_s=np.inf, checkpoint=None, resume=False):
+        quench_tol=1e-6, quench_iter=2000, final_tol=1e-8, final_iter=50000, budget_s=np.inf, checkpoint=None, resume=False,
+        resettle=False):
     """Pour, settle and finish the talus; resumable from ``checkpoint`` (HDF5).
 
     Phases: ``pour`` (batches of ``batch`` grains, falling at ``v0`` from one
@@ -111,6 +112,8 @@ def run(n, slope, seed, h, *, batch=32, steps_per_batch=100, max_wait=600, v0=2.
     if resume and checkpoint is not None and Path(checkpoint).exists():
         grains, meta, rng = _load_checkpoint(checkpoint)
         print(f"resumed {checkpoint}: phase {meta['phase']}, {grains.n} grains", flush=True)
+        if resettle and meta["phase"] in ("final", "done"):
+            meta["phase"] = "settle"             # settle longer, then quench and analyse again
     else:
         grains, rng = TalusGrains.empty(), np.random.default_rng(seed)
         meta = dict(n=n, slope=slope, h=h, batch=batch, steps_per_batch=steps_per_batch,
@@ -465,6 +468,8 @@ def main(argv=None):
                     help="stop settling after this many minutes of wall time (this invocation)")
     ap.add_argument("--tag", default=None, help="run name (default talus<n>_s<slope>)")
     ap.add_argument("--resume", action="store_true", help="continue from the run's checkpoint")
+    ap.add_argument("--settle-more", action="store_true",
+                    help="with --resume: settle a finished run again (up to --settle-max steps in all)")
     ap.add_argument("--quick", action="store_true",
                     help="120 grains on a short bed, shallow short cuts, output in /tmp/talus_quick")
     ap.add_argument("--reanalyse", action="store_true",
@@ -488,6 +493,7 @@ def main(argv=None):
                                     bed_length=args.bed_length, settle_max=args.settle_max,
                                     budget_s=60 * args.budget_min,
                                     checkpoint=STATES / f"{tag}.h5", resume=args.resume,
+                                    resettle=args.settle_more,
                                     quench=30 if args.quick else 60)
         save_state(npz, state, info, info["n_grains"], args.slope)
     tal = talus_bed(slope_deg=args.slope, length=info["bed_length"], mu=0.3)
