@@ -42,7 +42,8 @@ def test_biaxial_sample_is_at_rest_and_moreau_exact():
     """A small biaxial box through compress → quench → static step: at rest to solver tolerance."""
     sys.path.insert(0, str(VALIDATION))
     import granular_convergence as gc
-    state, W, H, info = gc.make_sample(40, "disk", max_steps=600, quench=60, final_tol=1e-8)
+    state, W, H, info = gc.make_sample(40, "disk", max_steps=600, quench=60, final_tol=1e-8,
+                                       v_wall=5e-3)
     r = gc.analyse(state, W, H, info)
     assert r["final_error"] <= 1e-7
     assert r["static_residual_over_mean_force"] < 1e-4          # inertia of the static step
