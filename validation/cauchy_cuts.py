@@ -6,13 +6,13 @@ through the box centre (length half the box side, as the offset-0 cut of the
 convergence study) at 180 normal angles, its normal and shear parts against
 the continuum σ̄ n of Moreau's mean stress, and the force network.  The
 numbers as functions of N are in ``cuts_convergence.md``; this figure shows
-what the RMS means (a sawtooth at 200 grains, a curve at 5 000).
+what the RMS means (a sawtooth at 200 grains, close to the curve at 2 000).
 
 Also (re)writes validation/results/granular.md, the index of the granular
 results (talus, cuts with N, Weber–Moreau, div σ balance).
 
 Outputs: validation/results/cauchy_cuts.png, cauchy_cuts.csv, granular.md.
-Usage: python validation/cauchy_cuts.py [--samples disk200 disk5000] [--quick]
+Usage: python validation/cauchy_cuts.py [--samples disk200 disk2000] [--quick]
 """
 from __future__ import annotations
 
@@ -127,13 +127,17 @@ def write_summary(results_dir: Path = RESULTS) -> Path:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--samples", nargs="+", default=["disk200", "disk5000"])
+    ap.add_argument("--samples", nargs="+", default=None,
+                    help="default: disk200 and the largest disk sample already simulated")
     ap.add_argument("--quick", action="store_true", help="samples disk60, disk120 of the quick run")
     args = ap.parse_args(argv)
     out = Path("/tmp/granular_convergence_quick") if args.quick else RESULTS
     states = out / "states" if args.quick else gc.STATES
     states.mkdir(parents=True, exist_ok=True)
     labels = ["disk60", "disk120"] if args.quick else args.samples
+    if labels is None:
+        done = sorted(int(p.stem[len("biaxial_disk"):]) for p in states.glob("biaxial_disk*.h5"))
+        labels = ["disk200"] + [f"disk{n}" for n in done[-1:] if n != 200]
     cases, rows = [], []
     for label in labels:
         state, W, H, info = sample(label, states)
