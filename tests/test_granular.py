@@ -149,6 +149,37 @@ def test_random_equilibrium_symmetry_reference_and_gauss():
     np.testing.assert_allclose(internal_moment(s, sample=sub, origin=[5, 5]), Msub, atol=1e-11)
 
 
+def test_weber_depends_on_reference_points_decomposition_does_not():
+    s = random_equilibrium()
+    V = 50.0
+    sig = moreau_stress(s, V)
+    ref = s.centers + np.random.default_rng(3).uniform(-0.2, 0.2, s.centers.shape)
+    w0, w1 = weber_stress(s, V), weber_stress(s, V, reference=ref)
+    assert np.linalg.norm(w1 - w0) > 1e-3 * np.linalg.norm(sig)      # Weber moves
+    # ... but σ̄ = σ_ext + σ_W holds for any reference points
+    np.testing.assert_allclose(external_stress(s, V, reference=ref) + w1, sig, atol=1e-12)
+    with pytest.raises(InvalidProblemError):
+        weber_stress(s, V, reference=ref[:-1])
+
+
+def test_boundary_traction_balances_body_forces():
+    from socp_cd.granular import region_balance
+    s = random_equilibrium()
+    lo, hi = s.centers.min(0), s.centers.max(0)
+    box = np.array([lo + 0.3 * (hi - lo), [hi[0], lo[1]] + 0.3 * (hi - lo) * [-1, 1],
+                    hi - 0.3 * (hi - lo), [lo[0], hi[1]] + 0.3 * (hi - lo) * [1, -1]])
+    boundary, load, inside = region_balance(s, box)
+    assert 0 < inside.sum() < s.n_bodies
+    np.testing.assert_allclose(boundary, -load, atol=1e-12 * np.abs(s.forces).max())
+    # without the supports (wall contact points) inside, the balance would fail
+    assert np.linalg.norm(boundary + s.body_forces()[inside].sum(0)) > 1e-3
+    # the same region traversed clockwise gives the same balance
+    b2, _, _ = region_balance(s, box[::-1])
+    np.testing.assert_allclose(b2, boundary, atol=1e-12)
+    with pytest.raises(InvalidProblemError):
+        region_balance(s, box[:2])
+
+
 def test_inertia_term_restores_reference_independence():
     n = np.array([0.6, 0.8])
     f = 4.0 * n
@@ -330,3 +361,28 @@ def test_from_frame_mapping_with_impulses():
     with pytest.raises(InvalidProblemError):
         from_frame({"positions": [[0.0, R]], "pairs": [[0, -1]], "points": [[0.0, 0.0]],
                     "impulses": [[0.0, 1.0]]}, masses=[M], volumes=[1.0])
+
+
+def test_trajectory_gravity_is_read_from_its_metadata(tmp_path):
+    """Regression (issue 11): gravity (0, -3.7) recorded in the file, not the default -9.81."""
+    from socp_cd.dynamics import Disk, Line, Scene, Simulation
+    from socp_cd.granular import from_hdf5, from_simulation
+    g = np.array([0.0, -3.7])
+    disks = [Disk(radius=0.3, position=(0.3 + 0.6 * k, 0.3), mu=0.3) for k in range(3)]
+    scene = Scene(bodies=disks, obstacles=[Line((0, 0), (0, 1))], gravity=tuple(g), mu=0.3)
+    sim = Simulation(scene, h=5e-3, tol=1e-10, max_iter=500)
+    for _ in range(20):
+        sim.step()
+    v_before = sim.sys.vel.copy()
+    sim.run(1, record_every=1, progress=False, path=tmp_path / "mars.h5")
+    disk = from_hdf5(tmp_path / "mars.h5")
+    live = from_simulation(sim, prev_vel=v_before)
+    np.testing.assert_allclose(disk.gravity, g)
+    np.testing.assert_allclose(disk.body_forces(), live.body_forces(), atol=1e-12)
+    # the floor carries m g with g = 3.7: each grain balanced, stress = the live one
+    assert np.abs(disk.resultants()).max() < 1e-9 * np.abs(disk.forces).max()
+    np.testing.assert_allclose(disk.forces[:, 1].sum(), 3.7 * disk.masses.sum(), rtol=1e-6)
+    np.testing.assert_allclose(moreau_stress(disk, 1.8 * 0.6), moreau_stress(live, 1.8 * 0.6),
+                               atol=1e-12)
+    with pytest.raises(InvalidProblemError):
+        from_hdf5(tmp_path / "mars.h5", gravity=[0.0, -3.7, 0.0])

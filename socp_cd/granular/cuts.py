@@ -18,7 +18,7 @@ from ..errors import InvalidProblemError
 from .state import GranularState
 
 __all__ = ["cut_traction", "CutSweep", "cut_sweep", "continuum_traction",
-           "cauchy_deviation"]
+           "cauchy_deviation", "region_balance"]
 
 
 def _unit(normal, d):
@@ -130,3 +130,59 @@ def cauchy_deviation(sweep: CutSweep, sigma) -> float:
     mean = abs(np.trace(np.asarray(sigma, float))) / 2
     rms = np.sqrt(np.mean(np.sum((sweep.tractions - t) ** 2, axis=1)))
     return float(rms / mean) if mean else float("inf")
+
+
+def region_balance(state: GranularState, vertices):
+    """Discrete ``div σ + f = 0`` on a convex polygonal region (2D).
+
+    The boundary integral of the traction is the sum, over the polygon's
+    edges, of :func:`cut_traction` times the edge length with the *outward*
+    normal (force of the outside on the inside).  The load ``f`` is the body
+    forces (gravity, inertia) of the grains whose centres lie inside plus the
+    forces of fixed obstacles whose contact points lie inside (supports; none
+    for a region away from the walls).  A branch segment leaving the region
+    crosses its boundary once, one passing through it twice with opposite
+    signs, so at equilibrium ``boundary + load = 0`` exactly (to the balance
+    of each grain).
+
+    Parameters
+    ----------
+    vertices : array_like (m, 2)
+        Convex polygon, either orientation, ``m >= 3``.
+
+    Returns
+    -------
+    boundary : ndarray (2,)
+        Resultant of the contact forces exerted across the boundary on the inside.
+    load : ndarray (2,)
+        Body forces of the grains inside plus the obstacle forces applied inside.
+    inside : ndarray of bool (nb,)
+        Grains whose centre is inside.
+    """
+    if state.dim != 2:
+        raise InvalidProblemError("state", "region_balance is 2D")
+    P = np.asarray(vertices, dtype=float)
+    if P.ndim != 2 or P.shape[0] < 3 or P.shape[1] != 2 or not np.all(np.isfinite(P)):
+        raise InvalidProblemError("vertices", f"expected a finite (m >= 3, 2) polygon, got {P.shape}")
+    E = np.roll(P, -1, axis=0) - P
+    if np.any(np.hypot(E[:, 0], E[:, 1]) == 0):
+        raise InvalidProblemError("vertices", "repeated vertex")
+    area2 = float(np.sum(P[:, 0] * np.roll(P[:, 1], -1) - np.roll(P[:, 0], -1) * P[:, 1]))
+    if area2 == 0:
+        raise InvalidProblemError("vertices", "degenerate polygon (zero area)")
+    sgn = 1.0 if area2 > 0 else -1.0                 # counter-clockwise: outward = (ey, -ex)
+
+    def within(X):
+        cr = E[:, 0][None, :] * (X[:, 1][:, None] - P[:, 1][None, :]) \
+            - E[:, 1][None, :] * (X[:, 0][:, None] - P[:, 0][None, :])
+        return np.all(sgn * cr > 0, axis=1)
+
+    inside = within(state.centers)
+    boundary = np.zeros(2)
+    for p, e in zip(P, E):
+        length = float(np.hypot(*e))
+        n_out = sgn * np.array([e[1], -e[0]]) / length
+        boundary += cut_traction(state, p + e / 2, n_out, length) * length
+    support = state.wall_contacts & within(state.points)
+    load = state.body_forces()[inside].sum(axis=0) + state.forces[support].sum(axis=0)
+    return boundary, load, inside

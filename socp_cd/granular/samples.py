@@ -3,9 +3,11 @@
 * :func:`biaxial_box_scene` — polydisperse disks in a box closed by two fixed
   lines (left, bottom) and two movable, frictionless, non-rotating wall bodies
   (right, top) pushed by constant forces: a pressure-controlled biaxial cell.
-* :func:`talus_bed` + :func:`pour_talus` — random convex polygons (5–8 sides)
-  poured in small batches near a vertical wall onto a rough slope made of
-  fixed disks.
+* :func:`talus_bed`, :class:`TalusGrains`, :func:`feed_batch`,
+  :func:`talus_simulation` — random convex polygons (5–8 sides) fed in batches
+  near a vertical wall onto a rough slope made of fixed disks; the simulator
+  compiles a fixed scene, so each batch rebuilds the simulation from the
+  grains' arrays (``validation/talus.py`` runs the loop, with checkpoints).
 * :func:`relax` — step until the grains are at rest.
 * :func:`random_convex_polygon` — the grain generator.
 """
@@ -17,8 +19,8 @@ import numpy as np
 
 from ..errors import InvalidProblemError
 
-__all__ = ["random_convex_polygon", "BiaxialBox", "biaxial_box_scene", "Talus", "talus_bed", "pour_talus",
-           "relax"]
+__all__ = ["random_convex_polygon", "BiaxialBox", "biaxial_box_scene", "Talus", "talus_bed", "TalusGrains",
+           "talus_simulation", "feed_batch", "relax"]
 
 
 def random_convex_polygon(rng, radius: float, n_min: int = 5, n_max: int = 8,
@@ -50,8 +52,9 @@ class BiaxialBox:
 def biaxial_box_scene(n: int = 200, r_min: float = 0.35, r_max: float = 0.65,
                       pressure=(1.0, 2.0), mu: float = 0.3, mu_wall: float = 0.0,
                       wall_mass_factor: float = 2.0,
-                      gravity=(0.0, 0.0), seed: int = 0, loose: float = 1.15) -> BiaxialBox:
-    """Polydisperse disks in a pressure-controlled biaxial box.
+                      gravity=(0.0, 0.0), seed: int = 0, loose: float = 1.15,
+                      shape: str = "disk") -> BiaxialBox:
+    """Polydisperse disks (or random convex polygons) in a pressure-controlled biaxial box.
 
     The grains start on a loose square lattice (cell ``loose * 2 r_max``).
     The left line ``x = 0`` and bottom line ``y = 0`` are fixed; the right and
@@ -60,7 +63,8 @@ def biaxial_box_scene(n: int = 200, r_min: float = 0.35, r_max: float = 0.65,
     load is a force, so the final pressure is ``P * L0 / L``, which the
     analysis recomputes from the actual wall forces).  The moving walls are
     frictionless (so they cannot drift sideways); the fixed lines have friction
-    ``mu_wall``.
+    ``mu_wall``.  ``shape="polygon"``: random convex polygons of 5–8 sides
+    (:func:`random_convex_polygon`) with circumradii drawn like the disk radii.
 
     Returns
     -------
@@ -70,6 +74,8 @@ def biaxial_box_scene(n: int = 200, r_min: float = 0.35, r_max: float = 0.65,
     from ..dynamics.scene import Scene
     if n < 4:
         raise InvalidProblemError("n", "need at least 4 grains")
+    if shape not in ("disk", "polygon"):
+        raise InvalidProblemError("shape", f"must be 'disk' or 'polygon', got {shape!r}")
     rng = np.random.default_rng(seed)
     cols = int(np.ceil(np.sqrt(n)))
     rows = int(np.ceil(n / cols))
@@ -78,7 +84,10 @@ def biaxial_box_scene(n: int = 200, r_min: float = 0.35, r_max: float = 0.65,
     radii = rng.uniform(r_min, r_max, n)
     ij = np.array([(k % cols, k // cols) for k in range(n)])
     pos = (ij + 0.5) * cell + rng.uniform(-0.05, 0.05, (n, 2)) * cell
-    grains = [Disk(radius=r, position=p, mu=mu) for r, p in zip(radii, pos)]
+    if shape == "disk":
+        grains = [Disk(radius=r, position=p, mu=mu) for r, p in zip(radii, pos)]
+    else:
+        grains = [Polygon(random_convex_polygon(rng, r), position=p, mu=mu) for r, p in zip(radii, pos)]
     m_grains = sum(g.mass for g in grains)
     t = 2 * r_max
     big = 3 * max(W0, H0)
@@ -126,74 +135,111 @@ def talus_bed(slope_deg: float = 10.0, length: float = 60.0, bed_radius: float =
                  bed_radius=bed_radius, mu=mu)
 
 
-def _rebuild(sim, extra, talus, h, sim_kwargs):
-    """A new Simulation with the current bodies of ``sim`` (if any) plus ``extra``."""
+@dataclass
+class TalusGrains:
+    """The poured grains as plain arrays (what a checkpoint stores).
+
+    ``local[k, :nv[k]]`` are the vertices of grain ``k`` in its body frame
+    (padding repeats the last vertex); ``vel`` is ``(vx, vy, omega)``.
+    """
+
+    local: np.ndarray       #: (n, vmax, 2)
+    nv: np.ndarray          #: (n,)
+    pos: np.ndarray         #: (n, 2)
+    angle: np.ndarray       #: (n,)
+    vel: np.ndarray         #: (n, 3)
+    mass: np.ndarray        #: (n,)
+    inertia: np.ndarray     #: (n,)
+
+    @classmethod
+    def empty(cls, vmax: int = 8) -> "TalusGrains":
+        z = np.zeros(0)
+        return cls(np.zeros((0, vmax, 2)), np.zeros(0, np.int64), np.zeros((0, 2)), z,
+                   np.zeros((0, 3)), z, z)
+
+    @classmethod
+    def from_simulation(cls, sim) -> "TalusGrains":
+        """The polygons of a running simulation (bodies ``0..n-1``)."""
+        S = sim.sys
+        k = S.poly_of_body
+        vmax = S.poly_local.shape[1]
+        local = np.zeros((S.n_bodies, max(vmax, 8), 2))
+        local[:, :vmax] = S.poly_local[k]
+        local[:, vmax:] = S.poly_local[k][:, -1:]
+        return cls(local, S.poly_nv[k].astype(np.int64), S.pos.copy(), S.angle.copy(),
+                   S.vel.copy(), S.mass.copy(), S.inertia.copy())
+
+    @property
+    def n(self) -> int:
+        return int(self.pos.shape[0])
+
+    def take(self, keep) -> "TalusGrains":
+        """The grains selected by ``keep`` (mask or indices)."""
+        return TalusGrains(*(a[keep] for a in (self.local, self.nv, self.pos, self.angle, self.vel,
+                                                self.mass, self.inertia)))
+
+    def world(self) -> np.ndarray:
+        """World vertices ``(n, vmax, 2)``."""
+        c, s = np.cos(self.angle)[:, None], np.sin(self.angle)[:, None]
+        L = self.local
+        return np.stack([c * L[..., 0] - s * L[..., 1] + self.pos[:, 0, None],
+                         s * L[..., 0] + c * L[..., 1] + self.pos[:, 1, None]], axis=-1)
+
+
+def talus_simulation(talus: Talus, grains: TalusGrains, h: float, sim_kwargs=None):
+    """A Simulation of ``grains`` (bodies ``0..n-1``, same order) on the talus bed."""
     from ..dynamics.bodies import Polygon
     from ..dynamics.scene import Scene
     from ..dynamics.stepper import Simulation
-    bodies = []
-    if sim is not None:
-        S = sim.sys
-        for b in range(S.n_bodies):
-            k = S.poly_of_body[b]
-            bodies.append(Polygon(S.poly_local[k, :S.poly_nv[k]], position=S.pos[b], angle=S.angle[b],
-                                  velocity=S.vel[b, :2], omega=S.vel[b, 2], mass=S.mass[b],
-                                  inertia=S.inertia[b], mu=talus.mu))
-    scene = Scene(bodies=bodies + extra, obstacles=talus.obstacles, mu=talus.mu, restitution=0.0)
-    return Simulation(scene, h=h, **sim_kwargs)
+    bodies = [Polygon(grains.local[b, :grains.nv[b]], position=grains.pos[b], angle=grains.angle[b],
+                      velocity=grains.vel[b, :2], omega=grains.vel[b, 2], mass=grains.mass[b],
+                      inertia=grains.inertia[b], mu=talus.mu) for b in range(grains.n)]
+    scene = Scene(bodies=bodies, obstacles=talus.obstacles, mu=talus.mu, restitution=0.0)
+    return Simulation(scene, h=h, **dict(sim_kwargs or {}))
 
 
-def pour_talus(talus: Talus, n: int, *, batch: int = 8, steps_per_batch: int = 150,
-               r_mean: float = 0.5, spread: float = 0.3, feed_width: float = 4.0,
-               drop: float = 1.0, h: float = 4e-3, seed: int = 0, sim_kwargs=None,
-               callback=None):
-    """Pour ``n`` random convex polygons near the wall, ``batch`` at a time.
+def feed_batch(talus: Talus, grains: TalusGrains, k: int, rng, *, r_mean: float = 0.5,
+               spread: float = 0.3, feed_width: float = 4.0, drop: float = 1.0,
+               v0: float = 0.0) -> TalusGrains:
+    """``grains`` plus ``k`` new random polygons placed above the heap near the wall.
 
-    The simulator compiles a fixed scene, so pouring is done by rebuilding
-    the simulation (same grains, positions, orientations and velocities) with
-    a new batch placed ``drop`` mean diameters above the highest grain of the
-    feed zone ``0 < x < feed_width`` diameters; each batch falls and
-    avalanches for ``steps_per_batch`` steps.  Small drops keep the impact
-    speed low, as in a slow pour.
-
-    Returns
-    -------
-    sim : Simulation
-        The simulation holding all ``n`` grains (bodies ``0..n-1``), after the
-        last batch's steps (not yet settled: see :func:`relax`).
+    The new grains sit on a lattice ``drop`` mean diameters above the highest
+    vertex of the feed zone ``0 < x < feed_width`` diameters, falling at speed
+    ``v0``.  The caller must let the previous batch land first (otherwise the
+    new batch is stacked above a falling one, higher and higher).
     """
     from ..dynamics.bodies import Polygon
-    rng = np.random.default_rng(seed)
     d = 2 * r_mean
-    sim_kwargs = dict(sim_kwargs or {})
-    sim = None
-    poured = 0
     cell = d * (1 + spread) * 1.05
     per_row = max(1, int(feed_width * d // cell))
-    while poured < n:
-        k = min(batch, n - poured)
-        if sim is None:
-            top = float(talus.bed_y(0.0)) + talus.bed_radius
-        else:
-            V = sim.sys.poly_world()
-            feed = V[..., 0].max(axis=1) < feed_width * d + d
-            top = max(float(V[feed, :, 1].max()) if feed.any() else -np.inf,
-                      float(talus.bed_y(0.0)) + talus.bed_radius)
-        extra = []
-        for m in range(k):
-            row, col = divmod(m, per_row)
-            x = (col + 0.5) * cell + rng.uniform(-0.05, 0.05) * d
-            y = top + drop * d + (row + 0.5) * cell
-            r = r_mean * rng.uniform(1 - spread, 1 + spread)
-            extra.append(Polygon(random_convex_polygon(rng, r), position=(x, y), mu=talus.mu))
-        sim = _rebuild(sim, extra, talus, h, sim_kwargs)
-        poured += k
-        talus.n_grains = poured
-        for _ in range(steps_per_batch):
-            sim.step()
-        if callback is not None:
-            callback(sim, poured)
-    return sim
+    top = float(talus.bed_y(0.0)) + talus.bed_radius
+    if grains.n:
+        V = grains.world()
+        feed = V[..., 0].max(axis=1) < feed_width * d + d
+        if feed.any():
+            top = max(top, float(V[feed, :, 1].max()))
+    vmax = grains.local.shape[1]
+    new = []
+    for m in range(k):
+        row, col = divmod(m, per_row)
+        x = (col + 0.5) * cell + rng.uniform(-0.05, 0.05) * d
+        y = top + drop * d + (row + 0.5) * cell
+        r = r_mean * rng.uniform(1 - spread, 1 + spread)
+        P = Polygon(random_convex_polygon(rng, r), position=(x, y), mu=talus.mu)
+        loc = np.asarray(P.vertices, float)     # re-centred on the centroid by Polygon
+        pad = np.empty((vmax, 2))
+        pad[:len(loc)] = loc
+        pad[len(loc):] = loc[-1]
+        new.append((pad, len(loc), np.asarray(P.position, float), float(P.angle), P.mass, P.inertia))
+    vel = np.zeros((len(new), 3))
+    vel[:, 1] = -abs(float(v0))
+    add = TalusGrains(np.array([a[0] for a in new]).reshape(-1, vmax, 2),
+                      np.array([a[1] for a in new], np.int64), np.array([a[2] for a in new]).reshape(-1, 2),
+                      np.array([a[3] for a in new]), vel,
+                      np.array([a[4] for a in new]), np.array([a[5] for a in new]))
+    return TalusGrains(*(np.concatenate([a, b]) for a, b in zip(
+        (grains.local, grains.nv, grains.pos, grains.angle, grains.vel, grains.mass, grains.inertia),
+        (add.local, add.nv, add.pos, add.angle, add.vel, add.mass, add.inertia))))
 
 
 def relax(sim, max_steps: int, v_tol: float, bodies=None, min_steps: int = 0,

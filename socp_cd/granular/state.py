@@ -16,6 +16,9 @@ i**, so that a compressive contact has ``forces[k] · normals[k] > 0``.
 
 Simulators report impulses over a time step ``h``; the adapters divide by
 ``h`` (mean force over the step, which is the force at a static equilibrium).
+:func:`from_frame` reads a generic frame; the adapters for
+:mod:`socp_cd.dynamics` objects are in :mod:`socp_cd.granular.adapters`
+(which imports this module, never the reverse).
 """
 from __future__ import annotations
 
@@ -25,7 +28,7 @@ import numpy as np
 
 from ..errors import InvalidProblemError
 
-__all__ = ["GranularState", "from_frame", "from_hdf5", "from_simulation", "from_trajectory"]
+__all__ = ["GranularState", "from_frame"]
 
 
 def _arr(value, name, shape, source, dtype=np.float64):
@@ -232,29 +235,3 @@ def from_frame(frame, *, masses=None, volumes=None, gravity=None, h=None, radii=
         gravity=None if g is None else np.asarray(g, float)[:d],
         accelerations=_get(frame, "accelerations"),
         radii=radii if radii is not None else _get(frame, "radii"), source=src)
-
-
-def from_hdf5(path, frame: int = -1, gravity=None, inertia: bool = True) -> GranularState:
-    """Read one frame of a trajectory HDF5 file written by :mod:`socp_cd.dynamics`.
-
-    Trajectory files do not store gravity: pass ``gravity`` (default: the
-    simulator's default, ``-9.81`` along the last axis).  Inertia forces are
-    included when the previous frame is one step earlier.
-    """
-    from ._dynamics_adapter import state_from_hdf5
-    return state_from_hdf5(path, frame, gravity=gravity, inertia=inertia)
-
-
-def from_simulation(sim, prev_vel=None, inertia: bool = True) -> GranularState:
-    """Snapshot of a running ``socp_cd.dynamics`` Simulation (contacts of its last step).
-
-    ``prev_vel`` (velocities before the last step) adds the inertia forces.
-    """
-    from ._dynamics_adapter import state_from_simulation
-    return state_from_simulation(sim, prev_vel=prev_vel, inertia=inertia)
-
-
-def from_trajectory(traj, frame: int = -1, gravity=None, inertia: bool = True) -> GranularState:
-    """Snapshot of one frame of a ``socp_cd.dynamics`` Trajectory (see :func:`from_hdf5`)."""
-    from ._dynamics_adapter import state_from_trajectory
-    return state_from_trajectory(traj, frame, gravity=gravity, inertia=inertia)

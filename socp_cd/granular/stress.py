@@ -115,33 +115,53 @@ def moreau_stress(state: GranularState, volume, sample=None, origin=None) -> np.
     return internal_moment(state, sample, origin) / _volume(volume)
 
 
-def weber_stress(state: GranularState, volume, sample=None) -> np.ndarray:
+def _reference(state: GranularState, reference) -> np.ndarray:
+    """Reference point of each grain: its centre, or the given ``(nb, d)`` points."""
+    if reference is None:
+        return state.centers
+    ref = np.asarray(reference, dtype=float)
+    if ref.shape != state.centers.shape or not np.all(np.isfinite(ref)):
+        raise InvalidProblemError("reference", f"shape {ref.shape}, expected finite "
+                                  f"{state.centers.shape}")
+    return ref
+
+
+def weber_stress(state: GranularState, volume, sample=None, reference=None) -> np.ndarray:
     """Love–Weber tensor ``(1/V) Σ_{c internal to S} l^c ⊗ f^c``.
 
-    ``l^c = x_j - x_i`` (branch vector between the two grain centres),
-    ``f^c`` = force exerted by ``j`` on ``i``.  Not symmetric in general.
+    ``l^c = x_j - x_i`` (branch vector between the reference points of the
+    two grains: their centres unless ``reference`` (nb, d) is given),
+    ``f^c`` = force exerted by ``j`` on ``i``.  Not symmetric in general, and
+    it depends on the reference points (Moreau's tensor does not).
     """
     inside = sample_mask(state, sample)
+    x = _reference(state, reference)
     in_i, in_j = _sides(state, inside)
     k = in_i & in_j
     i, j = state.pairs[k, 0], state.pairs[k, 1]
-    branch = state.centers[j] - state.centers[i]
+    branch = x[j] - x[i]
     return np.einsum("ka,kb->ab", branch, state.forces[k]) / _volume(volume)
 
 
-def external_stress(state: GranularState, volume, sample=None) -> np.ndarray:
+def external_stress(state: GranularState, volume, sample=None, reference=None) -> np.ndarray:
     """External-action term ``(1/V) Σ_{B∈S} Σ_{E ∉ S} (c^{BE} - x_B) ⊗ f^{BE}``.
 
     Contacts of grains of ``S`` with walls or grains outside ``S``, moments
-    taken about the grain's own centre (gravity/inertia contribute zero).
+    taken about the grain's reference point ``x_B`` (its centre unless
+    ``reference`` is given; gravity and inertia act at the centre and add
+    ``(x_centre - x_B) ⊗ (body force)``, zero for the centre).  For any
+    reference points ``σ̄ = σ_ext + σ_W`` at equilibrium.
     """
     inside = sample_mask(state, sample)
+    x = _reference(state, reference)
     in_i, in_j = _sides(state, inside)
     i, j = state.pairs[:, 0], state.pairs[:, 1]
     a = in_i & ~in_j                      # i in S, j outside / wall: +f on i
     b = in_j & ~in_i                      # j in S, i outside: -f on j
-    M = np.einsum("ka,kb->ab", state.points[a] - state.centers[i[a]], state.forces[a])
-    M -= np.einsum("ka,kb->ab", state.points[b] - state.centers[j[b]], state.forces[b])
+    M = np.einsum("ka,kb->ab", state.points[a] - x[i[a]], state.forces[a])
+    M -= np.einsum("ka,kb->ab", state.points[b] - x[j[b]], state.forces[b])
+    if reference is not None:
+        M += np.einsum("ka,kb->ab", (state.centers - x)[inside], state.body_forces()[inside])
     return M / _volume(volume)
 
 

@@ -1,9 +1,10 @@
-"""Adapters from :mod:`socp_cd.dynamics` objects to :class:`GranularState`.
+"""Adapters from :mod:`socp_cd.dynamics` objects to :class:`~.state.GranularState`.
 
 The simulator's :class:`~socp_cd.dynamics.stepper.ContactFrame` already uses
 the convention of :mod:`socp_cd.granular.state`: ``pairs = (i, j)`` with
 ``j = -1`` for obstacles, ``force`` = global force on ``i`` (``r / h``
-mapped to the global frame), ``normal`` from ``j`` into ``i``.
+mapped to the global frame), ``normal`` from ``j`` into ``i``.  This module
+depends on :mod:`.state`, never the reverse.
 """
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import numpy as np
 from ..errors import InvalidProblemError
 from .state import GranularState
 
-__all__ = ["body_volumes", "state_from_simulation", "state_from_trajectory", "state_from_hdf5"]
+__all__ = ["body_volumes", "from_simulation", "from_trajectory", "from_hdf5"]
 
 
 def _poly_areas(local):
@@ -60,7 +61,7 @@ def _state(pos, angle, vel, prev_vel, dt, contacts, mass, vol, gravity, geom, so
                          source=source)
 
 
-def state_from_simulation(sim, prev_vel=None, inertia: bool = True) -> GranularState:
+def from_simulation(sim, prev_vel=None, inertia: bool = True) -> GranularState:
     """Snapshot of a running :class:`~socp_cd.dynamics.stepper.Simulation`.
 
     Parameters
@@ -82,22 +83,32 @@ def state_from_simulation(sim, prev_vel=None, inertia: bool = True) -> GranularS
                   sim.last_contacts, s.mass, vol, s.gravity, geom, f"simulation t={sim.t:.6g}")
 
 
-def state_from_trajectory(traj, frame: int = -1, gravity=None, inertia: bool = True) -> GranularState:
+def from_trajectory(traj, frame: int = -1, gravity=None, inertia: bool = True) -> GranularState:
     """Snapshot of frame ``frame`` of a :class:`~socp_cd.dynamics.trajectory.Trajectory`.
 
-    Inertia forces are added when the previous frame is one time step earlier
-    (``record_every=1``).  Trajectory files do not store gravity: pass it
-    (default: ``-9.81`` along the last axis, the simulator's default).
+    Gravity is the one the trajectory recorded (``traj.meta["gravity"]``);
+    ``gravity`` overrides it (needed only for files without it).  Inertia
+    forces are added when the previous frame is one time step earlier
+    (``record_every=1``).
+
+    Raises
+    ------
+    InvalidProblemError
+        ``frame`` out of range, or gravity neither recorded nor given.
     """
     nf = len(traj.frames)
-    k = frame % nf if -nf <= frame < nf else None
-    if k is None:
+    if not -nf <= frame < nf:
         raise InvalidProblemError("frame", f"index {frame} out of range for {nf} frames")
+    k = frame % nf
     g = traj.geometry
     d = int(traj.meta["dim"])
     if gravity is None:
-        gravity = np.zeros(d)
-        gravity[-1] = -9.81
+        gravity = traj.meta.get("gravity")
+        if gravity is None:
+            raise InvalidProblemError("gravity", "not recorded in the trajectory: pass gravity=")
+    gravity = np.asarray(gravity, dtype=float).reshape(-1)
+    if gravity.shape != (d,):
+        raise InvalidProblemError("gravity", f"expected {d} components, got {gravity.shape}")
     F = traj.frames[k]
     prev = None
     h = float(traj.meta["h"])
@@ -110,7 +121,7 @@ def state_from_trajectory(traj, frame: int = -1, gravity=None, inertia: bool = T
                   f"trajectory frame {k}")
 
 
-def state_from_hdf5(path, frame: int = -1, gravity=None, inertia: bool = True) -> GranularState:
-    """Read a trajectory HDF5 file and return the state of one frame."""
+def from_hdf5(path, frame: int = -1, gravity=None, inertia: bool = True) -> GranularState:
+    """Read a trajectory HDF5 file and return the state of one frame (see :func:`from_trajectory`)."""
     from ..dynamics.trajectory import Trajectory
-    return state_from_trajectory(Trajectory.load(path), frame, gravity=gravity, inertia=inertia)
+    return from_trajectory(Trajectory.load(path), frame, gravity=gravity, inertia=inertia)
