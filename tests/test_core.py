@@ -17,8 +17,6 @@ from socp_cd.solvers import registry
 from socp_cd.solvers.kernels import cone as kc
 
 PKG = Path(socp_cd.__file__).resolve().parent
-#: packages whose cycles other engineers are fixing (reported, not failed)
-OTHERS = ("dynamics", "granular")
 
 
 def _problem(nc=4, dim=3, seed=0, mu=0.5):
@@ -250,20 +248,12 @@ def _cycles():
     return sccs
 
 
-def _is_others(mod):
-    return any(mod.startswith(f"socp_cd.{o}") for o in OTHERS)
-
-
-def test_no_import_cycles_outside_packages_being_fixed_elsewhere():
+def test_no_import_cycles():
     # a package's __init__ re-exporting its submodules is not a cycle of the code
     cycles = [c for c in _cycles()
               if not all(m.endswith("__init__") or m.count(".") <= 1 and m in ("socp_cd",)
                          for m in c)]
-    mine = [c for c in cycles if not all(_is_others(m) or m == "socp_cd" for m in c)]
-    others = [c for c in cycles if c not in mine]
-    if others:
-        print("import cycles in packages fixed by other branches:", others)
-    assert not mine, f"import cycles: {mine}"
+    assert not cycles, f"import cycles: {cycles}"
 
 
 def test_no_private_names_imported_across_modules():
@@ -274,8 +264,7 @@ def test_no_private_names_imported_across_modules():
             for n in names:
                 if n.startswith("_") and not n.startswith("__"):
                     bad.append(f"{mod}: from {target} import {n}")
-    mine = [b for b in bad if not _is_others(b.split(":")[0])]
-    assert not mine, mine
+    assert not bad, bad
 
 
 def test_one_compiled_implementation_of_each_kernel():
