@@ -92,8 +92,20 @@ class Timeout(BaseException):
 def alarm(signum, frame):
     raise Timeout()
 
+def hwm_kb():
+    with open("/proc/self/status") as fh:
+        return next(int(line.split()[1]) for line in fh if line.startswith("VmHWM:"))
+
+def reset_hwm():  # the peak RSS (VmHWM) back to the current RSS: measure each read, not the imports
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+    except OSError:
+        pass
+
 signal.signal(signal.SIGALRM, alarm)
 for path in sys.stdin.read().splitlines():
+    reset_hwm()
     signal.alarm(per_case)
     try:
         p = read_problem(path)
@@ -110,7 +122,7 @@ for path in sys.stdin.read().splitlines():
         out = {"status": "raw", "type": type(exc).__name__, "message": str(exc)[:2000]}
     signal.alarm(0)
     out["path"] = path
-    out["maxrss_kb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    out["maxrss_kb"] = hwm_kb()          # peak RSS during this read (imports excluded)
     print(json.dumps(out), flush=True)
 """
 
