@@ -343,7 +343,8 @@ def siconos_solve(problem, solver: str, tol: float = 1e-8, max_iter: int = 10000
         ``kind``, ``dense`` (ship ``W`` dense), ``repeat`` (call the driver up to
         this many times from the same start, in one process, and report the
         fastest call: a per-call time without cold caches; repeating stops once
-        the calls have taken 0.05 s).
+        the calls have taken 0.05 s; each call gets a fresh problem; local
+        problems only: global drivers are called once).
 
     Returns
     -------
