@@ -303,9 +303,7 @@ def test_builder_makes_dynamics_objects(tmp_path):
     np.testing.assert_allclose(np.linalg.norm(V - [3, 0], axis=1), math.hypot(0.5, 0.1))
 
 
-def test_material_table_needs_the_dynamics_support(tmp_path):
-    from socp_cd.dynamics import Scene
-    import dataclasses
+def test_material_table_reaches_the_bodies(tmp_path):
     text = BASE2 + """
     [[materials]]
     pair = ["steel", "steel"]
@@ -318,26 +316,7 @@ def test_material_table_needs_the_dynamics_support(tmp_path):
     """
     spec = load_scene_file(_write(tmp_path, text))
     assert spec.materials == {("steel", "steel"): {"mu": 0.2}}
-    if "materials" in {f.name for f in dataclasses.fields(Scene)}:
-        assert build_scene(spec).bodies[0].material == "steel"
-    else:
-        with pytest.raises(SceneFileError, match="material"):
-            build_scene(spec)
-
-
-def test_3d_box_without_dynamics_support_is_a_clear_error(tmp_path):
-    if has_boxes():
-        pytest.skip("socp_cd.dynamics has Box")
-    text = """
-    [scene]
-    dim = 3
-    [[bodies]]
-    shape = "box"
-    size = [1, 1, 1]
-    position = [0, 0, 1]
-    """
-    with pytest.raises(SceneFileError, match=r"bodies\[0\].shape: shape 'box' in 3D needs socp_cd.dynamics.Box"):
-        build_scene(load_scene_file(_write(tmp_path, text)))
+    assert build_scene(spec).bodies[0].material == "steel"
 
 
 def test_3d_entries_follow_the_agreed_box_interface(tmp_path, monkeypatch):
