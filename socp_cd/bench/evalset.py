@@ -203,17 +203,6 @@ def _real_files(data_dir) -> list[Path]:
     return sorted(p for p in d.iterdir() if p.is_file() and p.name != "MANIFEST.tsv")
 
 
-def _loader(path: Path):
-    cache = {}
-
-    def load():
-        if "p" not in cache:
-            from ..io import read_problem
-            cache["p"] = read_problem(path)
-        return cache["p"]
-    return load
-
-
 def manufactured_cases(data_dir, *, mus: Iterable[float] = MUS, seeds: Iterable[int] = range(4),
                        scales: Iterable[float] = SCALES, max_contacts: int | None = None
                        ) -> list[EvalCase]:
@@ -243,22 +232,21 @@ def manufactured_cases(data_dir, *, mus: Iterable[float] = MUS, seeds: Iterable[
         nc, dim, glob = base.n_contacts, base.dim, base.is_global
         if max_contacts is not None and nc > max_contacts:
             continue
-        load = _loader(path)
         for seed in seeds:
             mix_name, mix = mixes[seed % len(mixes)]
             for mu in mus:
                 cid = f"real-manufactured/{path.name}/mu{mu:g}-{mix_name}-s{seed}"
 
-                def build(load=load, mu=mu, mix=mix, seed=seed):
-                    return manufacture(load(), mu, mix, seed)
+                def build(base=base, mu=mu, mix=mix, seed=seed):
+                    return manufacture(base, mu, mix, seed)
                 cases.append(EvalCase(cid, "real-manufactured", path.name, split_of(cid), nc, dim,
                                       glob, build, dict(mu=mu, mix=mix_name, seed=seed)))
         for lam in scales:
             for what in ("q", "Wq"):
                 cid = f"real-scaled/{path.name}/{what}x{lam:g}"
 
-                def build(load=load, lam=lam, what=what):
-                    return rescaled(manufacture(load(), 0.5, MIXES["mixed"], 0), lam, what)
+                def build(base=base, lam=lam, what=what):
+                    return rescaled(manufacture(base, 0.5, MIXES["mixed"], 0), lam, what)
                 cases.append(EvalCase(cid, "real-scaled", path.name, split_of(cid), nc, dim, glob, build,
                                       dict(mu=0.5, mix="mixed", seed=0, scale=lam, what=what)))
     return cases
@@ -272,7 +260,7 @@ def collection_cases(folder) -> list[EvalCase]:
         p = read_problem(path)
         cid = f"{Path(folder).name}/{path.name}"
         out.append(EvalCase(cid, Path(folder).name, path.name, "holdout", p.n_contacts, p.dim,
-                            p.is_global, (lambda path=path: read_problem(path)), {}))
+                            p.is_global, (lambda p=p: p), {}))
     return out
 
 
