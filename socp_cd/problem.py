@@ -34,7 +34,7 @@ import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
 from .errors import InvalidProblemError
-from .residuals import error
+from .residuals import contact_scales, error
 
 #: Relative threshold (w.r.t. max |W|) below which W - W^T counts as round-off.
 SYMMETRY_RTOL = 1e-10
@@ -271,12 +271,43 @@ class _ProblemBase:
         """View a stacked contact vector as an ``(n_contacts, dim)`` array."""
         return np.asarray(x, dtype=np.float64).reshape(self.n_contacts, self.dim)
 
-    def trivial_error(self) -> Optional[float]:
-        """Siconos error of ``r = 0`` (None when ``M`` is singular)."""
+    # Per-problem quantities that do not depend on ``r``, computed once.  A problem
+    # is treated as immutable: its data (``W, q, mu`` or ``M, H, f, w``) are not
+    # changed after construction (build a new one, e.g. with ``with_``, instead).
+
+    @cached_property
+    def zero_error(self) -> Optional[float]:
+        """Siconos error of ``r = 0``, computed once (None when ``M`` is singular)."""
         try:
             return error(self, np.zeros(self.m))
         except InvalidProblemError:
             return None
+
+    def trivial_error(self) -> Optional[float]:
+        """Siconos error of ``r = 0`` (None when ``M`` is singular); see :attr:`zero_error`."""
+        return self.zero_error
+
+    @cached_property
+    def q_norm(self) -> float:
+        """``||q||`` of the local free velocity (Siconos' error normalization), computed once."""
+        return float(np.linalg.norm(self.q_local))
+
+    @cached_property
+    def balancing_scales(self) -> tuple:
+        """The unit factors ``(a, b)`` of :func:`socp_cd.residuals.contact_scales`, computed once.
+
+        ``r = a r~``, ``u = b u~`` (read-only arrays of length ``m``): what
+        :func:`socp_cd.solve` uses to hand backends the balanced problem.
+        """
+        a, b = contact_scales(self)
+        a.flags.writeable = False
+        b.flags.writeable = False
+        return a, b
+
+    @cached_property
+    def balanced_q_norm(self) -> float:
+        """``||q / b||``: the norm of the free velocity in balanced units (:attr:`balancing_scales`)."""
+        return float(np.linalg.norm(self.q_local / self.balancing_scales[1]))
 
     def _summary_common(self, tol: float) -> dict:
         """Summary entries shared by local and global problems.
@@ -349,6 +380,60 @@ class FrictionContactProblem(_ProblemBase):
         self.q = _as_vector(q, "q", W.shape[0], source)
         self.mu = _as_mu(mu, nc, source)
         self._init_meta(source, name, info, solution, guesses)
+
+    @classmethod
+    def from_checked(cls, W: sp.csr_matrix, q: np.ndarray, mu: np.ndarray, dim: int, *,
+                     source=None, name=None, info=None, solution: Optional[Solution] = None,
+                     guesses=None) -> "FrictionContactProblem":
+        """A problem from data already in validated form, without checking them again.
+
+        For code that derives a problem from a validated one (e.g. the
+        dispatcher's balanced copy, :mod:`socp_cd.solvers.scaling`): ``W`` a
+        square float64 CSR matrix of size ``m = dim * n_contacts`` with summed
+        duplicates and finite entries, ``q`` a finite contiguous float64
+        vector of length ``m``, ``mu`` a finite, non-negative contiguous float64
+        vector with one entry per contact, ``dim`` 2 or 3.  Data from users or
+        files go through the constructor, which checks all of this.
+        """
+        self = cls.__new__(cls)
+        self.dim = int(dim)
+        self.W = W
+        self.q = q
+        self.mu = mu
+        self._init_meta(source, name, info, solution, guesses)
+        return self
+
+    def rescaled(self, a, b) -> "FrictionContactProblem":
+        """The same problem in other units: ``r = a r~``, ``u = b u~`` (one factor per contact).
+
+        ``u~ = (S W S) r~ + q / b`` with ``S = diag(sqrt(a / b))`` (``W`` keeps its
+        sparsity; ``a / b`` must be constant over each contact's components
+        and positive, as :func:`socp_cd.residuals.contact_scales` gives);
+        stored solutions and guesses are converted (``v`` is dropped: not a
+        local quantity).  Built with :meth:`from_checked` (no validation).
+        """
+        s = np.sqrt(a / b)                              # s_i = 1/sqrt(d_i) for the balancing scales
+        Wc = self.W
+        rows = np.repeat(np.arange(self.m), np.diff(Wc.indptr))
+        W = sp.csr_matrix((Wc.data * (s[rows] * s[Wc.indices]), Wc.indices, Wc.indptr),
+                          shape=Wc.shape)                # S W S, same sparsity, one copy
+
+        def convert(sol: Solution) -> Solution:
+            return Solution(r=None if sol.r is None else sol.r / a,
+                            u=None if sol.u is None else sol.u / b)
+
+        return FrictionContactProblem.from_checked(
+            W, self.q / b, self.mu, self.dim, source=self.source, name=self.name, info=self.info,
+            solution=None if self.solution is None else convert(self.solution),
+            guesses=[convert(g) for g in self.guesses])
+
+    @cached_property
+    def balanced(self) -> "FrictionContactProblem":
+        """:meth:`rescaled` by :attr:`balancing_scales`, built once: the problem
+        :func:`socp_cd.solve` hands its backends (its ``q`` is read-only)."""
+        out = self.rescaled(*self.balancing_scales)
+        out.q.flags.writeable = False
+        return out
 
     # ------------------------------------------------------------------ algebra
     def velocity(self, r) -> np.ndarray:
@@ -531,6 +616,12 @@ class GlobalFrictionContactProblem(_ProblemBase):
         return FrictionContactProblem(W, self.q_local, self.mu, self.dim, source=self.source,
                                       name=self.name, info=self.info, solution=sol,
                                       guesses=[Solution(r=g.r, u=g.u) for g in self.guesses])
+
+    @cached_property
+    def local(self) -> FrictionContactProblem:
+        """:meth:`to_local`, computed once (what :func:`socp_cd.solve` condenses to
+        for a backend that does not solve the global form natively)."""
+        return self.to_local()
 
     @cached_property
     def rank_report(self) -> RankReport:

@@ -19,6 +19,8 @@ converged.  See ``formulations/coulomb.md`` §9.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .cones import (fenchel_young_gap, in_cone_violation, natural_map,
@@ -247,28 +249,53 @@ def guard(problem, r, u=None, scales=None, law=None, **params) -> dict:
                 "balanced_siconos": float("inf")}
     balanced = BalancedView(problem, b)
     with np.errstate(all="ignore"):      # overflow ends as inf below, never nan
-        vel = max(float(np.linalg.norm(balanced.q_local)), float(np.linalg.norm(us)))
-        vel = vel if vel > _EPS else 1.0
-        # the law's residuals divide by Siconos' normalization: rescale to the velocity one
-        siconos = error_normalization(balanced, rs, us)
         measured = (law or error)(balanced, rs, us, **params)
-        out = {"error": measured * (siconos / vel), "balanced_siconos": measured}
-        out["rounding"] = _EPS * float(np.linalg.norm(rs)) / vel
-    out["value"] = max(out["error"], out["rounding"])
+        out = guard_values(measured, float(np.linalg.norm(rs)), float(np.linalg.norm(us)),
+                           float(np.linalg.norm(balanced.q_local)))
     if law is None or law is error:
-        with np.errstate(all="ignore"):
-            out.update(_coulomb_parts(rs, us, problem, vel))
-    return {k: (v if np.isfinite(v) else float("inf")) for k, v in out.items()}
+        out.update(coulomb_parts(rs, us, problem, out["velocity_scale"]))
+    return finite_guard(out)
 
 
-def _coulomb_parts(rs, us, problem, norm) -> dict:
-    """Feasibility and complementarity parts of the balanced Coulomb residual (see :func:`guard`)."""
-    gap = fenchel_young_gap(rs, us, problem.mu, problem.dim)
-    return {
-        "cone": float(np.max(in_cone_violation(rs, problem.mu, problem.dim))) / norm,
-        "normal_velocity": float(np.max(normal_velocity_violation(us, problem.dim))) / norm,
-        "complementarity": float(np.sum(np.abs(gap))) / norm ** 2,
-    }
+def guard_values(measured, r_norm, u_norm, q_norm) -> dict:
+    """The entries ``error``, ``rounding``, ``value``, ``balanced_siconos`` of :func:`guard`.
+
+    ``measured`` is the law's residual of the balanced pair with Siconos'
+    normalization, ``r_norm, u_norm, q_norm`` the norms of ``r~, u~, q~``.
+    ``"velocity_scale"`` (``V``) is returned too, for :func:`coulomb_parts`;
+    :func:`finite_guard` drops it.
+    """
+    with np.errstate(all="ignore"):
+        vel = max(q_norm, u_norm)
+        vel = vel if vel > _EPS else 1.0
+        siconos = max(q_norm, r_norm, u_norm)
+        siconos = siconos if siconos > _EPS else 1.0
+        # the law's residuals divide by Siconos' normalization: rescale to the velocity one
+        out = {"error": measured * (siconos / vel), "balanced_siconos": measured,
+               "rounding": _EPS * r_norm / vel}
+    out["value"] = max(out["error"], out["rounding"])
+    out["velocity_scale"] = vel
+    return out
+
+
+def finite_guard(out: dict) -> dict:
+    """:func:`guard`'s record as returned: non-finite entries become ``inf``, no ``velocity_scale``."""
+    return {k: (v if math.isfinite(v) else float("inf")) for k, v in out.items()
+            if k != "velocity_scale"}
+
+
+def coulomb_parts(rs, us, problem, norm) -> dict:
+    """Feasibility and complementarity parts of the balanced Coulomb residual (see :func:`guard`).
+
+    ``rs, us``: the balanced pair; ``norm``: the velocity scale ``V``.
+    """
+    with np.errstate(all="ignore"):
+        gap = fenchel_young_gap(rs, us, problem.mu, problem.dim)
+        return {
+            "cone": float(np.max(in_cone_violation(rs, problem.mu, problem.dim))) / norm,
+            "normal_velocity": float(np.max(normal_velocity_violation(us, problem.dim))) / norm,
+            "complementarity": float(np.sum(np.abs(gap))) / norm ** 2,
+        }
 
 
 def balanced_error(problem, r, u=None, scales=None) -> float:
@@ -276,5 +303,5 @@ def balanced_error(problem, r, u=None, scales=None) -> float:
     return guard(problem, r, u, scales)["error"]
 
 
-__all__ = ["contact_scales", "BalancedView", "guard", "balanced_error", "error", "checked_pair", "absolute_error", "error_normalization", "contact_errors",
+__all__ = ["contact_scales", "BalancedView", "guard", "guard_values", "finite_guard", "coulomb_parts", "balanced_error", "error", "checked_pair", "absolute_error", "error_normalization", "contact_errors",
            "feasibility", "complementarity"]

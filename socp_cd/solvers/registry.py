@@ -24,6 +24,7 @@ from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, check_threshold, law_parameters
 from ..residuals import guard
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
+from .checks import coulomb_error, coulomb_guard
 from .options import COMMON_OPTIONS, check_common, check_unknown
 from .result import STATUSES, SolverResult
 from .scaling import balance
@@ -103,7 +104,7 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params,
     """
     r = np.asarray(res.r, dtype=np.float64).reshape(-1)
     res.tol = tol
-    err0 = problem.trivial_error()
+    err0 = problem.zero_error
     res.trivial = None if err0 is None else bool(err0 <= tol)
     if r.shape[0] != problem.m or not np.all(np.isfinite(r)):
         res.r = np.where(np.isfinite(r), r, 0.0) if r.shape[0] == problem.m else np.zeros(problem.m)
@@ -120,8 +121,11 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params,
         res.u = problem.velocity(r)
         if problem.is_global and res.v is None:
             res.v = problem.global_velocity(r)
+        # compiled checks need a finite u (the references reject any other u)
+        compiled = bool(np.isfinite(res.u).all())
         # the law's residual and Siconos' Coulomb error, each computed once (one when equal)
-        judged = {name: law_residual(problem, name, r, res.u, **params)
+        judged = {name: (coulomb_error(problem, r, res.u) if compiled and name == "coulomb" else
+                         law_residual(problem, name, r, res.u, **params))
                   for name in {formulation, "coulomb"}}
     res.coulomb_error, law = judged["coulomb"], judged[formulation]
     if not np.isfinite(res.coulomb_error):
@@ -131,8 +135,12 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params,
         res.status = "numerical_error"
         res.message = (res.message + "; " if res.message else "") + "non-finite residual"
     res.error = law
-    res.info["guard"] = checked = guard(problem, r, res.u, scales, law=LAW_RESIDUALS[formulation],
-                                        **law_parameters(formulation, params))
+    if compiled and formulation == "coulomb":    # its own scales: those passed are the same
+        checked = coulomb_guard(problem, r, res.u)
+    else:
+        checked = guard(problem, r, res.u, scales, law=LAW_RESIDUALS[formulation],
+                        **law_parameters(formulation, params))
+    res.info["guard"] = checked
     res.converged = bool(law <= tol and checked["value"] <= tol)
     if res.converged:
         res.status = "converged"
@@ -325,7 +333,7 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
         options["threshold"] = check_threshold(problem, options.get("threshold"))
     target = problem
     if problem.is_global and formulation not in spec.global_native:
-        target = problem.to_local()
+        target = problem.local        # condensed once per problem
     t0 = _time.perf_counter()
     scaling = None if target.is_global else balance(target)
     run = dict(max_iter=max_iter, history=history, verbose=verbose,

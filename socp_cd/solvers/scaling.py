@@ -21,10 +21,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
-from ..problem import FrictionContactProblem, Solution
-from ..residuals import contact_scales
+from ..problem import FrictionContactProblem
 
 
 @dataclass(frozen=True)
@@ -36,22 +34,15 @@ class Scaling:
     dim: int
 
     def problem(self, problem: FrictionContactProblem) -> FrictionContactProblem:
-        """The balanced problem ``u~ = (S W S) r~ + S q / sigma``."""
-        s = np.sqrt(self.a / self.b)                    # s_i = 1/sqrt(d_i)
-        Wc = problem.W.tocsr()
-        rows = np.repeat(np.arange(problem.m), np.diff(Wc.indptr))
-        W = sp.csr_matrix((Wc.data * (s[rows] * s[Wc.indices]), Wc.indices, Wc.indptr),
-                          shape=Wc.shape)                # S W S, same sparsity, one copy
-        return FrictionContactProblem(
-            W, problem.q / self.b, problem.mu, problem.dim, source=problem.source,
-            name=problem.name, info=problem.info,
-            solution=None if problem.solution is None else self._solution(problem.solution),
-            guesses=[self._solution(g) for g in problem.guesses])
+        """The balanced problem ``u~ = (S W S) r~ + S q / sigma`` (:meth:`FrictionContactProblem.rescaled`).
 
-    def _solution(self, sol: Solution) -> Solution:
-        """A stored solution or guess in balanced units (``v`` is not a local quantity)."""
-        return Solution(r=None if sol.r is None else sol.r / self.a,
-                        u=None if sol.u is None else sol.u / self.b)
+        For the problem's own factors (:func:`balance`) it is the problem's
+        cached ``balanced`` copy, built once.
+        """
+        a, b = problem.balancing_scales
+        if self.a is a and self.b is b:
+            return problem.balanced
+        return problem.rescaled(self.a, self.b)
 
     def reaction_to_scaled(self, r):
         """``r~ = r / a`` (None stays None)."""
@@ -77,8 +68,9 @@ class Scaling:
 
 
 def balance(problem: FrictionContactProblem) -> Scaling:
-    """The :class:`Scaling` of a local problem (:func:`~socp_cd.residuals.contact_scales`)."""
-    a, b = contact_scales(problem)
+    """The :class:`Scaling` of a local problem (its cached ``balancing_scales``,
+    :func:`~socp_cd.residuals.contact_scales`)."""
+    a, b = problem.balancing_scales
     return Scaling(a, b, problem.dim)
 
 

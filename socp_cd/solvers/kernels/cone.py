@@ -27,6 +27,9 @@ Whole stacked vectors (length ``m = dim * n_contacts``):
 ``error_parts(r, u, mu, g, dim, law)``
     ``(||F||², ||r||², ||u||²)`` of the natural map ``F = r - P(r - û)`` for
     any law; :func:`relative_error` turns them into the relative error.
+``coulomb_violations(r, u, mu, dim)``
+    ``(max cone distance of r, max(0, -u_N), sum |r · û|)`` over the contacts
+    (the parts of the units guard, :func:`socp_cd.residuals.coulomb_parts`).
 ``relative_error(f2, r2, u2, norm_q)``
     ``sqrt(f2) / max(norm_q, sqrt(r2), sqrt(u2))``; when the three norms are
     below machine epsilon the absolute value is returned (Siconos' rule).
@@ -209,7 +212,43 @@ def siconos_error(r, u, mu, dim, norm_q):
     return law_error(r, u, mu, np.zeros(mu.shape[0]), dim, LAW_COULOMB, norm_q)
 
 
+@njit(cache=True)
+def coulomb_violations(r, u, mu, dim):
+    """``(max_i dist(r_i, K_mu), max_i max(0, -u_N,i), sum_i |r_i · û_i|)``.
+
+    The feasibility and complementarity measures of a Coulomb pair
+    (:func:`socp_cd.cones.in_cone_violation`,
+    :func:`socp_cd.cones.normal_velocity_violation`,
+    :func:`socp_cd.cones.fenchel_young_gap`) reduced over the contacts.
+    """
+    nc = r.shape[0] // dim
+    p = np.empty(dim)
+    uh = np.empty(dim)
+    cone = 0.0
+    normal = 0.0
+    gap = 0.0
+    for i in range(nc):
+        o = i * dim
+        project_cone_block(r[o:o + dim], dim, mu[i], p)
+        d2 = 0.0
+        for a in range(dim):
+            e = r[o + a] - p[a]
+            d2 += e * e
+        d = np.sqrt(d2)
+        if d > cone or i == 0:
+            cone = d
+        v = -u[o] if -u[o] > 0.0 else 0.0
+        if v > normal or i == 0:
+            normal = v
+        desaxce_velocity_block(u[o:o + dim], dim, mu[i], uh)
+        g = 0.0
+        for a in range(dim):
+            g += r[o + a] * uh[a]
+        gap += abs(g)
+    return cone, normal, gap
+
+
 __all__ = ["LAW_COULOMB", "LAW_ASSOCIATED", "LAW_TRESCA", "EPS", "tangential_norm_block",
            "project_cone_block", "project_dual_cone_block", "project_law_block",
            "desaxce_velocity_block", "law_velocity_block", "project_cone_jacobian_block",
-           "error_parts", "relative_error", "law_error", "siconos_error"]
+           "error_parts", "relative_error", "law_error", "siconos_error", "coulomb_violations"]

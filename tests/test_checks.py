@@ -1,0 +1,92 @@
+"""The dispatcher's compiled checks equal the NumPy references; per-problem caches are exact."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import socp_cd
+from socp_cd import residuals
+from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem, Solution
+from socp_cd.solvers import checks
+from socp_cd.solvers.kernels import cone as kc
+
+
+def _problem(nc, dim, seed, mu=0.5):
+    """A random local problem with unbalanced units (contacts of very different stiffness)."""
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((nc * dim, nc * dim))
+    S = np.repeat(10.0 ** rng.uniform(-3, 3, nc), dim)
+    W = S[:, None] * (A @ A.T + nc * dim * np.eye(nc * dim)) * S[None, :]
+    return FrictionContactProblem(W, 1e4 * rng.standard_normal(nc * dim), mu, dim)
+
+
+def _candidates(p, seed):
+    """Random reactions at several scales, r = 0, and a solver's answer."""
+    rng = np.random.default_rng(seed)
+    out = [np.zeros(p.m), socp_cd.solve(p, "nsgs", tol=1e-10, max_iter=500).r]
+    out += [s * rng.standard_normal(p.m) for s in (1e-20, 1e-3, 1.0, 1e6)]
+    return out
+
+
+@pytest.mark.parametrize("dim,nc", [(2, 1), (3, 1), (2, 6), (3, 7)])
+def test_compiled_checks_equal_reference(dim, nc):
+    p = _problem(nc, dim, seed=10 * dim + nc)
+    for r in _candidates(p, nc):
+        u = p.velocity(r)
+        assert checks.coulomb_error(p, r, u) == pytest.approx(residuals.error(p, r, u),
+                                                               rel=1e-12, abs=1e-14)
+        fast, ref = checks.coulomb_guard(p, r, u), residuals.guard(p, r, u)
+        assert fast.keys() == ref.keys()
+        for key in ref:
+            assert fast[key] == pytest.approx(ref[key], rel=1e-12, abs=1e-14), key
+
+
+def test_violation_kernel_equals_reference_parts():
+    p = _problem(9, 3, seed=3, mu=np.linspace(0.0, 2.0, 9))
+    rng = np.random.default_rng(0)
+    r, u = rng.standard_normal(p.m), rng.standard_normal(p.m)
+    cone, normal, gap = kc.coulomb_violations(r, u, p.mu, p.dim)
+    ref = residuals.coulomb_parts(r, u, p, 2.0)
+    assert cone / 2.0 == pytest.approx(ref["cone"], rel=1e-13)
+    assert normal / 2.0 == pytest.approx(ref["normal_velocity"], rel=1e-13)
+    assert gap / 4.0 == pytest.approx(ref["complementarity"], rel=1e-13)
+
+
+def test_cached_problem_quantities_are_the_computed_ones():
+    p = _problem(5, 3, seed=1)
+    assert p.zero_error == residuals.error(p, np.zeros(p.m)) == p.trivial_error()
+    a, b = residuals.contact_scales(p)
+    assert np.array_equal(p.balancing_scales[0], a) and np.array_equal(p.balancing_scales[1], b)
+    assert p.q_norm == float(np.linalg.norm(p.q))
+    assert p.balanced_q_norm == float(np.linalg.norm(p.q / b))
+    assert p.balanced is p.balanced                       # built once
+    with pytest.raises(ValueError):
+        p.balancing_scales[0][0] = 1.0                     # the cache cannot be altered by a caller
+
+
+def test_rescaled_equals_the_validated_construction():
+    p = _problem(4, 3, seed=2)
+    p.solution = Solution(r=np.arange(p.m, dtype=float), u=np.ones(p.m))
+    a, b = p.balancing_scales
+    s = np.sqrt(a / b)
+    fast = p.rescaled(a, b)
+    ref = FrictionContactProblem(s[:, None] * p.W.toarray() * s[None, :], p.q / b, p.mu, p.dim)
+    assert np.allclose(fast.W.toarray(), ref.W.toarray(), rtol=1e-15, atol=0)
+    assert np.array_equal(fast.q, ref.q) and np.array_equal(fast.mu, ref.mu)
+    assert np.array_equal(fast.solution.r, p.solution.r / a)
+    assert np.array_equal(fast.solution.u, p.solution.u / b)
+    # a solution of the balanced problem maps back to one of the original
+    res = socp_cd.solve(fast, "nsgs", tol=1e-12, max_iter=1000)
+    assert residuals.error(p, a * res.r) < 1e-9
+
+
+def test_global_problem_condensed_once():
+    rng = np.random.default_rng(5)
+    n, m = 12, 9
+    A = rng.standard_normal((n, n))
+    p = GlobalFrictionContactProblem(A @ A.T + n * np.eye(n), rng.standard_normal((n, m)),
+                                     rng.standard_normal(n), rng.standard_normal(m), 0.3, 3)
+    assert p.local is p.local
+    ref = p.to_local()
+    assert np.array_equal(p.local.W.toarray(), ref.W.toarray())
+    assert np.array_equal(p.local.q, ref.q)
