@@ -64,6 +64,16 @@ def test_cached_problem_quantities_are_the_computed_ones():
         p.balancing_scales[0][0] = 1.0                     # the cache cannot be altered by a caller
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_compiled_zero_error_is_the_reference(dim):
+    """checks.zero_error (compiled, local problems) = the cached NumPy reference, mu = 0 included."""
+    for seed, mu in enumerate((0.0, 0.5, np.array([0.0, 0.3, 0.0, 1.0, 2.0]))):
+        p = _problem(5, dim, seed=seed, mu=mu)
+        for q in (p.q, np.abs(p.q), -np.abs(p.q), np.zeros(p.m)):   # separated / closing / none
+            pq = FrictionContactProblem(p.W, q, p.mu, dim)
+            assert checks.zero_error(pq) == pytest.approx(pq.zero_error, rel=1e-13, abs=1e-300)
+
+
 def test_rescaled_equals_the_validated_construction():
     p = _problem(4, 3, seed=2)
     p.solution = Solution(r=np.arange(p.m, dtype=float), u=np.ones(p.m))

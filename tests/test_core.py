@@ -32,6 +32,9 @@ def test_cone_kernels_equal_numpy_reference(dim):
     rng = np.random.default_rng(dim)
     X = rng.standard_normal((400, dim)) * rng.choice([1e-3, 1.0, 1e3], size=(400, 1))
     mu = rng.choice([0.0, 0.1, 0.7, 3.0], size=400)
+    X[::5, 1:] = 0.0               # x_T = 0 exactly: with mu = 0 the inside and polar tests tie
+    X[1::10, 0] = 0.0              # x_N = 0 exactly
+    X[2::20] = 0.0                 # x = 0
     P, D, V = np.empty_like(X), np.empty_like(X), np.empty_like(X)
     J = np.empty((400, dim, dim))
     for i in range(400):
@@ -69,6 +72,26 @@ def test_siconos_error_kernel_equals_reference(dim):
                                     kc.LAW_COULOMB)
         assert math.sqrt(f2) == pytest.approx(residuals.absolute_error(p, r, u), rel=1e-13,
                                               abs=1e-300)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_siconos_error_kernel_on_frictionless_contacts(dim):
+    """mu = 0 contacts, separated (r = 0, u_N > 0) or closed: exact answers have error 0."""
+    p = _problem(6, dim, seed=dim + 7, mu=np.array([0.0, 0.0, 0.5, 0.0, 1.0, 0.0]))
+    rng = np.random.default_rng(2)
+    R = np.zeros((6, dim))
+    R[1, 0] = 1.0                                      # closed frictionless contact
+    R[2] = [1.0, 0.2] + [0.1] * (dim - 2)
+    U = np.zeros((6, dim))
+    U[0, 0] = U[3, 0] = U[5, 0] = 0.3                  # separated: r = 0, u_N > 0
+    U[0, 1:] = rng.standard_normal(dim - 1)            # any slip when mu = 0
+    U[4, 0] = 2.0
+    r, u = R.ravel(), U.ravel()
+    q = u - p.W @ r
+    p = FrictionContactProblem(p.W, q, p.mu, dim)
+    ref = residuals.error(p, r, u)
+    assert ref < 1e-15
+    assert kc.siconos_error(r, u, p.mu, dim, float(np.linalg.norm(q))) == pytest.approx(ref, abs=1e-15)
 
 
 # ------------------------------------------------------------------ one options contract

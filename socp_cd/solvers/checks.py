@@ -37,6 +37,20 @@ def coulomb_error(problem, r, u) -> float:
     return float(relative_error(f2, r2, u2, problem.q_norm))
 
 
+def zero_error(problem):
+    """Siconos' error of ``r = 0`` (None when a global problem's ``M`` is singular).
+
+    Local problems: the compiled :func:`coulomb_error` with ``u = q`` (a few
+    microseconds, not cached); global ones: the problem's cached
+    :attr:`~socp_cd.problem.GlobalFrictionContactProblem.zero_error` (``u = Hᵀ M⁻¹ f + w``
+    needs a solve with ``M``).
+    """
+    if problem.is_global:
+        return problem.zero_error
+    q = np.ascontiguousarray(problem.q, dtype=np.float64)
+    return coulomb_error(problem, np.zeros(problem.m), q)
+
+
 def coulomb_guard(problem, r, u) -> dict:
     """:func:`socp_cd.residuals.guard` for the Coulomb law, in the problem's own balanced units.
 
@@ -60,4 +74,4 @@ def coulomb_guard(problem, r, u) -> dict:
     return finite_guard(out)
 
 
-__all__ = ["coulomb_error", "coulomb_guard"]
+__all__ = ["coulomb_error", "coulomb_guard", "zero_error"]

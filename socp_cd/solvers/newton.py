@@ -63,6 +63,7 @@ from threadpoolctl import ThreadpoolController
 from ..cones import project_cone
 from ..errors import UnsupportedError
 from .kernels.cone import siconos_error
+from .kernels.dense import lu_solve
 from .kernels.newton_ac import ac_blocks, dense_jacobian
 from .options import check_choice, check_int, check_real
 from .polish import associated_polish
@@ -74,6 +75,10 @@ DEFAULT_MAX_ITER = 200
 DENSE_MAX_M = 600
 DENSE_ALWAYS_M = 120
 DENSE_MIN_FILL = 0.1
+#: dense Newton matrices this small are factorized by the compiled LU of
+#: :mod:`~socp_cd.solvers.kernels.dense` (same partial pivoting; scipy's LAPACK
+#: wrappers cost ~20 µs per call, more than the factorization itself)
+COMPILED_LU_MAX_M = 48
 #: global problems up to this many unknowns r are condensed to the local form
 CONDENSE_MAX_M = 600
 #: solver-specific options (the common ones are in :mod:`socp_cd.solvers.options`)
@@ -152,7 +157,12 @@ class _LocalSystem:
     def direction(self, r, Dr, Du, alpha, F):
         """Solve ``(Dr + Du (W + alpha I)) dr = -F``; returns ``(dr, W dr)``."""
         self.factorizations += 1
-        if self.kind == "dense":
+        if self.kind == "dense" and self.m <= COMPILED_LU_MAX_M:
+            dense_jacobian(Dr, Du, self.W, alpha, self.d, self.J)
+            dr, ok = lu_solve(self.J, -F)          # compiled: no LAPACK-wrapper overhead
+            if not ok:
+                raise _SingularStep("singular Newton matrix")
+        elif self.kind == "dense":
             dense_jacobian(Dr, Du, self.W, alpha, self.d, self.J)
             try:
                 lu = sla.lu_factor(self.J, overwrite_a=True, check_finite=False)

@@ -24,7 +24,7 @@ from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, check_threshold, law_parameters
 from ..residuals import guard
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
-from .checks import coulomb_error, coulomb_guard
+from .checks import coulomb_error, coulomb_guard, zero_error
 from .options import COMMON_OPTIONS, check_common, check_unknown
 from .result import STATUSES, SolverResult
 from .scaling import balance
@@ -104,7 +104,7 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params,
     """
     r = np.asarray(res.r, dtype=np.float64).reshape(-1)
     res.tol = tol
-    err0 = problem.zero_error
+    err0 = zero_error(problem)
     res.trivial = None if err0 is None else bool(err0 <= tol)
     if r.shape[0] != problem.m or not np.all(np.isfinite(r)):
         res.r = np.where(np.isfinite(r), r, 0.0) if r.shape[0] == problem.m else np.zeros(problem.m)

@@ -60,15 +60,20 @@ def tangential_norm_block(x, dim):
 
 @njit(cache=True, inline="always")
 def project_cone_block(x, dim, mu, out):
-    """Project one block ``x`` on ``K_mu`` (into ``out``; ``out`` may be ``x``)."""
+    """Project one block ``x`` on ``K_mu`` (into ``out``; ``out`` may be ``x``).
+
+    The polar test comes first, as in :func:`socp_cd.cones.project_cone`: with
+    ``mu = 0`` and ``x_T = 0`` both tests read ``0 <= ...``, and a block with
+    ``x_N < 0`` must project to 0, not to itself.
+    """
     xn = x[0]
     t = tangential_norm_block(x, dim)
-    if t <= mu * xn:
-        for a in range(dim):
-            out[a] = x[a]
-    elif mu * t <= -xn:
+    if mu * t <= -xn:
         for a in range(dim):
             out[a] = 0.0
+    elif t <= mu * xn:
+        for a in range(dim):
+            out[a] = x[a]
     else:
         pn = (xn + mu * t) / (1.0 + mu * mu)
         out[0] = pn
