@@ -76,9 +76,10 @@ DENSE_MAX_M = 600
 DENSE_ALWAYS_M = 120
 DENSE_MIN_FILL = 0.1
 #: dense Newton matrices this small are factorized by the compiled LU of
-#: :mod:`~socp_cd.solvers.kernels.dense` (same partial pivoting; scipy's LAPACK
-#: wrappers cost ~20 µs per call, more than the factorization itself)
-COMPILED_LU_MAX_M = 48
+#: :mod:`~socp_cd.solvers.kernels.dense` (same partial pivoting).  Measured per
+#: factor+solve: compiled 1.9 / 4.7 / 23 / 58 µs at m = 12 / 24 / 48 / 69, scipy's
+#: LAPACK wrappers 12 / 14 / 21 / 33 µs: the wrappers' overhead dominates below ~40.
+COMPILED_LU_MAX_M = 36
 #: global problems up to this many unknowns r are condensed to the local form
 CONDENSE_MAX_M = 600
 #: solver-specific options (the common ones are in :mod:`socp_cd.solvers.options`)
