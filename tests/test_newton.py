@@ -14,6 +14,9 @@ from socp_cd.solvers.kernels.newton_ac import ac_blocks, ac_blocks_reference
 
 MU = 0.5
 RHO = 0.7
+#: (rho_N, rho_T) pairs: one scalar per contact ("block") and split parameters
+#: differing by 40x both ways (as on elongated bodies: W_NN and W_TT far apart)
+RHO_PAIRS = [(RHO, RHO), (2.0, 0.05), (0.05, 2.0)]
 
 
 def _branch_point(branch, dim, rng):
@@ -39,32 +42,56 @@ def _branch_point(branch, dim, rng):
     return r, u
 
 
-def _F(r, u, dim):
+def _F(r, u, dim, rho_n=RHO, rho_t=RHO):
     F = np.empty(dim)
     z = np.empty((1, dim, dim))
-    ac_blocks(r, u, np.array([MU]), np.array([RHO]), dim, False, F, z, z, np.empty(1, np.int64))
+    ac_blocks(r, u, np.array([MU]), np.array([rho_n]), np.array([rho_t]), dim, False, F, z, z,
+              np.empty(1, np.int64))
     return F
 
 
+def _in_branch(branch, rho_n, rho_t, dim, rng):
+    """A branch point for the given parameters: ``u`` rescaled so that ``rho u`` is as
+    in :func:`_branch_point` (the branch depends on ``rho_N u_N`` and ``rho_T u_T``)."""
+    r, u = _branch_point(branch, dim, rng)
+    u = u * (RHO / np.r_[rho_n, np.full(dim - 1, rho_t)])
+    return r, u
+
+
+@pytest.mark.parametrize("rho_n,rho_t", RHO_PAIRS)
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("branch,code", [("separated", 1), ("stick", 2), ("slide", 3),
                                          ("polar", 1)])
-def test_jacobian_matches_finite_differences_in_every_branch(dim, branch, code):
+def test_jacobian_matches_finite_differences_in_every_branch(dim, branch, code, rho_n, rho_t):
     rng = np.random.default_rng(3)
-    r, u = _branch_point(branch, dim, rng)
+    r, u = _in_branch(branch, rho_n, rho_t, dim, rng)
     F = np.empty(dim)
     Dr, Du = np.empty((1, dim, dim)), np.empty((1, dim, dim))
     br = np.empty(1, np.int64)
-    ac_blocks(r, u, np.array([MU]), np.array([RHO]), dim, True, F, Dr, Du, br)
+    ac_blocks(r, u, np.array([MU]), np.array([rho_n]), np.array([rho_t]), dim, True,
+              F, Dr, Du, br)
     assert br[0] == code                       # the point is in the intended branch
     h = 1e-7
     for j in range(dim):
         e = np.zeros(dim)
         e[j] = h
-        fd_r = (_F(r + e, u, dim) - _F(r - e, u, dim)) / (2 * h)
-        fd_u = (_F(r, u + e, dim) - _F(r, u - e, dim)) / (2 * h)
+        fd_r = (_F(r + e, u, dim, rho_n, rho_t) - _F(r - e, u, dim, rho_n, rho_t)) / (2 * h)
+        fd_u = (_F(r, u + e, dim, rho_n, rho_t) - _F(r, u - e, dim, rho_n, rho_t)) / (2 * h)
         np.testing.assert_allclose(Dr[0, :, j], fd_r, atol=1e-7)
         np.testing.assert_allclose(Du[0, :, j], fd_u, atol=1e-7)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_split_parameters_enter_their_own_rows(dim):
+    """F_N depends on rho_N only and, when sticking, F_T on rho_T only."""
+    rng = np.random.default_rng(7)
+    r, u = _branch_point("stick", dim, rng)
+    F_block = _F(r, u, dim, RHO, RHO)
+    F_n = _F(r, u, dim, 2 * RHO, RHO)
+    F_t = _F(r, u, dim, RHO, 1.1 * RHO)
+    assert F_n[0] == pytest.approx(2 * F_block[0]) and np.array_equal(F_n[1:], F_block[1:])
+    assert F_t[0] == F_block[0]
+    np.testing.assert_allclose(F_t[1:], 1.1 * F_block[1:])
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -72,14 +99,14 @@ def test_kernel_equals_numpy_reference(dim):
     rng = np.random.default_rng(5)
     nc = 200
     r, u = rng.normal(size=nc * dim), rng.normal(size=nc * dim)
-    mu, rho = rng.uniform(0, 2, nc), rng.uniform(0.1, 2, nc)
+    mu, rho_n, rho_t = rng.uniform(0, 2, nc), rng.uniform(0.1, 2, nc), rng.uniform(0.1, 2, nc)
     for X in (r, u):                   # x_T = 0 at the first contacts: the apex branch
         X.reshape(nc, dim)[:20, 1:] = 0.0
     F = np.empty(nc * dim)
     Dr, Du = np.empty((nc, dim, dim)), np.empty((nc, dim, dim))
     br = np.empty(nc, np.int64)
-    ac_blocks(r, u, mu, rho, dim, True, F, Dr, Du, br)
-    F0, Dr0, Du0, br0 = ac_blocks_reference(r, u, mu, rho, dim)
+    ac_blocks(r, u, mu, rho_n, rho_t, dim, True, F, Dr, Du, br)
+    F0, Dr0, Du0, br0 = ac_blocks_reference(r, u, mu, rho_n, rho_t, dim)
     assert len(set(br0.tolist())) == 4         # every branch visited
     np.testing.assert_allclose(F, F0, atol=1e-14)
     np.testing.assert_allclose(Dr, Dr0, atol=1e-14)
@@ -96,19 +123,46 @@ def _check_exact(p, res, tol, unique_u=True):
     assert np.linalg.norm(res.u - u_star) <= 1e-6 * max(1.0, np.linalg.norm(u_star))
 
 
+@pytest.mark.parametrize("rho", ["block", "split"])
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("structure", ["tree", "redundant"])
 @pytest.mark.parametrize("mu", [0.1, 1.0])
-def test_manufactured_exact_solutions_to_1e_10(dim, structure, mu):
+def test_manufactured_exact_solutions_to_1e_10(dim, structure, mu, rho):
     p = manufactured(30, dim, mu, structure=structure, seed=11)
     assert (structure == "redundant") == bool(p.is_rank_deficient)
-    res = socp_cd.solve(p, "newton", tol=1e-10)
+    res = socp_cd.solve(p, "newton", tol=1e-10, rho=rho)
+    assert res.info["rho"] == rho
     # with a rank-deficient W the non-associated law may have several u
     _check_exact(p, res, 1e-10, unique_u=structure == "tree")
 
 
 @pytest.mark.parametrize("dim", [2, 3])
-def test_asymmetric_w(dim):
+def test_split_equals_block_when_diagonal_blocks_are_isotropic(dim):
+    """W_ii = c_i I: W_NN = ||W_TT||_2 = ||W_ii||_F/sqrt(d), so both strategies give
+    the same parameters and the same iterates; on an anisotropic W they differ."""
+    base = manufactured(20, dim, 0.5, seed=6)
+    W = base.W.toarray()
+    nc = base.m // dim
+    c = np.random.default_rng(6).uniform(0.5, 5.0, nc)
+    for i in range(nc):
+        W[i * dim:(i + 1) * dim, i * dim:(i + 1) * dim] = c[i] * np.eye(dim)
+    r_star, u_star = base.solution.r, base.solution.u
+    runs = {}
+    for scale_t in (1.0, 30.0):
+        Ws = W.copy()
+        for i in range(nc):
+            Ws[i * dim + 1:(i + 1) * dim, i * dim + 1:(i + 1) * dim] *= scale_t
+        p = FrictionContactProblem(Ws, u_star - Ws @ r_star, base.mu, dim)
+        for rho in ("block", "split"):
+            runs[scale_t, rho] = socp_cd.solve(p, "newton", tol=1e-10, max_iter=3, history=True,
+                                               rho=rho)
+    assert runs[1.0, "block"].history == runs[1.0, "split"].history
+    assert runs[30.0, "block"].history != runs[30.0, "split"].history
+
+
+@pytest.mark.parametrize("rho", ["block", "split"])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_asymmetric_w(dim, rho):
     base = manufactured(20, dim, 0.5, seed=4)
     rng = np.random.default_rng(4)
     S = rng.normal(size=(base.m, base.m))
@@ -117,7 +171,7 @@ def test_asymmetric_w(dim):
     p = FrictionContactProblem(W, u_star - W @ r_star, base.mu, dim,
                                solution=type(base.solution)(r=r_star, u=u_star))
     assert p.asymmetry > 1e-3
-    res = socp_cd.solve(p, "newton", tol=1e-10)
+    res = socp_cd.solve(p, "newton", tol=1e-10, rho=rho)
     _check_exact(p, res, 1e-10)
 
 
@@ -189,7 +243,7 @@ def test_warm_start_from_solution_is_immediate():
 
 
 @pytest.mark.parametrize("opts", [dict(alpha0=-1.0), dict(linear_solver="qr"),
-                                  dict(inner_max_iter=0), dict(bogus=1)])
+                                  dict(inner_max_iter=0), dict(bogus=1), dict(rho="spectral")])
 def test_bad_options_raise_socp_cd_errors(opts):
     p = manufactured(3, 3, 0.5, seed=1)
     with pytest.raises(SocpCdError):

@@ -42,6 +42,12 @@ global_mode : {"auto", "native", "condense"}, default "auto"
 stall_window : int, default 50
     Status ``"stalled"`` when the best error has not dropped by 10 % over that
     many outer iterations.
+rho : {"block", "split"}, default "block"
+    Alart–Curnier parameters of contact ``i``.  ``"block"``: one value
+    ``rho_N = rho_T = sqrt(d) / ||W_ii||_F``; ``"split"``: ``rho_N = 1/W_NN``
+    (the normal diagonal entry of ``W_ii``) and ``rho_T = 1/||W_TT||_2`` (the
+    tangential sub-block's spectral norm).  Measured in
+    ``validation/results/newton_rho.md``.
 
 The common options (``tol``, ``max_iter`` = outer proximal iterations,
 default 200, ``time_limit``, ``verbose``, ``r0``) follow
@@ -90,7 +96,12 @@ OPTIONS = {
     "linear_solver": "'auto' (default), 'dense' (LAPACK LU) or 'splu' (SuperLU)",
     "global_mode": "'auto' (default), 'native' (saddle point) or 'condense'",
     "stall_window": "outer iterations without a 10 % error drop before 'stalled' (default 50)",
+    "rho": "Alart–Curnier parameters: 'block' (default, one per contact) or 'split' "
+           "(rho_N = 1/W_NN, rho_T = 1/||W_TT||_2)",
 }
+#: strategies of the Alart–Curnier parameters (see :func:`_rho`)
+RHO_STRATEGIES = ("block", "split")
+DEFAULT_RHO = "block"
 _ARMIJO = 1e-4
 _MAX_BACKTRACK = 30
 _ALPHA_MAX = 1e8
@@ -256,18 +267,45 @@ class _GlobalSystem:
 
 
 # --------------------------------------------------------------------------- the method
-def _rho(diag_blocks, d):
-    """Alart–Curnier parameter per contact: inverse of the diagonal block's scale."""
+def _rho(diag_blocks, d, strategy="block"):
+    """Alart–Curnier parameters per contact: inverse scales of the diagonal block.
+
+    Parameters
+    ----------
+    diag_blocks : ndarray (nc, d, d)
+        Diagonal blocks ``W_ii`` (normal row/column first).
+    d : int
+    strategy : {"block", "split"}
+        ``"block"``: ``rho_N = rho_T = 1/s_i``, ``s_i = ||W_ii||_F / sqrt(d)``.
+        ``"split"``: ``rho_N = 1/|W_NN|`` and ``rho_T = 1/||W_TT||_2`` (spectral
+        norm of the tangential sub-block; Siconos' split spectral-norm strategy).
+
+    Returns
+    -------
+    rho_n, rho_t : ndarray (nc,)
+    ref : float
+        Mean block scale ``mean s_i`` (the unit of the proximal parameter).
+    """
     scale = np.sqrt(np.einsum("iab,iab->i", diag_blocks, diag_blocks) / d)
     ref = float(np.mean(scale)) if scale.size else 1.0
     if not np.isfinite(ref) or ref <= 0.0:
         ref = 1.0
-    scale = np.maximum(scale, 1e-8 * ref)
-    return 1.0 / scale, ref
+    floor = 1e-8 * ref
+    if strategy == "block":
+        rho = 1.0 / np.maximum(scale, floor)
+        return rho, rho, ref
+    s_n = np.abs(diag_blocks[:, 0, 0])
+    if scale.size:
+        s_t = np.linalg.norm(diag_blocks[:, 1:, 1:], ord=2, axis=(1, 2))
+    else:
+        s_t = np.zeros(0)
+    s_n = np.where(np.isfinite(s_n), s_n, scale)
+    s_t = np.where(np.isfinite(s_t), s_t, scale)
+    return 1.0 / np.maximum(s_n, floor), 1.0 / np.maximum(s_t, floor), ref
 
 
 def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
-                stall_window, time_limit, history):
+                stall_window, time_limit, history, rho=DEFAULT_RHO):
     """Run the proximal-point semismooth Newton method.
 
     Parameters
@@ -277,6 +315,8 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     mu : ndarray (nc,)
     r : ndarray (m,)
         Initial impulses (modified in place).
+    rho : {"block", "split"}
+        Strategy of the Alart–Curnier parameters (see :func:`_rho`).
 
     Returns
     -------
@@ -285,7 +325,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     """
     d = system.d
     nc = mu.shape[0]
-    rho, wscale = _rho(system.diag_blocks(), d)
+    rho_n, rho_t, wscale = _rho(system.diag_blocks(), d, rho)
     alpha = alpha0 * wscale
     a_min, a_max = alpha_min * wscale, _ALPHA_MAX * wscale
     F = np.empty(system.m)
@@ -309,7 +349,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         sub_ok, solved = True, False
         for _ in range(inner_max_iter):
             ua = u + alpha * (r - rk)
-            nF = ac_blocks(r, ua, mu, rho, d, True, F, Dr, Du, branch)
+            nF = ac_blocks(r, ua, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
             if nF == 0.0:
                 solved = True
                 break
@@ -325,7 +365,8 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
             for _bt in range(_MAX_BACKTRACK):
                 rt = r + t * dr
                 ut = u + t * du
-                nFt = ac_blocks(rt, ut + alpha * (rt - rk), mu, rho, d, False, Ft, Dr, Du, branch)
+                nFt = ac_blocks(rt, ut + alpha * (rt - rk), mu, rho_n, rho_t, d, False, Ft,
+                                Dr, Du, branch)
                 if 0.5 * nFt * nFt <= (1.0 - 2.0 * _ARMIJO * t) * phi:
                     break
                 t *= 0.5
@@ -381,7 +422,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     info = {"alpha": alpha, "alpha_relative": alpha / wscale, "newton_steps": n_newton,
             "backtracks": n_backtrack, "line_search_failures": n_ls_fail,
             "singular_steps": n_singular, "factorizations": system.factorizations,
-            "linear_solver": system.kind, "internal_error": min(err, best_err)}
+            "linear_solver": system.kind, "internal_error": min(err, best_err), "rho": rho}
     return status, r, it, hist, info
 
 
@@ -398,7 +439,8 @@ def _settings(problem, options, inner_settings=None) -> dict:
                 linear_solver=check_choice("linear_solver", get("linear_solver", "auto"),
                                            ("auto", "dense", "splu")),
                 global_mode=check_choice("global_mode", get("global_mode", "auto"),
-                                         ("auto", "native", "condense")))
+                                         ("auto", "native", "condense")),
+                rho=check_choice("rho", get("rho", DEFAULT_RHO), RHO_STRATEGIES))
 
 
 def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
@@ -418,7 +460,8 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
         status, r, iters, hist, info = prox_newton(
             system, mu, r, tol=float(tol), max_iter=max_iter, alpha0=st["alpha0"],
             alpha_min=st["alpha_min"], inner_max_iter=st["inner_max_iter"],
-            stall_window=st["stall_window"], time_limit=time_limit, history=history)
+            stall_window=st["stall_window"], time_limit=time_limit, history=history,
+            rho=st["rho"])
     message = ""
     if status == "stalled":
         message = f"no 10 % drop of the error over {st['stall_window']} outer iterations"

@@ -1,11 +1,11 @@
 """Alart–Curnier function, its generalized Jacobian and the error (numba kernels).
 
 Used by :mod:`socp_cd.solvers.newton` (see ``formulations/newton.md``).  For
-every contact ``i`` with impulse ``r_i``, velocity ``u_i`` and parameter
-``rho_i > 0``::
+every contact ``i`` with impulse ``r_i``, velocity ``u_i`` and parameters
+``rho_N, rho_T > 0`` (normal and tangential; equal for a scalar strategy)::
 
-    a_N = r_N - rho u_N,                  R = mu max(0, a_N)
-    x_T = r_T - rho u_T
+    a_N = r_N - rho_N u_N,                R = mu max(0, a_N)
+    x_T = r_T - rho_T u_T
     F_N = r_N - max(0, a_N)
     F_T = r_T - P_{B(0, R)}(x_T)
 
@@ -23,21 +23,24 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-#: branch codes returned per contact by :func:`ac_blocks` (normal * 3 + tangential)
+#: branch codes returned per contact by :func:`ac_blocks` (normal * 2 + tangential)
 NORMAL_OPEN, NORMAL_ACTIVE = 0, 1          # a_N <= 0 (separated) / a_N > 0 (in contact)
 TANGENT_STICK, TANGENT_SLIDE = 0, 1        # ||x_T|| <= R / ||x_T|| > R
 
 
 @njit(cache=True)
-def ac_blocks(r, u, mu, rho, d, want_jac, F, Dr, Du, branch):
+def ac_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch):
     """Alart–Curnier ``F`` and generalized-Jacobian blocks for every contact.
 
     Parameters
     ----------
     r, u : ndarray (m,)
         Impulses and velocities (``u`` already includes any proximal term).
-    mu, rho : ndarray (nc,)
-        Friction coefficients and Alart–Curnier parameters.
+    mu : ndarray (nc,)
+        Friction coefficients.
+    rho_n, rho_t : ndarray (nc,)
+        Normal and tangential Alart–Curnier parameters (the same array twice for
+        a scalar parameter per contact).
     d : int
         2 or 3.
     want_jac : bool
@@ -54,7 +57,8 @@ def ac_blocks(r, u, mu, rho, d, want_jac, F, Dr, Du, branch):
     s = 0.0
     for i in range(nc):
         o = i * d
-        p = rho[i]
+        p = rho_n[i]
+        pt = rho_t[i]
         a_n = r[o] - p * u[o]
         active = a_n > 0.0
         if want_jac:
@@ -71,16 +75,16 @@ def ac_blocks(r, u, mu, rho, d, want_jac, F, Dr, Du, branch):
             if want_jac:
                 Dr[i, 0, 0] = 1.0
         R = mu[i] * a_n if active else 0.0
-        x1 = r[o + 1] - p * u[o + 1]
-        x2 = r[o + 2] - p * u[o + 2] if d == 3 else 0.0
+        x1 = r[o + 1] - pt * u[o + 1]
+        x2 = r[o + 2] - pt * u[o + 2] if d == 3 else 0.0
         t = np.sqrt(x1 * x1 + x2 * x2)
         if t <= R:
-            F[o + 1] = p * u[o + 1]
+            F[o + 1] = pt * u[o + 1]
             if d == 3:
-                F[o + 2] = p * u[o + 2]
+                F[o + 2] = pt * u[o + 2]
             if want_jac:
                 for a in range(1, d):
-                    Du[i, a, a] = p
+                    Du[i, a, a] = pt
                 branch[i] = (NORMAL_ACTIVE if active else NORMAL_OPEN) * 2 + TANGENT_STICK
         else:
             n1 = x1 / t
@@ -90,14 +94,14 @@ def ac_blocks(r, u, mu, rho, d, want_jac, F, Dr, Du, branch):
                 F[o + 2] = r[o + 2] - R * n2
             if want_jac:
                 k = R / t
-                # d P_B(x)/dx = k (I - n n^T); dx = dr_T - rho du_T; dR = mu (dr_N - rho du_N)
+                # d P_B(x)/dx = k (I - n n^T); dx = dr_T - rho_T du_T; dR = mu (dr_N - rho_N du_N)
                 for a in range(1, d):
                     na = n1 if a == 1 else n2
                     for c in range(1, d):
                         nc_ = n1 if c == 1 else n2
                         proj = k * ((1.0 if a == c else 0.0) - na * nc_)
                         Dr[i, a, c] = (1.0 if a == c else 0.0) - proj
-                        Du[i, a, c] = p * proj
+                        Du[i, a, c] = pt * proj
                     if active:
                         Dr[i, a, 0] = -mu[i] * na
                         Du[i, a, 0] = mu[i] * p * na
@@ -124,40 +128,41 @@ def dense_jacobian(Dr, Du, W, alpha, d, J):
                 J[o + a, o + c] += Dr[i, a, c] + alpha * Du[i, a, c]
 
 
-def ac_blocks_reference(r, u, mu, rho, d):
+def ac_blocks_reference(r, u, mu, rho_n, rho_t, d):
     """NumPy reference of :func:`ac_blocks`: returns ``F, Dr, Du, branch``."""
     r = np.asarray(r, float).reshape(-1, d)
     u = np.asarray(u, float).reshape(-1, d)
     mu = np.asarray(mu, float)
-    rho = np.asarray(rho, float)
+    rho_n = np.asarray(rho_n, float)
+    rho_t = np.asarray(rho_t, float)
     nc = r.shape[0]
     eye = np.eye(d - 1)
     F = np.zeros((nc, d))
     Dr = np.zeros((nc, d, d))
     Du = np.zeros((nc, d, d))
     branch = np.zeros(nc, dtype=np.int64)
-    a_n = r[:, 0] - rho * u[:, 0]
+    a_n = r[:, 0] - rho_n * u[:, 0]
     active = a_n > 0
     R = np.where(active, mu * a_n, 0.0)
-    x = r[:, 1:] - rho[:, None] * u[:, 1:]
+    x = r[:, 1:] - rho_t[:, None] * u[:, 1:]
     t = np.linalg.norm(x, axis=1)
-    F[:, 0] = np.where(active, rho * u[:, 0], r[:, 0])
-    Du[active, 0, 0] = rho[active]
+    F[:, 0] = np.where(active, rho_n * u[:, 0], r[:, 0])
+    Du[active, 0, 0] = rho_n[active]
     Dr[~active, 0, 0] = 1.0
     stick = t <= R
     for i in range(nc):
         if stick[i]:
-            F[i, 1:] = rho[i] * u[i, 1:]
-            Du[i, 1:, 1:] = rho[i] * eye
+            F[i, 1:] = rho_t[i] * u[i, 1:]
+            Du[i, 1:, 1:] = rho_t[i] * eye
         else:
             n = x[i] / t[i]
             F[i, 1:] = r[i, 1:] - R[i] * n
             proj = (R[i] / t[i]) * (eye - np.outer(n, n))
             Dr[i, 1:, 1:] = eye - proj
-            Du[i, 1:, 1:] = rho[i] * proj
+            Du[i, 1:, 1:] = rho_t[i] * proj
             if active[i]:
                 Dr[i, 1:, 0] = -mu[i] * n
-                Du[i, 1:, 0] = mu[i] * rho[i] * n
+                Du[i, 1:, 0] = mu[i] * rho_n[i] * n
         branch[i] = 2 * int(active[i]) + int(not stick[i])
     return F.reshape(-1), Dr, Du, branch
 
