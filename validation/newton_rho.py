@@ -6,7 +6,8 @@ cases of the evaluation set (``socp_cd.bench.evalset``, files with at most
 ``--max-contacts`` contacts) of one split, or ``--split capsules``: the
 manufactured sliding/sticking/grazing cases on ``Capsules-i125-1213.hdf5`` (the
 stalls that motivated the split parameter; whatever their split, reported apart,
-not used to choose).  Each case is solved by both strategies back to back
+not used to choose; with ``--siconos`` also Siconos NSN_AC with three of its rho
+strategies, as a reference).  Each case is solved by both strategies back to back
 (``tol`` 1e-8, ``--time-limit`` 5 s per call, JIT warmed, one run: the machine is
 shared, times are indicative).  Solved = recomputed ``socp_cd.error <= tol``;
 the shifted geometric mean (sgm) charges an unsolved case its time limit.
@@ -14,7 +15,7 @@ the shifted geometric mean (sgm) charges an unsolved case its time limit.
 Usage::
 
     NUMBA_NUM_THREADS=1 .venv/bin/python validation/newton_rho.py --split tune
-    NUMBA_NUM_THREADS=1 .venv/bin/python validation/newton_rho.py --split capsules
+    NUMBA_NUM_THREADS=1 .venv/bin/python validation/newton_rho.py --split capsules --siconos
     NUMBA_NUM_THREADS=1 .venv/bin/python validation/newton_rho.py --split holdout
 
 Writes ``validation/results/newton_rho_<split>.csv`` and regenerates
@@ -40,6 +41,9 @@ SPLITS = ("tune", "capsules", "holdout")
 CAPSULES = "Capsules-i125-1213.hdf5"
 FIELDS = ("split", "case", "kind", "nc", "rho", "error", "solved", "time", "status",
           "iterations", "aniso")
+#: Siconos NSN_AC rho strategies (``iparam[SICONOS_FRICTION_3D_NSN_RHO_STRATEGY]``);
+#: SPECTRAL_NORM is Siconos 4.4's default (one value per contact)
+SICONOS_RHO = {"SPECTRAL_NORM": 1, "SPLIT_SPECTRAL_NORM": 3, "CONSTANT": 0}
 
 
 def select(split, max_contacts):
@@ -84,6 +88,38 @@ def run(split, cases, tol, time_limit):
         print(c.case_id, " ".join(f"{r['rho']}:{r['error']:.1e}/{r['time']:.2f}s"
                                   for r in rows if r["case"] == c.case_id), flush=True)
     return rows
+
+
+def run_siconos(cases, tol):
+    """Siconos NSN_AC per rho strategy: rows ``case, strategy, error, solved``."""
+    from socp_cd.bench.siconos_peer import siconos_solve
+    rows = []
+    for c in cases:
+        p = c.problem()
+        for name, code in SICONOS_RHO.items():
+            res = siconos_solve(p, "nsn_ac", tol=tol, max_iter=1000,
+                                iparam={"SICONOS_FRICTION_3D_NSN_RHO_STRATEGY": code})
+            err = float(socp_cd.error(p, res["r"]))
+            rows.append(dict(case=c.case_id, strategy=name, error=err, solved=err <= tol))
+        print(c.case_id, " ".join(f"{r['strategy']}:{r['error']:.1e}" for r in rows
+                                  if r["case"] == c.case_id), flush=True)
+    return rows
+
+
+def siconos_lines(path):
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    lines = ["Reference: Siconos 4.4 NSN_AC (its line search, max_iter 1000) on the same "
+             "cases, solved (recomputed `socp_cd.error` <= tol) per rho strategy:", "",
+             "| case | " + " | ".join(SICONOS_RHO) + " |", "|---" * (len(SICONOS_RHO) + 1) + "|"]
+    for cid in dict.fromkeys(r["case"] for r in rows):
+        errs = {r["strategy"]: float(r["error"]) for r in rows if r["case"] == cid}
+        lines.append(f"| `{cid.split('/')[-1]}` | "
+                     + " | ".join(f"{errs[s]:.1e}" for s in SICONOS_RHO) + " |")
+    counts = {s: sum(r["solved"] == "True" for r in rows if r["strategy"] == s)
+              for s in SICONOS_RHO}
+    lines.append("| **solved** | " + " | ".join(str(counts[s]) for s in SICONOS_RHO) + " |")
+    return lines
 
 
 def read_rows(path):
@@ -147,6 +183,9 @@ def write_report(tol, time_limit):
         rows = read_rows(path)
         parts += [f"## {split} ({len(rows) // len(STRATEGIES)} cases)", ""]
         parts += summary(rows, tol, time_limit) + [""]
+        sic = OUT / f"newton_rho_{split}_siconos.csv"
+        if sic.exists():
+            parts += siconos_lines(sic) + [""]
     (OUT / "newton_rho.md").write_text("\n".join(parts))
 
 
@@ -156,6 +195,8 @@ def main(argv=None) -> int:
     ap.add_argument("--tol", type=float, default=1e-8)
     ap.add_argument("--time-limit", type=float, default=5.0)
     ap.add_argument("--max-contacts", type=int, default=400)
+    ap.add_argument("--siconos", action="store_true",
+                    help="also run Siconos NSN_AC per rho strategy on the cases")
     ap.add_argument("--report-only", action="store_true",
                     help="regenerate newton_rho.md from the csv files present")
     args = ap.parse_args(argv)
@@ -168,6 +209,12 @@ def main(argv=None) -> int:
             w = csv.DictWriter(fh, fieldnames=FIELDS)
             w.writeheader()
             w.writerows(rows)
+        if args.siconos:
+            srows = run_siconos(cases, args.tol)
+            with open(OUT / f"newton_rho_{args.split}_siconos.csv", "w", newline="") as fh:
+                w = csv.DictWriter(fh, fieldnames=("case", "strategy", "error", "solved"))
+                w.writeheader()
+                w.writerows(srows)
     write_report(args.tol, args.time_limit)
     print((OUT / "newton_rho.md").read_text())
     return 0
