@@ -98,6 +98,8 @@ OPTIONS = {
     "stall_window": "outer iterations without a 10 % error drop before 'stalled' (default 50)",
     "rho": "Alart–Curnier parameters: 'block' (default, one per contact) or 'split' "
            "(rho_N = 1/W_NN, rho_T = 1/||W_TT||_2)",
+    "policy": "outer policy: 'prox' (default) or 'hybrid' (plain Newton steps while they "
+              "cut ||F|| and the error, the proximal loop otherwise; formulations/newton.md §4)",
 }
 #: strategies of the Alart–Curnier parameters (see :func:`_rho`)
 RHO_STRATEGIES = ("block", "split")
@@ -107,6 +109,15 @@ _MAX_BACKTRACK = 30
 _ALPHA_MAX = 1e8
 #: a solved proximal subproblem is accepted while its error <= NONMONOTONE * best
 NONMONOTONE = 10.0
+#: outer policies of :func:`prox_newton`
+POLICIES = ("prox", "hybrid")
+DEFAULT_POLICY = "prox"
+#: ``policy="hybrid"``: a plain Newton step is accepted when ``||F||`` falls to at most
+#: this factor of its value within ``_PLAIN_BACKTRACK`` halvings
+PLAIN_DECREASE = 0.9
+_PLAIN_BACKTRACK = 4
+#: ... and keeps going while each cuts the error (Siconos' measure) by this factor
+PLAIN_PROGRESS = 1.0
 
 
 #: above this size the factorizations run with one BLAS thread: on a loaded
@@ -304,8 +315,36 @@ def _rho(diag_blocks, d, strategy="block"):
     return 1.0 / np.maximum(s_n, floor), 1.0 / np.maximum(s_t, floor), ref
 
 
+def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch):
+    """One plain semismooth Newton step (no proximal shift), accepted only if it cuts ``||F||``.
+
+    Direction ``(Dr + Du W) dr = -F(r, u)`` on the Alart–Curnier equation itself;
+    step ``t = 1, ½, ¼`` (at most ``_PLAIN_BACKTRACK`` halvings), accepted when
+    ``||F(r + t dr)|| <= PLAIN_DECREASE ||F(r)||``.  Returns ``(r, u,
+    backtracks)`` or ``None`` (singular matrix or not enough decrease: the caller
+    solves the proximal subproblem instead).
+    """
+    nF = ac_blocks(r, u, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
+    if nF == 0.0:
+        return r, u, 0
+    try:
+        dr, du = system.direction(r, Dr, Du, 0.0, F)
+    except _SingularStep:
+        return None
+    t = 1.0
+    for bt in range(_PLAIN_BACKTRACK + 1):
+        rt = r + t * dr
+        ut = u + t * du
+        nFt = ac_blocks(rt, ut, mu, rho_n, rho_t, d, False, Ft, Dr, Du, branch)
+        if nFt <= PLAIN_DECREASE * nF:
+            system.accept(t)
+            return rt, ut, bt
+        t *= 0.5
+    return None
+
+
 def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
-                stall_window, time_limit, history, rho=DEFAULT_RHO):
+                stall_window, time_limit, history, rho=DEFAULT_RHO, policy=None):
     """Run the proximal-point semismooth Newton method.
 
     Parameters
@@ -317,16 +356,29 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         Initial impulses (modified in place).
     rho : {"block", "split"}
         Strategy of the Alart–Curnier parameters (see :func:`_rho`).
+    policy : {"prox", "hybrid"}, optional
+        ``None``: :data:`DEFAULT_POLICY`.  Outer policy
+        (``formulations/newton.md`` §4): ``"prox"`` the proximal loop alone;
+        ``"hybrid"`` first tries a plain Newton step on the Alart–Curnier
+        equation (see :func:`_plain_step`) and solves the proximal subproblem
+        only when that step does not cut ``||F||`` by ``PLAIN_DECREASE``; after
+        such a failure, or a plain step that did not cut the error, plain steps
+        are retried only once a proximal subproblem has been solved with a
+        lower error.
 
     Returns
     -------
     tuple
-        ``(status, r, iterations, history, info)``.
+        ``(status, r, iterations, history, info)``; with ``history`` the info
+        holds ``trace``: per outer iteration ``(alpha, error, solved, inner_ok,
+        inner_steps, backtracks, branch_changes, plain)``.
     """
+    policy = DEFAULT_POLICY if policy is None else policy
     d = system.d
     nc = mu.shape[0]
     rho_n, rho_t, wscale = _rho(system.diag_blocks(), d, rho)
     alpha = alpha0 * wscale
+    plain_on = policy == "hybrid"
     a_min, a_max = alpha_min * wscale, _ALPHA_MAX * wscale
     F = np.empty(system.m)
     Ft = np.empty(system.m)
@@ -337,7 +389,10 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     err = siconos_error(r, u, mu, d, system.norm_q)
     hist = [err] if history else None
     best_err, best_r, best_it = err, r.copy(), 0
-    n_newton = n_backtrack = n_ls_fail = n_singular = 0
+    n_newton = n_backtrack = n_ls_fail = n_singular = n_rejected = 0
+    n_plain = 0
+    alpha_max_used = alpha
+    trace = [] if history else None
     t0 = time.perf_counter()
     status, it = "max_iter", 0
     if err <= tol:
@@ -346,10 +401,27 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         it += 1
         rk = r.copy()
         err_k = err
-        sub_ok, solved = True, False
-        for _ in range(inner_max_iter):
+        alpha_used = alpha
+        alpha_max_used = max(alpha_max_used, alpha)
+        sub_ok, solved, plain = True, False, False
+        n_in = bt_in = 0
+        br0 = None
+        if plain_on:
+            step = _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch)
+            plain_on = step is not None     # off until the proximal loop progresses
+            if step is not None:
+                r, u, bt = step
+                plain, solved = True, True
+                n_plain += 1
+                n_newton += 1
+                n_backtrack += bt
+                bt_in += bt
+                n_in = 1
+        for _ in range(0 if plain else inner_max_iter):
             ua = u + alpha * (r - rk)
             nF = ac_blocks(r, ua, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
+            if br0 is None:
+                br0 = branch.copy()
             if nF == 0.0:
                 solved = True
                 break
@@ -371,11 +443,13 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
                     break
                 t *= 0.5
                 n_backtrack += 1
+                bt_in += 1
             else:
                 n_ls_fail += 1
                 sub_ok = False
                 break
             r, u = rt, ut
+            n_in += 1
             system.accept(t)
             # inexact proximal subproblem: stop once the subproblem residual is
             # well below the outer one
@@ -403,13 +477,23 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         # proximal parameter: shrink after good progress, grow otherwise
         # (a solved subproblem is a proximal-point step: accepted even when the
         # error rises, within NONMONOTONE x the best error)
-        if solved and err < err_k:
+        if plain:
+            # a plain Newton step cut ||F||: alpha kept; plain steps stop (until the
+            # proximal loop progresses) when the true error did not follow
+            plain_on = err < PLAIN_PROGRESS * err_k
+        elif solved and err < err_k:
             alpha = max(a_min, alpha * 0.1)
+            plain_on = policy == "hybrid"
         elif not (solved and err <= NONMONOTONE * best_err) and (not sub_ok or err >= err_k):
             alpha = min(a_max, alpha * 10.0)
             if err > err_k:       # reject the outer step
+                n_rejected += 1
                 r, err = rk, err_k
                 u = system.start(r)
+        if trace is not None:
+            ac_blocks(r, u, mu, rho_n, rho_t, d, True, Ft, Dr, Du, branch)
+            changed = -1 if br0 is None else int(np.count_nonzero(branch != br0))
+            trace.append((alpha_used, err, solved, sub_ok, n_in, bt_in, changed, plain))
         if stall_window and it - best_it >= stall_window:
             status = "stalled"
             break
@@ -419,10 +503,15 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     if status != "converged" and best_err < err:
         r = best_r
         system.start(r)
-    info = {"alpha": alpha, "alpha_relative": alpha / wscale, "newton_steps": n_newton,
+    info = {"alpha": alpha, "alpha_relative": alpha / wscale,
+            "alpha_max_relative": alpha_max_used / wscale, "newton_steps": n_newton,
+            "plain_steps": n_plain, "policy": policy,
             "backtracks": n_backtrack, "line_search_failures": n_ls_fail,
-            "singular_steps": n_singular, "factorizations": system.factorizations,
+            "singular_steps": n_singular, "rejected_outer": n_rejected,
+            "factorizations": system.factorizations,
             "linear_solver": system.kind, "internal_error": min(err, best_err), "rho": rho}
+    if trace is not None:
+        info["trace"] = trace
     return status, r, it, hist, info
 
 
@@ -440,7 +529,8 @@ def _settings(problem, options, inner_settings=None) -> dict:
                                            ("auto", "dense", "splu")),
                 global_mode=check_choice("global_mode", get("global_mode", "auto"),
                                          ("auto", "native", "condense")),
-                rho=check_choice("rho", get("rho", DEFAULT_RHO), RHO_STRATEGIES))
+                rho=check_choice("rho", get("rho", DEFAULT_RHO), RHO_STRATEGIES),
+                policy=check_choice("policy", get("policy", DEFAULT_POLICY), POLICIES))
 
 
 def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
@@ -461,7 +551,7 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
             system, mu, r, tol=float(tol), max_iter=max_iter, alpha0=st["alpha0"],
             alpha_min=st["alpha_min"], inner_max_iter=st["inner_max_iter"],
             stall_window=st["stall_window"], time_limit=time_limit, history=history,
-            rho=st["rho"])
+            rho=st["rho"], policy=st["policy"])
     message = ""
     if status == "stalled":
         message = f"no 10 % drop of the error over {st['stall_window']} outer iterations"
