@@ -259,3 +259,42 @@ def test_internal_error_equals_socp_cd_error(dim):
     e = siconos_error(r, u, p.mu, dim, float(np.linalg.norm(p.q)))
     assert e > 1e-3
     assert e == pytest.approx(socp_cd.error(p, r), rel=1e-12)
+
+
+def _rank_deficient_asymmetric(seed, mu=2.0, nc=20, n_dofs=36, skew=0.1):
+    """Manufactured problem on ``W = HᵀH + skew`` with ``H`` of ``n_dofs < 3 nc`` rows
+    (rank-deficient symmetric part, asymmetric: as capsule piles)."""
+    base = manufactured(nc, 3, mu, seed=seed)
+    rng = np.random.default_rng(seed)
+    H = rng.normal(size=(n_dofs, base.m)) / np.sqrt(n_dofs)
+    S = rng.normal(size=(base.m, base.m))
+    W = H.T @ H + skew * (S - S.T) / np.sqrt(base.m)
+    r_star, u_star = base.solution.r, base.solution.u
+    return FrictionContactProblem(W, u_star - W @ r_star, base.mu, 3)
+
+
+def test_hybrid_converges_where_the_proximal_loop_stalls():
+    # one of the random draws (seeds 0-39, mu 2, skew 0.1) on which the proximal loop
+    # alone stalls near 2e-3; the reverse happens too (seed 3): see newton.md §7
+    p = _rank_deficient_asymmetric(24)
+    W = p.W.toarray() if sp.issparse(p.W) else np.asarray(p.W)
+    assert np.linalg.matrix_rank(W + W.T) == 36 < p.m and p.asymmetry > 1e-3
+    a = socp_cd.solve(p, "newton", tol=1e-8, policy="prox")
+    b = socp_cd.solve(p, "newton", tol=1e-8, policy="hybrid")
+    assert not a.converged and socp_cd.error(p, a.r) > 1e-6
+    assert b.converged and socp_cd.error(p, b.r) <= 1e-8
+    assert b.info["plain_steps"] > 0
+
+
+@pytest.mark.parametrize("seed", [3, 24])
+def test_hybrid_plain_steps_keep_alpha_and_stop_when_the_error_does_not_follow(seed):
+    p = _rank_deficient_asymmetric(seed)
+    res = socp_cd.solve(p, "newton", tol=1e-12, max_iter=60, history=True, policy="hybrid")
+    trace, hist = res.info["trace"], res.history
+    plain = [row[7] for row in trace]
+    assert any(plain) and not all(plain)
+    for k in range(len(trace) - 1):
+        if plain[k]:
+            assert trace[k + 1][0] == trace[k][0]          # alpha unchanged by a plain step
+            if plain[k + 1]:
+                assert hist[k + 1] < hist[k]                # a plain step continues only on progress

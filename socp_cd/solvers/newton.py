@@ -48,6 +48,12 @@ rho : {"block", "split"}, default "block"
     (the normal diagonal entry of ``W_ii``) and ``rho_T = 1/||W_TT||_2`` (the
     tangential sub-block's spectral norm).  Measured in
     ``validation/results/newton_rho.md``.
+policy : {"prox", "hybrid"}, default "prox"
+    Outer policy: the proximal loop alone, or plain Newton steps on the
+    Alart–Curnier equation first with the proximal loop as fallback
+    (``formulations/newton.md`` §7; measured in
+    ``validation/results/newton_outer.md``: faster, but not more robust, so
+    not the default).
 
 The common options (``tol``, ``max_iter`` = outer proximal iterations,
 default 200, ``time_limit``, ``verbose``, ``r0``) follow
