@@ -83,6 +83,9 @@ def run(split, cases, policies, tol, time_limit):
     warm = socp_cd.read_problem(shared_problems_dir() / "FC3D_Example1.dat")
     for pol in policies:
         socp_cd.solve(warm, "newton", tol=1e-4, policy=pol)
+    if "auto" in solvers:         # compile every stage's kernels before timing
+        socp_cd.solve(socp_cd.read_problem(shared_problems_dir() / "BoxesStack1-i100000-32.hdf5.dat"),
+                      "auto", tol=1e-8)
     for cid, _, build in cases:
         p = build()
         kind = f"{'global' if p.is_global else 'local'}{p.dim}"
