@@ -306,3 +306,20 @@ def test_resume_skips_recorded_runs(tmp_path):
                            resume=True)
     assert {r["problem"] for r in again} == {"manufactured-3d-4-s0"} and len(again) == 2
     assert len(R.read_records(csv_path)) == 6
+
+
+def test_variant_comparison_charges_failures_and_finds_disagreements():
+    from socp_cd.bench.reports import (shifted_geometric_mean, variant_comparison,
+                                       variant_comparison_by, variant_disagreements)
+    rows = [dict(case="a", kind="x", v="p", solved=True, time=0.1),
+            dict(case="a", kind="x", v="q", solved=True, time=0.2),
+            dict(case="b", kind="y", v="p", solved=False, time=0.3),
+            dict(case="b", kind="y", v="q", solved=True, time=0.4)]
+    c = variant_comparison(rows, "v", ["p", "q"], time_limit=5.0)
+    assert c["p"]["solved"] == 1 and c["q"]["solved"] == 2
+    assert c["p"]["sgm"] == pytest.approx(shifted_geometric_mean([0.1, 5.0]))   # failure charged
+    assert c["p"]["n_common"] == c["q"]["n_common"] == 1                     # only "a" is common
+    assert c["q"]["sgm_common"] == pytest.approx(shifted_geometric_mean([0.2]))
+    groups = [(g, v) for g, v, _ in variant_comparison_by(rows, "kind", "v", ["p", "q"], 5.0)]
+    assert groups == [("x", "p"), ("x", "q"), ("y", "p"), ("y", "q"), ("all", "p"), ("all", "q")]
+    assert [cid for cid, _ in variant_disagreements(rows, "v")] == ["b"]

@@ -39,7 +39,7 @@ from pathlib import Path
 
 import socp_cd
 from socp_cd.bench.evalset import manufactured_cases
-from socp_cd.bench.reports import shifted_geometric_mean
+from socp_cd.bench.reports import variant_comparison_by, variant_disagreements
 from socp_cd.data import shared_problems_dir
 from socp_cd.solvers import newton
 
@@ -122,24 +122,10 @@ def summary(rows, time_limit):
         lines += ["| solver | kind | cases | policy | solved | sgm time (s, unsolved = limit) | "
                   "sgm time on cases all solve (s) |", "|---|---|---|---|---|---|---|"]
         srows = [r for r in rows if r["solver"] == solver]
-        for kind in sorted({r["kind"] for r in srows}) + ["all"]:
-            sub = [r for r in srows if kind == "all" or r["kind"] == kind]
-            common = {r["case"] for r in sub}
-            for pol in policies:
-                common &= {r["case"] for r in sub if r["policy"] == pol and r["solved"]}
-            for pol in policies:
-                rs = [r for r in sub if r["policy"] == pol]
-                charged = [r["time"] if r["solved"] else max(r["time"], time_limit) for r in rs]
-                both = [r["time"] for r in rs if r["case"] in common]
-                lines.append(f"| {solver} | {kind} | {len(rs)} | {pol} | "
-                             f"{sum(r['solved'] for r in rs)} | "
-                             f"{shifted_geometric_mean(charged):.4f} | "
-                             f"{shifted_geometric_mean(both):.4f} ({len(both)}) |")
-        by_case = {}
-        for r in srows:
-            by_case.setdefault(r["case"], {})[r["policy"]] = r
-        diff = [(cid, d) for cid, d in by_case.items()
-                if len({d[p]["solved"] for p in d}) > 1]
+        for kind, pol, c in variant_comparison_by(srows, "kind", "policy", policies, time_limit):
+            lines.append(f"| {solver} | {kind} | {c['cases']} | {pol} | {c['solved']} | "
+                         f"{c['sgm']:.4f} | {c['sgm_common']:.4f} ({c['n_common']}) |")
+        diff = variant_disagreements(srows, "policy")
         lines += ["", f"`{solver}`: cases solved by some policies only (error, status):", ""]
         if not diff:
             lines.append("- none")

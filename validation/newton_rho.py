@@ -32,7 +32,7 @@ import numpy as np
 
 import socp_cd
 from socp_cd.bench.evalset import manufactured_cases
-from socp_cd.bench.reports import shifted_geometric_mean
+from socp_cd.bench.reports import variant_comparison_by, variant_disagreements
 from socp_cd.data import shared_problems_dir
 
 OUT = Path(__file__).resolve().parent / "results"
@@ -137,24 +137,10 @@ def summary(rows, tol, time_limit):
     cases solved by one strategy only."""
     lines = ["| kind | cases | rho | solved | sgm time (s, unsolved = limit) | "
              "sgm time on cases both solve (s) |", "|---|---|---|---|---|---|"]
-    kinds = sorted({r["kind"] for r in rows}) + ["all"]
-    for kind in kinds:
-        sub = [r for r in rows if kind == "all" or r["kind"] == kind]
-        both = {r["case"] for r in sub if r["solved"]}
-        for rho in STRATEGIES:
-            both &= {r["case"] for r in sub if r["rho"] == rho and r["solved"]}
-        for rho in STRATEGIES:
-            rs = [r for r in sub if r["rho"] == rho]
-            charged = [r["time"] if r["solved"] else max(r["time"], time_limit) for r in rs]
-            common = [r["time"] for r in rs if r["case"] in both]
-            lines.append(f"| {kind} | {len(rs)} | {rho} | {sum(r['solved'] for r in rs)} | "
-                         f"{shifted_geometric_mean(charged):.4f} | "
-                         f"{shifted_geometric_mean(common):.4f} ({len(common)}) |")
-    by_case = {}
-    for r in rows:
-        by_case.setdefault(r["case"], {})[r["rho"]] = r
-    diff = [(cid, d) for cid, d in by_case.items()
-            if len(d) == 2 and d["block"]["solved"] != d["split"]["solved"]]
+    for kind, rho, c in variant_comparison_by(rows, "kind", "rho", STRATEGIES, time_limit):
+        lines.append(f"| {kind} | {c['cases']} | {rho} | {c['solved']} | "
+                     f"{c['sgm']:.4f} | {c['sgm_common']:.4f} ({c['n_common']}) |")
+    diff = [(cid, d) for cid, d in variant_disagreements(rows, "rho") if len(d) == 2]
     lines += ["", "Cases solved by one strategy only (error block / split, median "
               "anisotropy max(W_NN, ||W_TT||)/min(...)):", ""]
     if not diff:

@@ -362,7 +362,65 @@ def write_report(records, outdir, title="Solver comparison", presets=None) -> di
                                                              presets)}
 
 
-__all__ = ["SGM_SHIFT", "shifted_geometric_mean", "charged_time", "summary_table", "time_table",
+
+def variant_comparison(rows, key: str, variants, time_limit: float) -> dict:
+    """Solved counts and shifted geometric mean times of several variants of one solver.
+
+    Parameters
+    ----------
+    rows : iterable of dict
+        One row per (case, variant) with ``"case"``, ``key``, ``"solved"`` (bool)
+        and ``"time"`` (seconds).
+    key : str
+        The row field naming the variant (e.g. ``"policy"``, ``"rho"``).
+    variants : sequence
+        The variants to compare, in report order.
+    time_limit : float
+        What an unsolved case is charged at least.
+
+    Returns
+    -------
+    dict
+        ``variant -> {"cases", "solved", "sgm", "sgm_common", "n_common"}``: ``sgm``
+        charges unsolved cases ``max(time, time_limit)``; ``sgm_common`` is over
+        the cases every variant solves (``n_common`` of them).
+    """
+    rows = list(rows)
+    common = {r["case"] for r in rows if r["solved"]}
+    for v in variants:
+        common &= {r["case"] for r in rows if r[key] == v and r["solved"]}
+    out = {}
+    for v in variants:
+        rs = [r for r in rows if r[key] == v]
+        charged = [r["time"] if r["solved"] else max(r["time"], time_limit) for r in rs]
+        both = [r["time"] for r in rs if r["case"] in common]
+        out[v] = {"cases": len(rs), "solved": sum(bool(r["solved"]) for r in rs),
+                  "sgm": shifted_geometric_mean(charged),
+                  "sgm_common": shifted_geometric_mean(both), "n_common": len(both)}
+    return out
+
+
+def variant_comparison_by(rows, group: str, key: str, variants, time_limit: float):
+    """:func:`variant_comparison` per value of ``group`` (sorted), then over all rows.
+
+    Yields ``(group_value or "all", variant, stats)``.
+    """
+    rows = list(rows)
+    for g in sorted({r[group] for r in rows}) + ["all"]:
+        sub = [r for r in rows if g == "all" or r[group] == g]
+        for v, stats in variant_comparison(sub, key, variants, time_limit).items():
+            yield g, v, stats
+
+
+def variant_disagreements(rows, key: str) -> list:
+    """Cases some variants solve and others do not: ``[(case, {variant: row}), ...]`` by case."""
+    by_case = {}
+    for r in rows:
+        by_case.setdefault(r["case"], {})[r[key]] = r
+    return sorted((cid, d) for cid, d in by_case.items()
+                  if len({bool(d[v]["solved"]) for v in d}) > 1)
+
+__all__ = ["SGM_SHIFT", "shifted_geometric_mean", "charged_time", "variant_comparison", "variant_comparison_by", "variant_disagreements", "summary_table", "time_table",
            "performance_ratios", "performance_profile", "work_precision_data",
            "plot_work_precision", "plot_performance_profiles", "summary_markdown", "write_report",
            "readme_table", "update_readme"]
