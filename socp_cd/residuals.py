@@ -242,11 +242,9 @@ def guard(problem, r, u=None, scales=None, law=None, **params) -> dict:
     if "threshold" in params and params["threshold"] is not None:
         params = dict(params, threshold=np.asarray(params["threshold"], dtype=np.float64)
                       / a[::problem.dim])
-    with np.errstate(all="ignore"):
-        rs, us = r / a, u / b
-    if not (np.all(np.isfinite(rs)) and np.all(np.isfinite(us))):
-        return {"error": float("inf"), "rounding": float("inf"), "value": float("inf"),
-                "balanced_siconos": float("inf")}
+    rs, us = balanced_pair(r, u, a, b)
+    if rs is None:
+        return failed_guard()
     balanced = BalancedView(problem, b)
     with np.errstate(all="ignore"):      # overflow ends as inf below, never nan
         measured = (law or error)(balanced, rs, us, **params)
@@ -255,6 +253,21 @@ def guard(problem, r, u=None, scales=None, law=None, **params) -> dict:
     if law is None or law is error:
         out.update(coulomb_parts(rs, us, problem, out["velocity_scale"]))
     return finite_guard(out)
+
+
+def balanced_pair(r, u, a, b):
+    """``(r / a, u / b)``, or ``(None, None)`` when either is not finite."""
+    with np.errstate(all="ignore"):
+        rs, us = r / a, u / b
+    if not (np.isfinite(rs).all() and np.isfinite(us).all()):
+        return None, None
+    return rs, us
+
+
+def failed_guard() -> dict:
+    """:func:`guard`'s record when it cannot be evaluated (non-finite pair): every entry ``inf``."""
+    return {"error": float("inf"), "rounding": float("inf"), "value": float("inf"),
+            "balanced_siconos": float("inf")}
 
 
 def guard_values(measured, r_norm, u_norm, q_norm) -> dict:
@@ -303,5 +316,5 @@ def balanced_error(problem, r, u=None, scales=None) -> float:
     return guard(problem, r, u, scales)["error"]
 
 
-__all__ = ["contact_scales", "BalancedView", "guard", "guard_values", "finite_guard", "coulomb_parts", "balanced_error", "error", "checked_pair", "absolute_error", "error_normalization", "contact_errors",
+__all__ = ["contact_scales", "BalancedView", "guard", "guard_values", "finite_guard", "balanced_pair", "failed_guard", "coulomb_parts", "balanced_error", "error", "checked_pair", "absolute_error", "error_normalization", "contact_errors",
            "feasibility", "complementarity"]

@@ -176,7 +176,6 @@ def run(n, slope, seed, h, *, batch=32, steps_per_batch=100, max_wait=600, v0=2.
     if meta["phase"] == "settle":
         bar = tqdm(total=settle_max, initial=meta["steps_settle"], desc="talus settle",
                    mininterval=10)
-        vmax = np.inf
         t0 = time.perf_counter()
         k0 = meta["steps_settle"]
         if damp_every and "damped_from_step" not in meta:

@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from ..residuals import finite_guard, guard_values
+from ..residuals import balanced_pair, failed_guard, finite_guard, guard_values
 from .kernels.cone import LAW_COULOMB, coulomb_violations, error_parts, relative_error
 
 
@@ -57,12 +57,9 @@ def coulomb_guard(problem, r, u) -> dict:
     ``r`` and ``u``: finite float64 vectors of length ``problem.m``; the
     scales are ``problem.balancing_scales``.
     """
-    a, b = problem.balancing_scales
-    with np.errstate(all="ignore"):
-        rs, us = r / a, u / b
-    if not (np.isfinite(rs).all() and np.isfinite(us).all()):
-        return {"error": float("inf"), "rounding": float("inf"), "value": float("inf"),
-                "balanced_siconos": float("inf")}
+    rs, us = balanced_pair(r, u, *problem.balancing_scales)
+    if rs is None:
+        return failed_guard()
     f2, r2, u2 = _parts(problem, rs, us)
     q_norm = problem.balanced_q_norm
     out = guard_values(float(relative_error(f2, r2, u2, q_norm)), math.sqrt(r2), math.sqrt(u2),

@@ -167,7 +167,7 @@ class _LocalSystem:
             self.W = sp.csr_matrix(W, dtype=np.float64)
             nc = self.m // self.d
             self._bsr_index = (np.arange(nc, dtype=np.int32), np.arange(nc + 1, dtype=np.int32))
-        self.norm_q = float(np.linalg.norm(self.q))
+        self.norm_q = problem.q_norm          # cached on the problem
         self.factorizations = 0
 
     def diag_blocks(self):
@@ -234,7 +234,7 @@ class _GlobalSystem:
         self.f = np.asarray(problem.f, dtype=np.float64)
         self.w = np.asarray(problem.w, dtype=np.float64)
         self.problem = problem
-        self.norm_q = float(np.linalg.norm(problem.q_local))
+        self.norm_q = problem.q_norm          # cached: q_local costs a solve with M
         nc = self.m // self.d
         self._bsr_index = (np.arange(nc, dtype=np.int32), np.arange(nc + 1, dtype=np.int32))
         self._top = sp.hstack([self.M, -self.H]).tocsr()

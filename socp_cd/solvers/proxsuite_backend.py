@@ -140,7 +140,7 @@ def frictionless_qp(problem, W_sym=None, qp_max_iter=None) -> ProxQPInner:
     H = (E.T @ Ws @ E).tocsc()                    # W_NN: the tangential rows drop out
     nc = problem.n_contacts
     return ProxQPInner(H, sp.identity(nc, format="csc"), np.zeros(nc), np.full(nc, np.inf), E,
-                       np.linalg.norm(problem.q_local), qp_max_iter)
+                       problem.q_norm, qp_max_iter)
 
 
 def cone_qp(problem, W_sym=None, n_facets=DEFAULT_FACETS, placement="inscribed",
@@ -150,7 +150,7 @@ def cone_qp(problem, W_sym=None, n_facets=DEFAULT_FACETS, placement="inscribed",
     C = cone_matrix(problem.mu, problem.dim, n_facets, placement)
     k = C.shape[0]
     return ProxQPInner(Ws, C, np.full(k, -np.inf), np.zeros(k), None,
-                       np.linalg.norm(problem.q_local), qp_max_iter)
+                       problem.q_norm, qp_max_iter)
 
 
 def tresca_qp(problem, threshold, W_sym=None, qp_max_iter=None) -> ProxQPInner:
@@ -160,7 +160,7 @@ def tresca_qp(problem, threshold, W_sym=None, qp_max_iter=None) -> ProxQPInner:
     lo = np.column_stack([np.zeros_like(g), -g]).ravel()
     hi = np.column_stack([np.full_like(g, np.inf), g]).ravel()
     return ProxQPInner(Ws, sp.identity(problem.m, format="csc"), lo, hi, None,
-                       np.linalg.norm(problem.q_local), qp_max_iter)
+                       problem.q_norm, qp_max_iter)
 
 
 def _solve_law(problem, inner: ProxQPInner, tol: float, max_iter: int, residual) -> SolverResult:

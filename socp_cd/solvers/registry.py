@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, check_threshold, law_parameters
-from ..residuals import guard
+from ..residuals import failed_guard, guard
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
 from .checks import coulomb_error, coulomb_guard, zero_error
 from .options import COMMON_OPTIONS, check_common, check_unknown
@@ -112,8 +112,7 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params,
         res.converged = False
         res.status = "numerical_error"
         res.error = res.coulomb_error = float("inf")
-        res.info["guard"] = {"error": float("inf"), "rounding": float("inf"), "value": float("inf"),
-                             "balanced_siconos": float("inf")}
+        res.info["guard"] = failed_guard()
         res.message = res.message or "backend returned non-finite or mis-sized impulses"
         return res
     res.r = r
