@@ -30,7 +30,8 @@ cuts_convergence.md,
 cuts_convergence.png, weber_moreau_convergence.png.  States (HDF5, git-ignored):
 validation/results/states/biaxial_<shape><N>.h5; a case whose state exists is
 not simulated again (delete it or pass ``--redo``), so an interrupted run resumes
-at the first missing case.
+at the first missing case, and inside it from the compression checkpoint
+``biaxial_<shape><N>.ckpt.npz`` written every 100 steps.
 
 Usage: python validation/granular_convergence.py [--quick] [--n 200 500 ...]
        [--shapes disk polygon] [--redo] [--analyse-only]
@@ -66,19 +67,30 @@ def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=3000, quench=200, tol=1e-
                 quench_tol=1e-6, quench_iter=2000,
                 final_tol=1e-8, final_iter=50000, final_solver="nsgs", final_form="local",
                 final_time_limit=900.0,
-                v_wall=2e-2, label=""):
-    """Compress, quench and finish one biaxial sample; returns (state, W, H, info)."""
+                v_wall=2e-2, label="", checkpoint=None, checkpoint_every=100):
+    """Compress, quench and finish one biaxial sample; returns (state, W, H, info).
+
+    With ``checkpoint`` (an ``.npz`` path) the compression writes the simulation state
+    there every ``checkpoint_every`` steps and resumes from it when the file exists.
+    """
     box = biaxial_box_scene(n=n, pressure=PRESSURE, seed=seed, loose=1.05, mu_wall=0.3,
                             shape=shape)
     sim = Simulation(box.scene, h=h, tol=tol, solver="nsgs", max_iter=max_iter)
     t0 = time.perf_counter()
-    unconv = 0
-    bar = tqdm(total=max_steps, desc=f"compress {label}", mininterval=10, leave=False)
-    steps, vmax = 0, np.inf
+    unconv, steps, vmax, vw, spent = 0, 0, np.inf, np.inf, 0.0
+    if checkpoint is not None and Path(checkpoint).exists():      # resume the compression
+        with np.load(checkpoint, allow_pickle=False) as z:
+            sim.set_state({k[6:]: z[k] for k in z.files if k.startswith("state_")})
+            steps, unconv, spent = int(z["steps"]), int(z["unconv"]), float(z["spent"])
+        t0 -= spent
+        print(f"{label}: resumed the compression at step {steps} ({spent:.0f} s spent)", flush=True)
+    bar = tqdm(total=max_steps, initial=steps, desc=f"compress {label}", mininterval=10, leave=False)
     while steps < max_steps:
         st = sim.step()
         steps += 1
         unconv += int(not st.converged)
+        if checkpoint is not None and steps % checkpoint_every == 0:
+            save_checkpoint(checkpoint, sim, steps, unconv, time.perf_counter() - t0)
         if steps % 50 == 0:
             p = sim.last_contacts.pairs
             loaded = np.intersect1d(np.arange(n), p[p >= 0])
@@ -123,6 +135,14 @@ def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=3000, quench=200, tol=1e-
                 ms_per_step=1e3 * (wall_compress + wall_quench) / (steps + quench),
                 n_contacts=int(state.n_contacts))
     return state, W, H, info
+
+
+def save_checkpoint(path, sim, steps, unconv, spent):
+    """Write the compression's simulation state (``Simulation.get_state``) atomically."""
+    st = {f"state_{k}": v for k, v in sim.get_state().items() if v is not None}
+    tmp = Path(str(path) + ".tmp.npz")
+    np.savez(tmp, steps=steps, unconv=unconv, spent=spent, **st)
+    os.replace(tmp, path)
 
 
 def save_state(path, state, W, H, info):
@@ -395,8 +415,10 @@ def main(argv=None):
                 state, W, H, info = make_sample(n, shape, h=args.h, max_steps=args.max_steps,
                                                 quench=args.quench, tol=args.tol,
                                                 final_tol=args.final_tol, final_solver=args.final_solver,
-                                                label=f"{shape}{n}")
+                                                label=f"{shape}{n}",
+                                                checkpoint=path.with_suffix(".ckpt.npz"))
                 save_state(path, state, W, H, info)
+                path.with_suffix(".ckpt.npz").unlink(missing_ok=True)
             r = analyse(state, W, H, info)
             rows.append(r)
             print(f"{shape:8s} N={n:5d} rms_n={100 * r['rms_normal']:.1f}% "
