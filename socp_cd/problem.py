@@ -34,7 +34,7 @@ import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
 from .errors import InvalidProblemError
-from .residuals import contact_scales, error
+from .residuals import error
 
 #: Relative threshold (w.r.t. max |W|) below which W - W^T counts as round-off.
 SYMMETRY_RTOL = 1e-10
@@ -292,22 +292,29 @@ class _ProblemBase:
         """``||q||`` of the local free velocity (Siconos' error normalization), computed once."""
         return float(np.linalg.norm(self.q_local))
 
-    @cached_property
-    def balancing_scales(self) -> tuple:
-        """The unit factors ``(a, b)`` of :func:`socp_cd.residuals.contact_scales`, computed once.
+    def derived(self, key: str, compute):
+        """A quantity derived from the problem's data by a layer above the problem model.
 
-        ``r = a r~``, ``u = b u~`` (read-only arrays of length ``m``): what
-        :func:`socp_cd.solve` uses to hand backends the balanced problem.
+        ``compute(problem)`` runs the first time ``key`` is asked for on this
+        object; the value is kept on it, as the cached properties are (so a
+        shallow copy made afterwards shares it, a new problem computes its
+        own).  The dispatcher keeps its balanced copy and unit factors here
+        (:func:`socp_cd.solvers.scaling.balanced`).
+
+        Parameters
+        ----------
+        key : str
+            Name of the quantity (one per computing module).
+        compute : callable
+            ``compute(problem) -> value``.
         """
-        a, b = contact_scales(self)
-        a.flags.writeable = False
-        b.flags.writeable = False
-        return a, b
-
-    @cached_property
-    def balanced_q_norm(self) -> float:
-        """``||q / b||``: the norm of the free velocity in balanced units (:attr:`balancing_scales`)."""
-        return float(np.linalg.norm(self.q_local / self.balancing_scales[1]))
+        slot = "derived:" + key
+        try:
+            return self.__dict__[slot]
+        except KeyError:
+            value = compute(self)
+            self.__dict__[slot] = value
+            return value
 
     def _summary_common(self, tol: float) -> dict:
         """Summary entries shared by local and global problems.
@@ -403,7 +410,7 @@ class FrictionContactProblem(_ProblemBase):
         self._init_meta(source, name, info, solution, guesses)
         return self
 
-    def rescaled(self, a, b) -> "FrictionContactProblem":
+    def rescaled(self, a, b, *, W_data=None, q=None) -> "FrictionContactProblem":
         """The same problem in other units: ``r = a r~``, ``u = b u~`` (one factor per contact).
 
         ``u~ = (S W S) r~ + q / b`` with ``S = diag(sqrt(a / b))`` (``W`` keeps its
@@ -411,29 +418,26 @@ class FrictionContactProblem(_ProblemBase):
         and positive, as :func:`socp_cd.residuals.contact_scales` gives);
         stored solutions and guesses are converted (``v`` is dropped: not a
         local quantity).  Built with :meth:`from_checked` (no validation).
+        ``W_data`` (the entries of ``S W S`` on ``W``'s sparsity) and ``q``
+        (``q / b``) may be passed when already computed (the dispatcher's
+        compiled balancing, :mod:`socp_cd.solvers.scaling`).
         """
-        s = np.sqrt(a / b)                              # s_i = 1/sqrt(d_i) for the balancing scales
         Wc = self.W
-        rows = np.repeat(np.arange(self.m), np.diff(Wc.indptr))
-        W = sp.csr_matrix((Wc.data * (s[rows] * s[Wc.indices]), Wc.indices, Wc.indptr),
-                          shape=Wc.shape)                # S W S, same sparsity, one copy
+        if W_data is None:
+            s = np.sqrt(a / b)                          # s_i = 1/sqrt(d_i) for the balancing scales
+            rows = np.repeat(np.arange(self.m), np.diff(Wc.indptr))
+            W_data = Wc.data * (s[rows] * s[Wc.indices])
+        W = sp.csr_matrix((W_data, Wc.indices, Wc.indptr), shape=Wc.shape)   # S W S, same sparsity
 
         def convert(sol: Solution) -> Solution:
             return Solution(r=None if sol.r is None else sol.r / a,
                             u=None if sol.u is None else sol.u / b)
 
         return FrictionContactProblem.from_checked(
-            W, self.q / b, self.mu, self.dim, source=self.source, name=self.name, info=self.info,
+            W, self.q / b if q is None else q, self.mu, self.dim, source=self.source,
+            name=self.name, info=self.info,
             solution=None if self.solution is None else convert(self.solution),
             guesses=[convert(g) for g in self.guesses])
-
-    @cached_property
-    def balanced(self) -> "FrictionContactProblem":
-        """:meth:`rescaled` by :attr:`balancing_scales`, built once: the problem
-        :func:`socp_cd.solve` hands its backends (its ``q`` is read-only)."""
-        out = self.rescaled(*self.balancing_scales)
-        out.q.flags.writeable = False
-        return out
 
     # ------------------------------------------------------------------ algebra
     def velocity(self, r) -> np.ndarray:

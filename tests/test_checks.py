@@ -9,6 +9,7 @@ from socp_cd import residuals
 from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem, Solution
 from socp_cd.solvers import checks
 from socp_cd.solvers.kernels import cone as kc
+from socp_cd.solvers.scaling import balanced
 
 
 def _problem(nc, dim, seed, mu=0.5):
@@ -56,12 +57,46 @@ def test_cached_problem_quantities_are_the_computed_ones():
     p = _problem(5, 3, seed=1)
     assert p.zero_error == residuals.error(p, np.zeros(p.m)) == p.trivial_error()
     a, b = residuals.contact_scales(p)
-    assert np.array_equal(p.balancing_scales[0], a) and np.array_equal(p.balancing_scales[1], b)
+    rec = balanced(p)
+    assert np.allclose(rec.a, a, rtol=1e-14, atol=0) and np.allclose(rec.b, b, rtol=1e-14, atol=0)
     assert p.q_norm == float(np.linalg.norm(p.q))
-    assert p.balanced_q_norm == float(np.linalg.norm(p.q / b))
-    assert p.balanced is p.balanced                       # built once
+    assert rec.q_norm == pytest.approx(float(np.linalg.norm(p.q / b)), rel=1e-14)
+    assert balanced(p) is rec and rec.problem is balanced(p).problem     # built once
     with pytest.raises(ValueError):
-        p.balancing_scales[0][0] = 1.0                     # the cache cannot be altered by a caller
+        rec.a[0] = 1.0                                     # the cache cannot be altered by a caller
+    with pytest.raises(ValueError):
+        rec.problem.q[0] = 1.0
+
+
+def _awkward_problems():
+    """Local problems the balancing must get right: unbalanced, missing or zero or
+    negative diagonal entries, q = 0, 2D and 3D, mu = 0."""
+    out = [_problem(6, 3, seed=4), _problem(5, 2, seed=5, mu=0.0), _problem(1, 3, seed=6)]
+    rng = np.random.default_rng(7)
+    W = rng.standard_normal((9, 9))
+    W[0, 0] = W[1, 1] = W[2, 2] = 0.0            # a contact with no diagonal of its own
+    W[4, 4] = -3.0                                # a negative diagonal entry (|.| is taken)
+    out.append(FrictionContactProblem(W, rng.standard_normal(9), 0.3, 3))
+    out.append(FrictionContactProblem(np.zeros((6, 6)), rng.standard_normal(6), 0.5, 3))   # W = 0
+    out.append(FrictionContactProblem(np.eye(6) * 1e8, np.zeros(6), 1.0, 2))                # q = 0
+    return out
+
+
+@pytest.mark.parametrize("k", range(6))
+def test_compiled_balancing_equals_the_references(k):
+    """scaling.balanced (one compiled pass) = contact_scales + rescaled + error(r = 0)."""
+    p = _awkward_problems()[k]
+    a, b = residuals.contact_scales(p)
+    rec = balanced(p)
+    assert np.allclose(rec.a, a, rtol=1e-14, atol=0) and np.allclose(rec.b, b, rtol=1e-14, atol=0)
+    ref = p.rescaled(a, b)
+    assert np.array_equal(rec.problem.W.indices, ref.W.indices)
+    assert np.array_equal(rec.problem.W.indptr, ref.W.indptr)
+    assert np.allclose(rec.problem.W.data, ref.W.data, rtol=1e-13, atol=0)
+    assert np.allclose(rec.problem.q, ref.q, rtol=1e-13, atol=0)
+    assert rec.q_norm == pytest.approx(float(np.linalg.norm(ref.q)), rel=1e-13)
+    assert rec.zero_error == pytest.approx(residuals.error(p, np.zeros(p.m)), rel=1e-13, abs=1e-300)
+    assert checks.zero_error(p) == rec.zero_error
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -77,7 +112,7 @@ def test_compiled_zero_error_is_the_reference(dim):
 def test_rescaled_equals_the_validated_construction():
     p = _problem(4, 3, seed=2)
     p.solution = Solution(r=np.arange(p.m, dtype=float), u=np.ones(p.m))
-    a, b = p.balancing_scales
+    a, b = balanced(p).a, balanced(p).b
     s = np.sqrt(a / b)
     fast = p.rescaled(a, b)
     ref = FrictionContactProblem(s[:, None] * p.W.toarray() * s[None, :], p.q / b, p.mu, p.dim)

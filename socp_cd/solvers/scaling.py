@@ -15,14 +15,72 @@ Only local problems are balanced: a global problem solved natively by a
 backend (``SolverSpec.global_native``) is passed as is (its ``M``, ``H`` would
 need the matching change of ``v``); condensed ones are balanced as local
 problems.
+
+Everything per problem is computed once and kept on the problem object
+(:meth:`~socp_cd.problem.FrictionContactProblem.derived`) as a :class:`Balanced`
+record (:func:`balanced`): for a local problem by one compiled pass
+(:func:`~socp_cd.solvers.kernels.scaling.balance_csr`), for a global one by the
+NumPy reference :func:`~socp_cd.residuals.contact_scales`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
 from ..problem import FrictionContactProblem
+from ..residuals import contact_scales
+from .kernels.scaling import balance_csr
+
+
+@dataclass(frozen=True)
+class Balanced:
+    """What the dispatcher derives once per problem (:func:`balanced`).
+
+    Attributes
+    ----------
+    a, b : ndarray (m,)
+        Unit factors ``r = a r~``, ``u = b u~`` (:func:`socp_cd.residuals.contact_scales`;
+        read-only).
+    problem : FrictionContactProblem or None
+        The balanced local problem ``u~ = (S W S) r~ + q / b`` handed to
+        backends (its ``q`` read-only); None for a global problem.
+    q_norm : float
+        ``||q / b||`` (the units guard's normalization).
+    zero_error : float or None
+        Siconos' error of ``r = 0`` of the original problem (None: a global
+        problem, whose error of ``r = 0`` needs a solve with ``M``:
+        :attr:`~socp_cd.problem.GlobalFrictionContactProblem.zero_error`).
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    problem: Optional[FrictionContactProblem]
+    q_norm: float
+    zero_error: Optional[float]
+
+
+def _compute(problem) -> Balanced:
+    if problem.is_global:
+        a, b = contact_scales(problem)
+        out = Balanced(a, b, None, float(np.linalg.norm(problem.q_local / b)), None)
+    else:
+        W = problem.W
+        a, b, data_s, q_s, _, q_s_norm, err0 = balance_csr(
+            W.indptr, W.indices, W.data, np.ascontiguousarray(problem.q, dtype=np.float64),
+            np.ascontiguousarray(problem.mu, dtype=np.float64), problem.dim)
+        q_s.flags.writeable = False
+        out = Balanced(a, b, problem.rescaled(a, b, W_data=data_s, q=q_s), float(q_s_norm),
+                       float(err0))
+    out.a.flags.writeable = False
+    out.b.flags.writeable = False
+    return out
+
+
+def balanced(problem) -> Balanced:
+    """The problem's :class:`Balanced` record, computed once per problem object."""
+    return problem.derived("solvers.scaling", _compute)
 
 
 @dataclass(frozen=True)
@@ -36,12 +94,12 @@ class Scaling:
     def problem(self, problem: FrictionContactProblem) -> FrictionContactProblem:
         """The balanced problem ``u~ = (S W S) r~ + S q / sigma`` (:meth:`FrictionContactProblem.rescaled`).
 
-        For the problem's own factors (:func:`balance`) it is the problem's
-        cached ``balanced`` copy, built once.
+        For the problem's own factors (:func:`balance`) it is the balanced copy
+        of its :class:`Balanced` record, built once.
         """
-        a, b = problem.balancing_scales
-        if self.a is a and self.b is b:
-            return problem.balanced
+        rec = balanced(problem)
+        if self.a is rec.a and self.b is rec.b:
+            return rec.problem
         return problem.rescaled(self.a, self.b)
 
     def reaction_to_scaled(self, r):
@@ -68,10 +126,9 @@ class Scaling:
 
 
 def balance(problem: FrictionContactProblem) -> Scaling:
-    """The :class:`Scaling` of a local problem (its cached ``balancing_scales``,
-    :func:`~socp_cd.residuals.contact_scales`)."""
-    a, b = problem.balancing_scales
-    return Scaling(a, b, problem.dim)
+    """The :class:`Scaling` of a local problem (the factors of its :class:`Balanced` record)."""
+    rec = balanced(problem)
+    return Scaling(rec.a, rec.b, problem.dim)
 
 
-__all__ = ["Scaling", "balance"]
+__all__ = ["Balanced", "Scaling", "balance", "balanced"]

@@ -1,0 +1,135 @@
+"""Units balancing of a local problem in one compiled pass (numba, ``cache=True``).
+
+The dispatcher (:mod:`socp_cd.solvers.scaling`) hands every backend a local
+problem in balanced units.  :func:`balance_csr` computes, from ``W`` in CSR
+form, ``q`` and ``mu``, everything that needs: the unit factors of
+:func:`socp_cd.residuals.contact_scales` (the NumPy reference), the entries of
+``S W S`` on the same sparsity (:meth:`socp_cd.problem.FrictionContactProblem.rescaled`),
+``q~ = q / b``, the norms ``||q||`` and ``||q~||``, and Siconos' error of
+``r = 0`` (:func:`socp_cd.residuals.error` with ``r = 0``).  On a one-contact
+problem the NumPy path costs ~50 µs of small-array calls; this one call costs
+a few.  ``tests/test_checks.py`` holds it equal to the references (to rounding:
+sums are taken in another order).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .cone import LAW_COULOMB, coulomb_violations, error_parts, relative_error
+
+
+@njit(cache=True)
+def balance_csr(indptr, indices, data, q, mu, dim):
+    """Balancing factors, balanced entries of ``W`` and ``q``, and the norms of a local problem.
+
+    Parameters
+    ----------
+    indptr, indices, data : ndarray
+        ``W`` (``m x m``) in CSR form (duplicates summed, entries finite).
+    q : ndarray (m,)
+    mu : ndarray (nc,)
+    dim : int
+
+    Returns
+    -------
+    a, b : ndarray (m,)
+        ``r = a r~``, ``u = b u~`` (:func:`socp_cd.residuals.contact_scales`):
+        ``d_i`` the mean ``|diagonal|`` of block ``W_ii`` (contacts without a
+        positive finite one get the geometric mean of the others, or 1),
+        ``s = 1/sqrt(d)``, ``sigma = ||s q|| / sqrt(m)`` (1 when not positive
+        and finite), ``a = sigma s``, ``b = sigma / s``.
+    data_s : ndarray
+        Entries of ``S W S`` with ``S = diag(sqrt(a / b))`` (same ``indptr``,
+        ``indices``).
+    q_s : ndarray (m,)
+        ``q / b``.
+    q_norm, q_s_norm : float
+        ``||q||``, ``||q / b||``.
+    zero_error : float
+        Siconos' relative error of ``r = 0`` (``u = q``) of the original problem.
+    """
+    m = q.shape[0]
+    nc = m // dim
+    d = np.zeros(nc)
+    for row in range(m):
+        for k in range(indptr[row], indptr[row + 1]):
+            if indices[k] == row:
+                d[row // dim] += abs(data[k])
+    n_good = 0
+    log_sum = 0.0
+    for i in range(nc):
+        d[i] /= dim
+        if np.isfinite(d[i]) and d[i] > 0.0:
+            n_good += 1
+            log_sum += np.log(d[i])
+    if n_good < nc:
+        fill = np.exp(log_sum / n_good) if n_good > 0 else 1.0
+        for i in range(nc):
+            if not (np.isfinite(d[i]) and d[i] > 0.0):
+                d[i] = fill
+    s = np.empty(nc)
+    sq = 0.0
+    for i in range(nc):
+        s[i] = 1.0 / np.sqrt(d[i])
+        for k in range(dim):
+            v = s[i] * q[i * dim + k]
+            sq += v * v
+    sigma = np.sqrt(sq) / np.sqrt(m)
+    if not (np.isfinite(sigma) and sigma > 0.0):
+        sigma = 1.0
+    a = np.empty(m)
+    b = np.empty(m)
+    srt = np.empty(m)
+    q_s = np.empty(m)
+    q2 = 0.0
+    qs2 = 0.0
+    for i in range(nc):
+        ai = sigma * s[i]
+        bi = sigma / s[i]
+        si = np.sqrt(ai / bi)
+        for k in range(dim):
+            j = i * dim + k
+            a[j] = ai
+            b[j] = bi
+            srt[j] = si
+            q_s[j] = q[j] / bi
+            q2 += q[j] * q[j]
+            qs2 += q_s[j] * q_s[j]
+    data_s = np.empty(data.shape[0])
+    for row in range(m):
+        for k in range(indptr[row], indptr[row + 1]):
+            data_s[k] = data[k] * (srt[row] * srt[indices[k]])
+    q_norm = np.sqrt(q2)
+    f2, r2, u2 = error_parts(np.zeros(m), q, mu, np.zeros(nc), dim, LAW_COULOMB)
+    zero_error = relative_error(f2, r2, u2, q_norm)
+    return a, b, data_s, q_s, q_norm, np.sqrt(qs2), zero_error
+
+
+@njit(cache=True)
+def balanced_guard_parts(r, u, a, b, mu, dim):
+    """The Coulomb units guard's raw parts of ``(r / a, u / b)`` in one pass.
+
+    Returns
+    -------
+    tuple
+        ``(finite, f2, r2, u2, cone, normal, gap)``: whether the balanced pair
+        is finite (when not, the other entries are 0), then
+        :func:`~socp_cd.solvers.kernels.cone.error_parts` and
+        :func:`~socp_cd.solvers.kernels.cone.coulomb_violations` of the
+        balanced pair (the compiled pieces of :func:`socp_cd.residuals.guard`).
+    """
+    m = r.shape[0]
+    rs = np.empty(m)
+    us = np.empty(m)
+    for j in range(m):
+        rs[j] = r[j] / a[j]
+        us[j] = u[j] / b[j]
+        if not (np.isfinite(rs[j]) and np.isfinite(us[j])):
+            return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    f2, r2, u2 = error_parts(rs, us, mu, np.zeros(mu.shape[0]), dim, LAW_COULOMB)
+    cone, normal, gap = coulomb_violations(rs, us, mu, dim)
+    return True, f2, r2, u2, cone, normal, gap
+
+
+__all__ = ["balance_csr", "balanced_guard_parts"]
