@@ -239,6 +239,24 @@ def test_state_roundtrip_reproduces_the_run():
         b.set_state({**state, "pos": np.zeros((3, 3))})
 
 
+def test_use_solver_switches_the_next_steps():
+    sim = Simulation(Scene([Box((0.2, 0.2, 0.2), (0, 0, 0.1))], [Plane()], mu=0.4), 2e-3,
+                     solver="nsgs", tol=1e-4, max_iter=7, solver_options={"time_limit": 5.0})
+    sim.run(3, progress=False)
+    assert sim.last_result.solver == "nsgs"
+    sim.use_solver("newton", tol=1e-10, time_limit=2.0)
+    assert sim.max_iter is None and sim.solver_options == {"time_limit": 2.0} and sim.tol == 1e-10
+    sim.run(1, progress=False)
+    assert sim.last_result.solver == "newton" and sim.last_result.converged
+    assert sim.last_problem.n_contacts >= 3            # the box rests on its contacts
+    assert sim.last_result.error <= 1e-10
+    sim.use_solver("nsgs", max_iter=3)                       # no time limit, tol kept
+    assert sim.solver_options == {} and sim.tol == 1e-10 and sim.max_iter == 3
+    for bad in (dict(tol=0.0), dict(time_limit=-1.0), dict(form="mixed")):
+        with pytest.raises(InvalidProblemError):
+            sim.use_solver("nsgs", **bad)
+
+
 def test_trajectory_keeps_orientations(tmp_path):
     sim = Simulation(Scene([Box((0.2, 0.2, 0.2), (0, 0, 0.5), omega=(0, 0, 3.0))], [Plane()]), 1e-2)
     traj = sim.run(5, progress=False)

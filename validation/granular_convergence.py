@@ -111,11 +111,10 @@ def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=3000, quench=200, tol=1e-
         unconv += int(not st.converged)
     wall_quench = time.perf_counter() - t1
     t2 = time.perf_counter()
-    sim.tol, sim.max_iter = final_tol, final_iter
-    sim.solver, sim.form = final_solver, final_form
-    if final_solver != "nsgs":       # its own iteration caps, bounded in time
-        sim.max_iter = None
-        sim.solver_options = dict(sim.solver_options, time_limit=final_time_limit)
+    if final_solver == "nsgs":
+        sim.use_solver("nsgs", tol=final_tol, max_iter=final_iter, form=final_form)
+    else:                            # its own iteration caps, bounded in time
+        sim.use_solver(final_solver, tol=final_tol, form=final_form, time_limit=final_time_limit)
     sim.sys.vel[:] = 0.0
     prev = sim.sys.vel.copy()
     st = sim.step()

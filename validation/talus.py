@@ -216,13 +216,15 @@ def run(n, slope, seed, h, *, batch=32, steps_per_batch=100, max_wait=600, v0=2.
             # NSGS at a few thousand sweeps leaves the reactions of a deep heap short
             # of its weight (grains sag a little every step): the last quench steps
             # use a solver that reaches quench_tol
-            sim.solver, sim.max_iter = quench_solver, None
-            sim.solver_options = dict(sim.solver_options, time_limit=step_time_limit)
+            sim.use_solver(quench_solver, time_limit=step_time_limit)
         sim.sys.vel[:] = 0.0
         unconv += int(not sim.step().converged)
     # the analysed step: solver "auto" (Newton / Clarabel chain) reaches final_tol where NSGS
     # stalls near 1e-6 on a heap of thousands of contacts
-    sim.solver, sim.tol, sim.max_iter = final_solver, final_tol, final_iter
+    if final_solver == "nsgs":
+        sim.use_solver("nsgs", tol=final_tol, max_iter=final_iter)
+    else:                            # its own iteration caps, bounded in time
+        sim.use_solver(final_solver, tol=final_tol, time_limit=step_time_limit)
     sim.sys.vel[:] = 0.0
     prev = sim.sys.vel.copy()
     st = sim.step()

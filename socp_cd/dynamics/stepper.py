@@ -161,6 +161,46 @@ class Simulation:
         return minv @ x if sp.issparse(minv) else minv * x
 
     # ------------------------------------------------------------------ state
+    def use_solver(self, solver, *, tol: Optional[float] = None, max_iter: Optional[int] = None,
+                   form: Optional[str] = None, time_limit: Optional[float] = None) -> None:
+        """Solver settings of the next steps (e.g. a tight final step after a loose transient).
+
+        Parameters
+        ----------
+        solver : str or callable
+            Passed to :func:`socp_cd.solve`.
+        tol : float, optional
+            New tolerance (kept when None).
+        max_iter : int, optional
+            Iteration cap; None: the solver's own default (caps differ between
+            solvers: NSGS sweeps, Newton's outer iterations, ``auto``'s stages).
+        form : {"local", "global"}, optional
+            Kept when None.
+        time_limit : float, optional
+            Seconds per step (``time_limit`` of :func:`socp_cd.solve`); None
+            removes a previous limit.
+
+        Raises
+        ------
+        InvalidProblemError
+            A non-positive ``tol`` or ``time_limit``, or an unknown ``form``.
+        """
+        if tol is not None and not (np.isfinite(tol) and tol > 0):
+            raise InvalidProblemError("tol", f"must be a positive tolerance, got {tol!r}")
+        if time_limit is not None and not (np.isfinite(time_limit) and time_limit > 0):
+            raise InvalidProblemError("time_limit", f"must be positive seconds, got {time_limit!r}")
+        if form is not None and form not in ("local", "global"):
+            raise InvalidProblemError("form", f"must be 'local' or 'global', got {form!r}")
+        self.solver, self.max_iter = solver, max_iter
+        if tol is not None:
+            self.tol = float(tol)
+        if form is not None:
+            self.form = form
+        opts = {k: v for k, v in self.solver_options.items() if k != "time_limit"}
+        if time_limit is not None:
+            opts["time_limit"] = float(time_limit)
+        self.solver_options = opts
+
     def get_state(self) -> dict:
         """Copy of everything :meth:`step` depends on: time, kinematics and warm start.
 
