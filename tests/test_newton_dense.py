@@ -162,3 +162,18 @@ def test_diag_blocks_of_dense_and_sparse_w_agree():
     W = p.W.toarray()
     np.testing.assert_array_equal(dense, sparse)
     np.testing.assert_array_equal(dense[4], W[12:15, 12:15])
+
+
+def test_block_rho_kernel_equals_numpy_reference():
+    from socp_cd.solvers.kernels.newton_ac import block_rho_dense
+    for dim in (2, 3):
+        p = manufactured(11, dim, 0.5, contact_scale=1e6, seed=dim)
+        W = p.W.toarray()
+        W[:dim, :dim] = 0.0                        # a contact with a zero block: the floor
+        system = nt._LocalSystem(FrictionContactProblem(W, p.q, p.mu, dim), "dense")
+        rho_n, rho_t, ref = nt._rho(system.diag_blocks(), dim, "block")
+        rho = np.empty(11)
+        assert block_rho_dense(system.W, dim, rho) == pytest.approx(ref, rel=1e-14)
+        np.testing.assert_allclose(rho, rho_n, rtol=1e-14)
+        assert rho[0] == pytest.approx(1e8 / ref, rel=1e-14)
+        assert nt._system_rho(system, "block")[0] is nt._system_rho(system, "block")[1]

@@ -63,6 +63,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import math
 import time
 
 import numpy as np
@@ -75,8 +76,8 @@ from threadpoolctl import ThreadpoolController
 from ..errors import UnsupportedError
 from .kernels import newton_dense as nd
 from .kernels.cone import project_cone_stacked, siconos_error
-from .kernels.dense import lu_solve, matvec, matvec_into
-from .kernels.newton_ac import ac_blocks, dense_jacobian
+from .kernels.dense import csr_to_dense, lu_solve, matvec, matvec_into
+from .kernels.newton_ac import ac_blocks, block_rho_dense, dense_jacobian
 from .options import check_choice, check_int, check_real
 from .polish import associated_polish
 from .result import SolverResult
@@ -162,14 +163,20 @@ class _LocalSystem:
         self.d, self.m = problem.dim, problem.m
         self.q = np.ascontiguousarray(problem.q, dtype=np.float64)
         if linear_solver == "auto":
-            fill = W.nnz / float(self.m * self.m) if sp.issparse(W) else 1.0
-            dense = self.m <= DENSE_MAX_M and (self.m <= DENSE_ALWAYS_M or fill >= DENSE_MIN_FILL)
+            dense = self.m <= DENSE_ALWAYS_M or (
+                self.m <= DENSE_MAX_M
+                and (not sp.issparse(W) or W.nnz / float(self.m * self.m) >= DENSE_MIN_FILL))
             linear_solver = "dense" if dense else "splu"
         self.kind = linear_solver
         #: small dense system: compiled mat-vecs and LU (and the compiled loop)
         self.compiled = self.kind == "dense" and self.m <= COMPILED_LU_MAX_M
         if self.kind == "dense":
-            self.W = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W, dtype=np.float64)
+            if sp.issparse(W) and W.format == "csr" and self.compiled:
+                self.W = csr_to_dense(W.indptr, W.indices, W.data.astype(np.float64, copy=False),
+                                      self.m, self.m)       # no scipy overhead on tiny W
+            else:
+                self.W = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W,
+                                              dtype=np.float64)
             self.J = np.empty((self.m, self.m))
         else:
             self.W = sp.csr_matrix(W, dtype=np.float64)
@@ -321,8 +328,8 @@ def _rho(diag_blocks, d, strategy="block"):
         Mean block scale ``mean s_i`` (the unit of the proximal parameter).
     """
     scale = np.sqrt(np.einsum("iab,iab->i", diag_blocks, diag_blocks) / d)
-    ref = float(np.mean(scale)) if scale.size else 1.0
-    if not np.isfinite(ref) or ref <= 0.0:
+    ref = float(scale.sum()) / scale.size if scale.size else 1.0     # = np.mean, cheaper
+    if not math.isfinite(ref) or ref <= 0.0:
         ref = 1.0
     floor = 1e-8 * ref
     if strategy == "block":
@@ -339,10 +346,21 @@ def _rho(diag_blocks, d, strategy="block"):
 
 
 def _system_rho(system, strategy):
-    """:func:`_rho` of ``system``'s diagonal blocks, computed once per system and strategy."""
+    """:func:`_rho` of ``system``'s diagonal blocks, computed once per system and strategy.
+
+    A dense ``W`` with strategy "block" goes through the compiled twin
+    :func:`~socp_cd.solvers.kernels.newton_ac.block_rho_dense` (no per-call
+    NumPy overhead on a few contacts).
+    """
     hit = system.rho_cache.get(strategy)
     if hit is None:
-        hit = system.rho_cache[strategy] = _rho(system.diag_blocks(), system.d, strategy)
+        if strategy == "block" and getattr(system, "kind", None) == "dense":
+            rho = np.empty(system.m // system.d)
+            ref = block_rho_dense(system.W, system.d, rho)
+            hit = (rho, rho, float(ref))
+        else:
+            hit = _rho(system.diag_blocks(), system.d, strategy)
+        system.rho_cache[strategy] = hit
     return hit
 
 
