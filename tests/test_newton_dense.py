@@ -25,10 +25,12 @@ from socp_cd.solvers.kernels.cone import project_cone_stacked
 #: settings of a cold solve (newton_backend's defaults) and of the polish (newton_polish)
 COLD = dict(alpha0=1.0, alpha_min=1e-10, inner_max_iter=10, stall_window=50)
 WARM = dict(COLD, alpha0=nt.WARM_ALPHA0)
-#: shared local problems with m <= COMPILED_LOOP_MAX_M (1-9 contacts)
+#: shared problems with m <= COMPILED_LOOP_MAX_M (1-23 contacts; global ones condensed)
 SMALL_SHARED = ["FrictionContact3D_1c.dat", "FrictionContact3D_RR_1c.dat", "Rover11035.dat",
                 "FC2D_SliderCrankLagrangian00000.dat", "FC3D_Example1.dat", "Rover1039.dat",
-                "Confeti-ex13-4contact-Fc3D-SBM.dat", "Rover3865.dat", "NESpheres_10_1.dat"]
+                "Confeti-ex13-4contact-Fc3D-SBM.dat", "Rover3865.dat", "NESpheres_10_1.dat",
+                "GFC3D_Example1.dat", "LMGC_GlobalFrictionContactProblem00046.hdf5",
+                "OneObject-i1028-138.hdf5.dat"]
 
 
 def _both(p, r0, tol, max_iter=200, time_limit=None, rho="block", **settings):
@@ -68,7 +70,7 @@ def test_dispatch_rules():
     with pytest.raises(UnsupportedError):      # the twin keeps no history
         nt.prox_newton(system, mu, np.zeros(p.m), tol=1e-10, max_iter=5, time_limit=None,
                        history=True, compiled=True, **COLD)
-    big = manufactured(13, 3, 0.5, seed=0)         # m = 39 > COMPILED_LOOP_MAX_M
+    big = manufactured(25, 3, 0.5, seed=0)         # m = 75 > COMPILED_LOOP_MAX_M
     assert not nt._LocalSystem(big, "auto").compiled
     assert not nt._LocalSystem(p, "splu").compiled
 
@@ -92,7 +94,7 @@ def test_twin_equals_python_loop_on_shared_problems(name):
 @pytest.mark.parametrize("mu", [0.0, 0.3, 2.0])
 def test_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu):
     """Mixes of separated/stick/slide/grazing contacts; "redundant": rank-deficient W."""
-    nc = 9 if dim == 3 else 12
+    nc = 24 if dim == 3 else 36                    # m = 72 = COMPILED_LOOP_MAX_M
     for seed, mix in enumerate([(0.25, 0.35, 0.3, 0.1), (0.0, 0.0, 0.0, 1.0),
                                 (0.0, 0.0, 1.0, 0.0), (0.5, 0.0, 0.0, 0.5)]):
         p = manufactured(nc, dim, mu, structure=structure, mix=mix, seed=seed)

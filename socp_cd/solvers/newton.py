@@ -89,10 +89,13 @@ DENSE_MAX_M = 600
 DENSE_ALWAYS_M = 120
 DENSE_MIN_FILL = 0.1
 #: dense Newton matrices this small are factorized by the compiled LU of
-#: :mod:`~socp_cd.solvers.kernels.dense` (same partial pivoting).  Measured per
-#: factor+solve: compiled 1.9 / 4.7 / 23 / 58 µs at m = 12 / 24 / 48 / 69, scipy's
-#: LAPACK wrappers 12 / 14 / 21 / 33 µs: the wrappers' overhead dominates below ~40.
-COMPILED_LU_MAX_M = 36
+#: :mod:`~socp_cd.solvers.kernels.dense` (same partial pivoting), with compiled
+#: mat-vecs and no BLAS thread limit (no BLAS call at all).  Measured
+#: (``validation/results/newton_loop_threshold.md``, whole solves with the compiled
+#: loop below): faster than LAPACK through scipy's wrappers up to m = 72 even with
+#: every entry of W non-zero (x0.7 at m = 72, x1.3 at m = 90); with the sparsity
+#: of a contact graph (zero multipliers skipped) up to m = 180.
+COMPILED_LU_MAX_M = 72
 #: dense local systems this small run the whole proximal loop compiled
 #: (:func:`socp_cd.solvers.kernels.newton_dense.prox_newton_dense`, policy "prox",
 #: no history); the Python loop of :func:`prox_newton` is its reference.  Equal to
@@ -143,9 +146,10 @@ def _blas_controller():
     return ThreadpoolController()
 
 
-def _one_blas_thread(m):
-    """Context limiting BLAS to one thread (a no-op for tiny problems)."""
-    if m < SINGLE_THREAD_MIN_M:
+def _one_blas_thread(system):
+    """Context limiting BLAS to one thread (a no-op for tiny or compiled systems: no BLAS)."""
+    m = system.m
+    if m < SINGLE_THREAD_MIN_M or getattr(system, "compiled", False):
         return contextlib.nullcontext()
     return _blas_controller().limit(limits=1, user_api="blas")
 
@@ -668,7 +672,7 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
               else _LocalSystem(problem, st["linear_solver"]))
     mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
     r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=np.float64).reshape(-1)
-    with _one_blas_thread(problem.m):
+    with _one_blas_thread(system):
         status, r, iters, hist, info = prox_newton(
             system, mu, r, tol=float(tol), max_iter=max_iter, alpha0=st["alpha0"],
             alpha_min=st["alpha_min"], inner_max_iter=st["inner_max_iter"],
@@ -726,7 +730,7 @@ def newton_polish(problem, r, tol, options):
             cache["newton_system"] = system
     mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
     r = np.array(r, dtype=np.float64).reshape(-1)
-    with _one_blas_thread(problem.m):
+    with _one_blas_thread(system):
         _, r, its, _, info = prox_newton(
             system, mu, r, tol=POLISH_MARGIN * float(tol), max_iter=int(options["max_iter"]),
             alpha0=WARM_ALPHA0, alpha_min=1e-10, inner_max_iter=10, stall_window=50,
