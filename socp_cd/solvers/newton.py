@@ -166,6 +166,8 @@ class _LocalSystem:
         W = problem.W
         self.d, self.m = problem.dim, problem.m
         self.q = np.ascontiguousarray(problem.q, dtype=np.float64)
+        if not self.q.flags.writeable:   # (the balanced copy's q is read-only)
+            self.q = self.q.copy()       # one signature of the compiled loop
         if linear_solver == "auto":
             dense = self.m <= DENSE_ALWAYS_M or (
                 self.m <= DENSE_MAX_M
@@ -181,6 +183,8 @@ class _LocalSystem:
             else:
                 self.W = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W,
                                               dtype=np.float64)
+                if not self.W.flags.writeable:
+                    self.W = self.W.copy()
             self.J = np.empty((self.m, self.m))
         else:
             self.W = sp.csr_matrix(W, dtype=np.float64)
@@ -607,6 +611,8 @@ def _prox_newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, in
     fstate, istate = nd.new_state(alpha0 * wscale)
     r = np.ascontiguousarray(r, dtype=np.float64)
     best_r = np.empty_like(r)
+    if not mu.flags.writeable:      # one compiled signature: numba types read-only arrays apart
+        mu = mu.copy()
     args = (system.W, system.q, float(system.norm_q), mu, rho_n, rho_t, system.d, float(tol))
     rest = (alpha_min * wscale, _ALPHA_MAX * wscale, int(inner_max_iter), int(stall_window),
             _ARMIJO, _MAX_BACKTRACK, NONMONOTONE, r, best_r, fstate, istate)
