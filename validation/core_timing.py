@@ -144,7 +144,7 @@ def report():
     print("\n".join(lines))
 
 
-def compare(labels, out):
+def compare(labels, out, note=""):
     """``<out>.md``: min wall time of each label, ratios of the last label to the others."""
     data = {k: json.loads((RESULTS / f"core_timing_{k}.json").read_text()) for k in labels}
     last = labels[-1]
@@ -157,7 +157,7 @@ def compare(labels, out):
              "trees compared, rounds per label: "
              + ", ".join(f"{lab} {rounds[lab]}" for lab in labels)
              + "; shared 2-core machine under load: only the min is meaningful, differences "
-             "below ~20 % are noise).", "",
+             "below ~20 % are noise)." + (f"  {note}" if note else ""), "",
              "| problem | nc | solver | " + " | ".join(f"{lab} (ms)" for lab in labels) + " | "
              + " | ".join(f"{last}/{lab}" for lab in labels[:-1])
              + f" | status / error ({last}) |",
@@ -194,6 +194,7 @@ def main():
     ap.add_argument("--out", type=_label, default="core_timing_compare",
                     help="report name of --compare (never core_timing)")
     ap.add_argument("--no-run", action="store_true", help="only write the --compare report")
+    ap.add_argument("--note", default="", help="a sentence added to the --compare report's header")
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--fresh", action="store_true",
                     help="a new problem object per call (stored as <label>_fresh)")
@@ -206,7 +207,7 @@ def main():
         run(args.label, args.repeats, args.merge, args.fresh,
             tuple(s for s in args.solvers.split(",") if s))
     if args.compare:
-        compare([_label(x) for x in args.compare.split(",")], args.out)
+        compare([_label(x) for x in args.compare.split(",")], args.out, args.note)
     elif args.label in ("before", "main", "after") and (RESULTS / "core_timing_before.json").exists():
         report()
 
