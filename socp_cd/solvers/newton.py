@@ -630,21 +630,20 @@ def _prox_newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, in
             if time.perf_counter() - t0 > time_limit:
                 status = "time_limit"
                 break
-    err, best_err = float(fstate[nd.F_ERR]), float(fstate[nd.F_BEST_ERR])
+    fs, ist = fstate.tolist(), istate.tolist()       # Python scalars in one call each
+    err, best_err = fs[nd.F_ERR], fs[nd.F_BEST_ERR]
     if status != "converged" and best_err < err:
         r = best_r
-    system.factorizations += int(istate[nd.I_FACTORIZATIONS])
-    alpha = float(fstate[nd.F_ALPHA])
+    system.factorizations += ist[nd.I_FACTORIZATIONS]
+    alpha = fs[nd.F_ALPHA]
     info = {"alpha": alpha, "alpha_relative": alpha / wscale,
-            "alpha_max_relative": float(fstate[nd.F_ALPHA_MAX_USED]) / wscale,
-            "newton_steps": int(istate[nd.I_NEWTON]), "plain_steps": 0, "policy": "prox",
-            "backtracks": int(istate[nd.I_BACKTRACK]),
-            "line_search_failures": int(istate[nd.I_LS_FAIL]),
-            "singular_steps": int(istate[nd.I_SINGULAR]),
-            "rejected_outer": int(istate[nd.I_REJECTED]),
+            "alpha_max_relative": fs[nd.F_ALPHA_MAX_USED] / wscale,
+            "newton_steps": ist[nd.I_NEWTON], "plain_steps": 0, "policy": "prox",
+            "backtracks": ist[nd.I_BACKTRACK], "line_search_failures": ist[nd.I_LS_FAIL],
+            "singular_steps": ist[nd.I_SINGULAR], "rejected_outer": ist[nd.I_REJECTED],
             "factorizations": system.factorizations, "linear_solver": system.kind,
             "internal_error": min(err, best_err), "rho": rho}
-    return status, r, int(istate[nd.I_IT]), None, info
+    return status, r, ist[nd.I_IT], None, info
 
 
 def _settings(problem, options, inner_settings=None) -> dict:
