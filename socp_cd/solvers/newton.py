@@ -14,7 +14,11 @@ Equations: ``formulations/newton.md``.
 
 Local problems: the Newton matrix is assembled densely (compiled kernel,
 LAPACK LU) when ``W`` is small or dense, otherwise as a sparse matrix
-factorized by SuperLU.  Global problems are registered as native: small ones
+factorized by SuperLU; up to ``m = COMPILED_LU_MAX_M`` (72) the LU is compiled
+too and the whole proximal loop runs compiled
+(:mod:`socp_cd.solvers.kernels.newton_dense`, bit-identical to the Python loop
+of :func:`prox_newton`, which stays the reference and the path of every other
+case).  Global problems are registered as native: small ones
 are condensed here (``W = Hᵀ M⁻¹ H`` by sparse solves, cheaper as measured),
 larger ones run Newton on the saddle-point system ``M v = H r + f``,
 ``u = Hᵀ v + w`` with unknowns ``(v, r)``, one sparse LU per Newton step and
