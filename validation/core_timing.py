@@ -97,15 +97,23 @@ def run(label, repeats, merge=False, fresh=False, solvers=SOLVERS):
             print(f"{label:6s} {name:45s} {solver:9s} nc={p.n_contacts:4d} "
                   f"min={row['min'] * 1e3:9.3f} ms  {row['status']:10s} err={row['error']:.2e}",
                   flush=True)
-    path = RESULTS / f"core_timing_{label}.json"
-    if merge and path.exists():      # keep the min over rounds (rounds interleave old and new code)
+    store(RESULTS / f"core_timing_{label}.json", out, merge)
+    return out
+
+
+def store(path, rows, merge):
+    """Write ``rows`` (``key -> {"min", ...}``) as JSON; ``merge``: keep the min with ``path``'s.
+
+    Rounds interleave old and new code on a shared machine, so the min over
+    rounds is kept and ``"rounds"`` counts them.
+    """
+    if merge and path.exists():
         old = json.loads(path.read_text())
-        for key, row in out.items():
+        for key, row in rows.items():
             if key in old:
                 row["min"] = min(row["min"], old[key]["min"])
                 row["rounds"] = old[key].get("rounds", 1) + 1
-    path.write_text(json.dumps(out, indent=1))
-    return out
+    path.write_text(json.dumps(rows, indent=1))
 
 
 def report():

@@ -38,6 +38,8 @@ import numpy as np
 import socp_cd
 from socp_cd.solvers.newton import newton_polish
 
+from core_timing import store  # noqa: E402  (sibling script: one JSON store with --merge)
+
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "problems"
 RESULTS = Path(__file__).resolve().parent / "results"
 PROBLEMS = ("FrictionContact3D_1c.dat", "Rover3865.dat", "NESpheres_10_1.dat")
@@ -112,15 +114,7 @@ def main():
     ap.add_argument("--merge", action="store_true", help="keep the min with earlier rounds")
     ap.add_argument("--compare", default=None, help="comma-separated labels to tabulate")
     args = ap.parse_args()
-    rows = measure(args.repeats)
-    path = RESULTS / f"polish_overhead_{args.label}.json"
-    if args.merge and path.exists():
-        old = json.loads(path.read_text())
-        for key, row in rows.items():
-            if key in old:
-                row["min"] = min(row["min"], old[key]["min"])
-                row["rounds"] = old[key].get("rounds", 1) + 1
-    path.write_text(json.dumps(rows, indent=1))
+    store(RESULTS / f"polish_overhead_{args.label}.json", measure(args.repeats), args.merge)
     if args.compare:
         compare(args.compare.split(","))
 
