@@ -5,7 +5,7 @@ The De Saxcé fixed point (``solver="clarabel"``) ends with one Newton polish
 per-call cost, not its arithmetic, is what a solve pays.  This script times,
 on ``FrictionContact3D_1c.dat``, ``Rover3865.dat`` (5 contacts) and
 ``NESpheres_10_1.dat`` (9 contacts), each in the balanced units the dispatcher
-hands the backends (``problem.balanced``):
+hands the backends (:func:`balanced_copy`):
 
 * one polish from the solution perturbed by 1e-3 (budget 15 outer
   iterations), with a new Newton system per call (what one solve pays) and
@@ -46,6 +46,18 @@ PROBLEMS = ("FrictionContact3D_1c.dat", "Rover3865.dat", "NESpheres_10_1.dat")
 SOLVERS = ("newton", "auto", "clarabel")
 
 
+def balanced_copy(problem):
+    """The balanced problem the dispatcher hands its backends, in either tree's API.
+
+    ``problem.balanced`` before the ``Balanced`` record of
+    :mod:`socp_cd.solvers.scaling`, ``scaling.balanced(problem).problem`` after.
+    """
+    if hasattr(type(problem), "balanced"):
+        return problem.balanced
+    from socp_cd.solvers import scaling
+    return scaling.balanced(problem).problem
+
+
 def _times(f, repeats):
     f()
     out = []
@@ -60,7 +72,7 @@ def measure(repeats):
     rows = {}
     for name in PROBLEMS:
         p = socp_cd.read_problem(DATA / name)
-        b = p.balanced
+        b = balanced_copy(p)
         ref = socp_cd.solve(b, "newton", tol=1e-12).r
         r0 = ref * (1.0 + 1e-3 * np.random.default_rng(0).standard_normal(b.m))
         cache = {}
