@@ -60,7 +60,11 @@ def test_converged_only_when_recomputed_error_meets_tol(name, make, tol):
         # problem (the dispatcher's units), or the global problem as given.
         best = min(s["error"] for s in res.info["path"])
         mine = err if p.is_global else res.info["guard"]["balanced_siconos"]
-        assert mine <= best * (1 + 1e-3) + 1e-300, (name, seed, mine, res.info["path"])   # rounding of the unit map
+        # rounding of the unit map: relative 1e-3, and a few eps absolute -- the floor of
+        # a relative error (rank_deficient seed 1 ends at 7.3e-16 by one measure, 7.7e-16
+        # by the other: r has a large null-space component)
+        slack = 16 * np.finfo(float).eps
+        assert mine <= best * (1 + 1e-3) + slack, (name, seed, mine, res.info["path"])
 
 
 def test_path_records_every_stage():

@@ -14,7 +14,11 @@ Equations: ``formulations/newton.md``.
 
 Local problems: the Newton matrix is assembled densely (compiled kernel,
 LAPACK LU) when ``W`` is small or dense, otherwise as a sparse matrix
-factorized by SuperLU.  Global problems are registered as native: small ones
+factorized by SuperLU; up to ``m = COMPILED_LU_MAX_M`` (72) the LU is compiled
+too and the whole proximal loop runs compiled
+(:mod:`socp_cd.solvers.kernels.newton_dense`, bit-identical to the Python loop
+of :func:`prox_newton`, which stays the reference and the path of every other
+case).  Global problems are registered as native: small ones
 are condensed here (``W = Hᵀ M⁻¹ H`` by sparse solves, cheaper as measured),
 larger ones run Newton on the saddle-point system ``M v = H r + f``,
 ``u = Hᵀ v + w`` with unknowns ``(v, r)``, one sparse LU per Newton step and
@@ -63,6 +67,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import math
 import time
 
 import numpy as np
@@ -72,11 +77,11 @@ import scipy.sparse.linalg as spla
 
 from threadpoolctl import ThreadpoolController
 
-from ..cones import project_cone
 from ..errors import UnsupportedError
-from .kernels.cone import siconos_error
-from .kernels.dense import lu_solve
-from .kernels.newton_ac import ac_blocks, dense_jacobian
+from .kernels import newton_dense as nd
+from .kernels.cone import project_cone_stacked, siconos_error
+from .kernels.dense import csr_to_dense, lu_solve, matvec, matvec_into
+from .kernels.newton_ac import ac_blocks, block_rho_dense, dense_jacobian
 from .options import check_choice, check_int, check_real
 from .polish import associated_polish
 from .result import SolverResult
@@ -88,10 +93,19 @@ DENSE_MAX_M = 600
 DENSE_ALWAYS_M = 120
 DENSE_MIN_FILL = 0.1
 #: dense Newton matrices this small are factorized by the compiled LU of
-#: :mod:`~socp_cd.solvers.kernels.dense` (same partial pivoting).  Measured per
-#: factor+solve: compiled 1.9 / 4.7 / 23 / 58 µs at m = 12 / 24 / 48 / 69, scipy's
-#: LAPACK wrappers 12 / 14 / 21 / 33 µs: the wrappers' overhead dominates below ~40.
-COMPILED_LU_MAX_M = 36
+#: :mod:`~socp_cd.solvers.kernels.dense` (same partial pivoting), with compiled
+#: mat-vecs and no BLAS thread limit (no BLAS call at all).  Measured
+#: (``validation/results/newton_loop_threshold.md``, whole solves with the compiled
+#: loop below): faster than LAPACK through scipy's wrappers up to m = 72 even with
+#: every entry of W non-zero (x0.7 at m = 72, x1.3 at m = 90); with the sparsity
+#: of a contact graph (zero multipliers skipped) up to m = 180.
+COMPILED_LU_MAX_M = 72
+#: dense local systems this small run the whole proximal loop compiled
+#: (:func:`socp_cd.solvers.kernels.newton_dense.prox_newton_dense`, policy "prox",
+#: no history); the Python loop of :func:`prox_newton` is its reference.  Equal to
+#: :data:`COMPILED_LU_MAX_M`: both loops then factorize with the same compiled LU and
+#: the twin reproduces the reference's iterates bit for bit.
+COMPILED_LOOP_MAX_M = COMPILED_LU_MAX_M
 #: global problems up to this many unknowns r are condensed to the local form
 CONDENSE_MAX_M = 600
 #: solver-specific options (the common ones are in :mod:`socp_cd.solvers.options`)
@@ -136,9 +150,10 @@ def _blas_controller():
     return ThreadpoolController()
 
 
-def _one_blas_thread(m):
-    """Context limiting BLAS to one thread (a no-op for tiny problems)."""
-    if m < SINGLE_THREAD_MIN_M:
+def _one_blas_thread(system):
+    """Context limiting BLAS to one thread (a no-op for tiny or compiled systems: no BLAS)."""
+    m = system.m
+    if m < SINGLE_THREAD_MIN_M or getattr(system, "compiled", False):
         return contextlib.nullcontext()
     return _blas_controller().limit(limits=1, user_api="blas")
 
@@ -155,13 +170,25 @@ class _LocalSystem:
         W = problem.W
         self.d, self.m = problem.dim, problem.m
         self.q = np.ascontiguousarray(problem.q, dtype=np.float64)
+        if not self.q.flags.writeable:   # (the balanced copy's q is read-only)
+            self.q = self.q.copy()       # one signature of the compiled loop
         if linear_solver == "auto":
-            fill = W.nnz / float(self.m * self.m) if sp.issparse(W) else 1.0
-            dense = self.m <= DENSE_MAX_M and (self.m <= DENSE_ALWAYS_M or fill >= DENSE_MIN_FILL)
+            dense = self.m <= DENSE_ALWAYS_M or (
+                self.m <= DENSE_MAX_M
+                and (not sp.issparse(W) or W.nnz / float(self.m * self.m) >= DENSE_MIN_FILL))
             linear_solver = "dense" if dense else "splu"
         self.kind = linear_solver
+        #: small dense system: compiled mat-vecs and LU (and the compiled loop)
+        self.compiled = self.kind == "dense" and self.m <= COMPILED_LU_MAX_M
         if self.kind == "dense":
-            self.W = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W, dtype=np.float64)
+            if sp.issparse(W) and W.format == "csr" and self.compiled:
+                self.W = csr_to_dense(W.indptr, W.indices, W.data.astype(np.float64, copy=False),
+                                      self.m, self.m)       # no scipy overhead on tiny W
+            else:
+                self.W = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W,
+                                              dtype=np.float64)
+                if not self.W.flags.writeable:
+                    self.W = self.W.copy()
             self.J = np.empty((self.m, self.m))
         else:
             self.W = sp.csr_matrix(W, dtype=np.float64)
@@ -169,24 +196,32 @@ class _LocalSystem:
             self._bsr_index = (np.arange(nc, dtype=np.int32), np.arange(nc + 1, dtype=np.int32))
         self.norm_q = problem.q_norm          # cached on the problem
         self.factorizations = 0
+        self.rho_cache = {}
 
     def diag_blocks(self):
+        """Diagonal blocks ``W_ii``, shape ``(nc, d, d)``."""
         d, nc = self.d, self.m // self.d
         W = self.W
+        if not sp.issparse(W):           # one gather: W[i d + a, i d + c]
+            idx = np.arange(nc)
+            return W.reshape(nc, d, nc, d)[idx, :, idx, :]
         out = np.empty((nc, d, d))
         for a in range(d):
             for c in range(d):
-                out[:, a, c] = (W[a::d, c::d].diagonal() if sp.issparse(W)
-                                else np.diagonal(W[a::d, c::d]))
+                out[:, a, c] = W[a::d, c::d].diagonal()
         return out
 
     def start(self, r):
+        if self.compiled:
+            u = np.empty(self.m)
+            matvec_into(self.W, r, self.q, u)     # the compiled loop's arithmetic
+            return u
         return self.W @ r + self.q
 
     def direction(self, r, Dr, Du, alpha, F):
         """Solve ``(Dr + Du (W + alpha I)) dr = -F``; returns ``(dr, W dr)``."""
         self.factorizations += 1
-        if self.kind == "dense" and self.m <= COMPILED_LU_MAX_M:
+        if self.compiled:
             dense_jacobian(Dr, Du, self.W, alpha, self.d, self.J)
             dr, ok = lu_solve(self.J, -F)          # compiled: no LAPACK-wrapper overhead
             if not ok:
@@ -212,7 +247,7 @@ class _LocalSystem:
                 raise _SingularStep(str(exc)) from None
         if not np.all(np.isfinite(dr)):
             raise _SingularStep("non-finite Newton step")
-        return dr, self.W @ dr
+        return dr, (matvec(self.W, dr) if self.compiled else self.W @ dr)
 
     def accept(self, t):
         pass
@@ -239,6 +274,7 @@ class _GlobalSystem:
         self._bsr_index = (np.arange(nc, dtype=np.int32), np.arange(nc + 1, dtype=np.int32))
         self._top = sp.hstack([self.M, -self.H]).tocsr()
         self.factorizations = 0
+        self.rho_cache = {}
         self.v = None
         self._dv = None
 
@@ -304,8 +340,8 @@ def _rho(diag_blocks, d, strategy="block"):
         Mean block scale ``mean s_i`` (the unit of the proximal parameter).
     """
     scale = np.sqrt(np.einsum("iab,iab->i", diag_blocks, diag_blocks) / d)
-    ref = float(np.mean(scale)) if scale.size else 1.0
-    if not np.isfinite(ref) or ref <= 0.0:
+    ref = float(scale.sum()) / scale.size if scale.size else 1.0     # = np.mean, cheaper
+    if not math.isfinite(ref) or ref <= 0.0:
         ref = 1.0
     floor = 1e-8 * ref
     if strategy == "block":
@@ -319,6 +355,25 @@ def _rho(diag_blocks, d, strategy="block"):
     s_n = np.where(np.isfinite(s_n), s_n, scale)
     s_t = np.where(np.isfinite(s_t), s_t, scale)
     return 1.0 / np.maximum(s_n, floor), 1.0 / np.maximum(s_t, floor), ref
+
+
+def _system_rho(system, strategy):
+    """:func:`_rho` of ``system``'s diagonal blocks, computed once per system and strategy.
+
+    A dense ``W`` with strategy "block" goes through the compiled twin
+    :func:`~socp_cd.solvers.kernels.newton_ac.block_rho_dense` (no per-call
+    NumPy overhead on a few contacts).
+    """
+    hit = system.rho_cache.get(strategy)
+    if hit is None:
+        if strategy == "block" and getattr(system, "kind", None) == "dense":
+            rho = np.empty(system.m // system.d)
+            ref = block_rho_dense(system.W, system.d, rho)
+            hit = (rho, rho, float(ref))
+        else:
+            hit = _rho(system.diag_blocks(), system.d, strategy)
+        system.rho_cache[strategy] = hit
+    return hit
 
 
 def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch):
@@ -350,8 +405,14 @@ def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch):
 
 
 def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
-                stall_window, time_limit, history, rho=DEFAULT_RHO, policy=None):
+                stall_window, time_limit, history, rho=DEFAULT_RHO, policy=None,
+                compiled=None):
     """Run the proximal-point semismooth Newton method.
+
+    This Python loop is the reference; a small dense local system
+    (``m <= COMPILED_LOOP_MAX_M``) with ``policy="prox"`` and no history runs
+    its compiled twin instead (:func:`_prox_newton_compiled`: same iterates,
+    same counters).
 
     Parameters
     ----------
@@ -371,6 +432,10 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         such a failure, or a plain step that did not cut the error, plain steps
         are retried only once a proximal subproblem has been solved with a
         lower error.
+    compiled : bool, optional
+        ``None``: the compiled twin when it applies (see above); ``False``: this
+        Python loop always (the reference the tests compare with); ``True``:
+        the twin (``UnsupportedError`` when it does not apply).
 
     Returns
     -------
@@ -380,9 +445,18 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         inner_steps, backtracks, branch_changes, plain)``.
     """
     policy = DEFAULT_POLICY if policy is None else policy
+    twin = (policy == "prox" and not history and getattr(system, "compiled", False)
+            and system.m <= COMPILED_LOOP_MAX_M)
+    if compiled and not twin:
+        raise UnsupportedError("the compiled Newton loop needs a dense local system with "
+                               f"m <= {COMPILED_LOOP_MAX_M}, policy='prox' and no history")
+    if twin and compiled is not False:
+        return _prox_newton_compiled(system, mu, r, tol=tol, max_iter=max_iter, alpha0=alpha0,
+                                     alpha_min=alpha_min, inner_max_iter=inner_max_iter,
+                                     stall_window=stall_window, time_limit=time_limit, rho=rho)
     d = system.d
     nc = mu.shape[0]
-    rho_n, rho_t, wscale = _rho(system.diag_blocks(), d, rho)
+    rho_n, rho_t, wscale = _system_rho(system, rho)
     alpha = alpha0 * wscale
     plain_on = policy == "hybrid"
     a_min, a_max = alpha_min * wscale, _ALPHA_MAX * wscale
@@ -521,6 +595,61 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     return status, r, it, hist, info
 
 
+_TWIN_STATUS = {nd.RUNNING: "max_iter", nd.CONVERGED: "converged", nd.STALLED: "stalled",
+                nd.NUMERICAL_ERROR: "numerical_error"}
+
+
+def _prox_newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
+                          stall_window, time_limit, rho):
+    """:func:`prox_newton` (policy "prox", no history) through its compiled twin.
+
+    Same arguments and return value as :func:`prox_newton` (history ``None``).
+    Without ``time_limit`` the twin runs the whole loop in one call: its cost
+    is bounded by ``max_iter * inner_max_iter`` LU factorizations of an
+    ``m x m`` matrix, ``m <= COMPILED_LOOP_MAX_M`` (each followed by at most
+    30 residual evaluations).  With ``time_limit`` it runs one outer iteration
+    per call and the clock is read between calls, where the Python loop reads
+    it: same iterates, same status.
+    """
+    rho_n, rho_t, wscale = _system_rho(system, rho)
+    fstate, istate = nd.new_state(alpha0 * wscale)
+    r = np.ascontiguousarray(r, dtype=np.float64)
+    best_r = np.empty_like(r)
+    if not mu.flags.writeable:      # one compiled signature: numba types read-only arrays apart
+        mu = mu.copy()
+    args = (system.W, system.q, float(system.norm_q), mu, rho_n, rho_t, system.d, float(tol))
+    rest = (alpha_min * wscale, _ALPHA_MAX * wscale, int(inner_max_iter), int(stall_window),
+            _ARMIJO, _MAX_BACKTRACK, NONMONOTONE, r, best_r, fstate, istate)
+    if time_limit is None:
+        nd.prox_newton_dense(*args, int(max_iter), *rest)
+        status = _TWIN_STATUS[int(istate[nd.I_STATUS])]
+    else:
+        t0 = time.perf_counter()
+        while True:
+            it_before = int(istate[nd.I_IT])
+            nd.prox_newton_dense(*args, min(it_before + 1, int(max_iter)), *rest)
+            status = _TWIN_STATUS[int(istate[nd.I_STATUS])]
+            if status != "max_iter" or istate[nd.I_IT] == it_before:
+                break        # stopped by a status, or the budget is spent
+            if time.perf_counter() - t0 > time_limit:
+                status = "time_limit"
+                break
+    fs, ist = fstate.tolist(), istate.tolist()       # Python scalars in one call each
+    err, best_err = fs[nd.F_ERR], fs[nd.F_BEST_ERR]
+    if status != "converged" and best_err < err:
+        r = best_r
+    system.factorizations += ist[nd.I_FACTORIZATIONS]
+    alpha = fs[nd.F_ALPHA]
+    info = {"alpha": alpha, "alpha_relative": alpha / wscale,
+            "alpha_max_relative": fs[nd.F_ALPHA_MAX_USED] / wscale,
+            "newton_steps": ist[nd.I_NEWTON], "plain_steps": 0, "policy": "prox",
+            "backtracks": ist[nd.I_BACKTRACK], "line_search_failures": ist[nd.I_LS_FAIL],
+            "singular_steps": ist[nd.I_SINGULAR], "rejected_outer": ist[nd.I_REJECTED],
+            "factorizations": system.factorizations, "linear_solver": system.kind,
+            "internal_error": min(err, best_err), "rho": rho}
+    return status, r, ist[nd.I_IT], None, info
+
+
 def _settings(problem, options, inner_settings=None) -> dict:
     """Checked Newton settings (a bad value raises ``InvalidProblemError`` naming it)."""
     def get(name, default):
@@ -552,7 +681,7 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
               else _LocalSystem(problem, st["linear_solver"]))
     mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
     r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=np.float64).reshape(-1)
-    with _one_blas_thread(problem.m):
+    with _one_blas_thread(system):
         status, r, iters, hist, info = prox_newton(
             system, mu, r, tol=float(tol), max_iter=max_iter, alpha0=st["alpha0"],
             alpha_min=st["alpha_min"], inner_max_iter=st["inner_max_iter"],
@@ -610,14 +739,14 @@ def newton_polish(problem, r, tol, options):
             cache["newton_system"] = system
     mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
     r = np.array(r, dtype=np.float64).reshape(-1)
-    with _one_blas_thread(problem.m):
+    with _one_blas_thread(system):
         _, r, its, _, info = prox_newton(
             system, mu, r, tol=POLISH_MARGIN * float(tol), max_iter=int(options["max_iter"]),
             alpha0=WARM_ALPHA0, alpha_min=1e-10, inner_max_iter=10, stall_window=50,
             time_limit=None, history=False)
     err = float(info["internal_error"])
     # Alart–Curnier iterates may sit slightly outside K: keep P_K(r) when no worse
-    r_in = project_cone(r, mu, problem.dim).reshape(-1)
+    r_in = project_cone_stacked(r, mu, problem.dim, np.empty_like(r))
     e_in = siconos_error(r_in, system.start(r_in), mu, problem.dim, system.norm_q)
     if e_in <= err:
         r, err = r_in, float(e_in)

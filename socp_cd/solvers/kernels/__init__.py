@@ -8,6 +8,8 @@
 * :mod:`.dense` — dense linear algebra without BLAS (LU with partial
   pivoting, mat-vec, ``W`` split, condensation of a small global problem).
 * :mod:`.newton_ac` — the Alart–Curnier function and its generalized Jacobian (Newton solver).
+* :mod:`.newton_dense` — the proximal Newton loop on a small dense ``W`` (the
+  compiled twin of :func:`socp_cd.solvers.newton.prox_newton`).
 
 Modules here import nothing from ``socp_cd`` outside this package.
 """

@@ -21,6 +21,9 @@ Per contact ("block" of ``dim`` entries, normal first), writing into ``out``:
 
 Whole stacked vectors (length ``m = dim * n_contacts``):
 
+``project_cone_stacked(x, mu, dim, out)``
+    ``P_K`` contact by contact (the compiled twin of :func:`socp_cd.cones.project_cone`).
+
 ``siconos_error(r, u, mu, dim, norm_q)``
     Siconos' relative error ``||r - P_K(r - û)|| / max(||q||, ||r||, ||u||)``
     (``fc3d_compute_error``) with ``u`` given (recompute it first).
@@ -165,6 +168,18 @@ def project_cone_jacobian_block(x, dim, mu, J):
 
 
 @njit(cache=True)
+def project_cone_stacked(x, mu, dim, out):
+    """Project a stacked vector on ``K_mu`` contact by contact (into ``out``; may be ``x``).
+
+    ``mu`` has one entry per contact.  Returns ``out``.
+    """
+    for i in range(mu.shape[0]):
+        o = i * dim
+        project_cone_block(x[o:o + dim], dim, mu[i], out[o:o + dim])
+    return out
+
+
+@njit(cache=True)
 def error_parts(r, u, mu, g, dim, law):
     """``(||F||², ||r||², ||u||²)`` with ``F = r - P(r - û)`` (law ``law``, ``rho = 1``).
 
@@ -254,6 +269,6 @@ def coulomb_violations(r, u, mu, dim):
 
 
 __all__ = ["LAW_COULOMB", "LAW_ASSOCIATED", "LAW_TRESCA", "EPS", "tangential_norm_block",
-           "project_cone_block", "project_dual_cone_block", "project_law_block",
+           "project_cone_block", "project_cone_stacked", "project_dual_cone_block", "project_law_block",
            "desaxce_velocity_block", "law_velocity_block", "project_cone_jacobian_block",
            "error_parts", "relative_error", "law_error", "siconos_error", "coulomb_violations"]

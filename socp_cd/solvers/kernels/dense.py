@@ -153,16 +153,23 @@ def dense_condense(M, H, f, w):
 
 
 @njit(cache=True)
+def csr_to_dense(indptr, indices, data, n_rows, n_cols):
+    """Dense ``(n_rows, n_cols)`` matrix from CSR arrays (duplicates summed, as scipy does)."""
+    W = np.zeros((n_rows, n_cols))
+    for i in range(n_rows):
+        for p in range(indptr[i], indptr[i + 1]):
+            W[i, indices[p]] += data[p]
+    return W
+
+
+@njit(cache=True)
 def dense_split(indptr, indices, data, m):
     """Dense ``W`` (from CSR arrays) and its symmetric and skew parts.
 
     Returns ``(W, W_s, W_a, max|W_a|·2, max|W|, sum|diag W|)``; the second
     value is ``max|W - Wᵀ|`` as :attr:`FrictionContactProblem.asymmetry`.
     """
-    W = np.zeros((m, m))
-    for i in range(m):
-        for p in range(indptr[i], indptr[i + 1]):
-            W[i, indices[p]] += data[p]
+    W = csr_to_dense(indptr, indices, data, m, m)
     Ws = np.empty((m, m))
     Wa = np.empty((m, m))
     asym = 0.0
@@ -190,5 +197,5 @@ def matvec(A, x):
     return out
 
 
-__all__ = ["dense_error", "dense_condense", "dense_split", "matvec", "lu_solve", "lu_solve_many", "normal_matrix",
+__all__ = ["csr_to_dense", "dense_error", "dense_condense", "dense_split", "matvec", "lu_solve", "lu_solve_many", "normal_matrix",
            "matvec_into"]

@@ -128,6 +128,36 @@ def dense_jacobian(Dr, Du, W, alpha, d, J):
                 J[o + a, o + c] += Dr[i, a, c] + alpha * Du[i, a, c]
 
 
+@njit(cache=True)
+def block_rho_dense(W, d, rho):
+    """Alart–Curnier parameters ``rho_i = 1 / s_i`` of a dense ``W`` (strategy "block").
+
+    ``s_i = ||W_ii||_F / sqrt(d)`` (the diagonal block of contact ``i``),
+    floored at ``1e-8 ref``; ``ref = mean s_i`` (1 when it is not finite and
+    positive) is returned, ``rho`` (nc,) is written.  The compiled twin of
+    :func:`socp_cd.solvers.newton._rho` with ``strategy="block"``.
+    """
+    nc = rho.shape[0]
+    total = 0.0
+    for i in range(nc):
+        o = i * d
+        s2 = 0.0
+        for a in range(d):
+            for c in range(d):
+                w = W[o + a, o + c]
+                s2 += w * w
+        rho[i] = np.sqrt(s2 / d)            # the scale s_i, inverted below
+        total += rho[i]
+    ref = total / nc if nc > 0 else 1.0
+    if not np.isfinite(ref) or ref <= 0.0:
+        ref = 1.0
+    floor = 1e-8 * ref
+    for i in range(nc):
+        s = rho[i]
+        rho[i] = 1.0 / (s if (s > floor or np.isnan(s)) else floor)
+    return ref
+
+
 def ac_blocks_reference(r, u, mu, rho_n, rho_t, d):
     """NumPy reference of :func:`ac_blocks`: returns ``F, Dr, Du, branch``."""
     r = np.asarray(r, float).reshape(-1, d)
@@ -167,5 +197,5 @@ def ac_blocks_reference(r, u, mu, rho_n, rho_t, d):
     return F.reshape(-1), Dr, Du, branch
 
 
-__all__ = ["ac_blocks", "ac_blocks_reference", "dense_jacobian",
+__all__ = ["ac_blocks", "ac_blocks_reference", "dense_jacobian", "block_rho_dense",
            "NORMAL_OPEN", "NORMAL_ACTIVE", "TANGENT_STICK", "TANGENT_SLIDE"]

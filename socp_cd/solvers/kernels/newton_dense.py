@@ -1,0 +1,222 @@
+"""The proximal-point semismooth Newton loop on a small dense ``W``, compiled (numba).
+
+The compiled twin of :func:`socp_cd.solvers.newton.prox_newton` (policy
+``"prox"``, no history) for a dense local problem ``u = W r + q`` small enough
+for the compiled LU (``m <= COMPILED_LU_MAX_M`` of :mod:`socp_cd.solvers.newton`).
+The Python function is the reference and the path of every other case
+(sparse or global systems, ``policy="hybrid"``, ``history=True``);
+``tests/test_newton_dense.py`` holds the two equal (same status, same number of
+outer iterations, same counters, same ``r``).  Both call the same kernels in
+the same order (:func:`~.newton_ac.ac_blocks`, :func:`~.newton_ac.dense_jacobian`,
+:func:`~.dense.lu_solve`, :func:`~.dense.matvec_into`,
+:func:`~.cone.siconos_error`), so the iterates agree to the last bit; what the
+twin removes is the interpreter and the small temporaries of the loop body
+(~35 µs per inner Newton step on a 1-contact problem).
+
+The whole state of a run lives in two small arrays (:data:`FSTATE` floats,
+:data:`ISTATE` integers) and two iterates, so a run can be split into chunks of
+outer iterations (:func:`prox_newton_dense` stops after outer iteration
+``it_end``): numba cannot read the clock, and the Python caller checks its
+``time_limit`` between chunks.
+
+Equations and the meaning of every step: ``formulations/newton.md`` and the
+Python reference.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .cone import siconos_error
+from .dense import lu_solve, matvec, matvec_into
+from .newton_ac import ac_blocks, dense_jacobian
+
+#: run status codes (``RUNNING`` after the last chunk means the budget ran out)
+RUNNING, CONVERGED, STALLED, NUMERICAL_ERROR = 0, 1, 2, 3
+#: slots of the float state: proximal parameter, largest one used, current error, best error
+F_ALPHA, F_ALPHA_MAX_USED, F_ERR, F_BEST_ERR = 0, 1, 2, 3
+FSTATE = 4
+#: slots of the integer state: started flag, status, outer iterations, outer iteration of
+#: the last 10 % drop of the best error, then the counters of ``prox_newton``'s info
+(I_STARTED, I_STATUS, I_IT, I_BEST_IT, I_NEWTON, I_BACKTRACK, I_LS_FAIL, I_SINGULAR,
+ I_REJECTED, I_FACTORIZATIONS) = range(10)
+ISTATE = 10
+
+
+def new_state(alpha):
+    """Fresh ``(fstate, istate)`` of a run starting with proximal parameter ``alpha``."""
+    fstate = np.zeros(FSTATE)
+    fstate[F_ALPHA] = alpha
+    fstate[F_ALPHA_MAX_USED] = alpha
+    return fstate, np.zeros(ISTATE, dtype=np.int64)
+
+
+@njit(cache=True)
+def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_max,
+                      inner_max_iter, stall_window, armijo, max_backtrack, nonmonotone,
+                      r, best_r, fstate, istate):
+    """Run outer proximal iterations until ``it_end``, convergence, stall or a non-finite error.
+
+    Parameters
+    ----------
+    W : ndarray (m, m), C-contiguous
+    q : ndarray (m,)
+    norm_q : float
+        ``||q||`` (the normalization of Siconos' error).
+    mu, rho_n, rho_t : ndarray (nc,)
+        Friction coefficients and Alart–Curnier parameters.
+    d : int
+    tol : float
+    it_end : int
+        Stop after this outer iteration (the caller's ``max_iter``, or the end of a chunk).
+    a_min, a_max : float
+        Absolute bounds of the proximal parameter.
+    inner_max_iter, stall_window : int
+    armijo, max_backtrack, nonmonotone : float, int, float
+        The line-search and acceptance constants of the reference.
+    r, best_r : ndarray (m,)
+        Current and best iterate, updated in place (``r`` is the start on the first call).
+    fstate, istate : ndarray
+        Run state (:func:`new_state`), updated in place.
+
+    Notes
+    -----
+    Cost bound of one call: at most ``(it_end - it) * inner_max_iter`` LU
+    factorizations of the ``m x m`` Newton matrix and ``max_backtrack`` residual
+    evaluations per factorization.  The caller restores the best iterate when
+    the run does not converge (as the reference does after its loop).
+    """
+    m = r.shape[0]
+    nc = mu.shape[0]
+    u = np.empty(m)
+    matvec_into(W, r, q, u)
+    if istate[I_STARTED] == 0:
+        istate[I_STARTED] = 1
+        err0 = siconos_error(r, u, mu, d, norm_q)
+        fstate[F_ERR] = err0
+        fstate[F_BEST_ERR] = err0
+        best_r[:] = r
+        if err0 <= tol:
+            istate[I_STATUS] = CONVERGED
+    status = istate[I_STATUS]
+    it = istate[I_IT]
+    best_it = istate[I_BEST_IT]
+    alpha = fstate[F_ALPHA]
+    alpha_max_used = fstate[F_ALPHA_MAX_USED]
+    err = fstate[F_ERR]
+    best_err = fstate[F_BEST_ERR]
+    n_newton = 0
+    n_backtrack = 0
+    n_ls_fail = 0
+    n_singular = 0
+    n_rejected = 0
+    n_fact = 0
+    F = np.empty(m)
+    Ft = np.empty(m)
+    mF = np.empty(m)
+    ua = np.empty(m)
+    rk = np.empty(m)
+    rt = np.empty(m)
+    ut = np.empty(m)
+    J = np.empty((m, m))
+    Dr = np.empty((nc, d, d))
+    Du = np.empty((nc, d, d))
+    branch = np.empty(nc, dtype=np.int64)
+    while status == RUNNING and it < it_end:
+        it += 1
+        rk[:] = r
+        err_k = err
+        if alpha > alpha_max_used:
+            alpha_max_used = alpha
+        sub_ok = True
+        solved = False
+        for _inner in range(inner_max_iter):
+            for k in range(m):
+                ua[k] = u[k] + alpha * (r[k] - rk[k])
+            nF = ac_blocks(r, ua, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
+            if nF == 0.0:
+                solved = True
+                break
+            n_fact += 1
+            dense_jacobian(Dr, Du, W, alpha, d, J)
+            for k in range(m):
+                mF[k] = -F[k]
+            dr, ok = lu_solve(J, mF)
+            if not ok:
+                n_singular += 1
+                sub_ok = False
+                break
+            du = matvec(W, dr)
+            n_newton += 1
+            phi = 0.5 * nF * nF
+            t = 1.0
+            nFt = 0.0
+            found = False
+            for _bt in range(max_backtrack):
+                for k in range(m):
+                    rt[k] = r[k] + t * dr[k]
+                    ut[k] = u[k] + t * du[k]
+                for k in range(m):
+                    ua[k] = ut[k] + alpha * (rt[k] - rk[k])
+                nFt = ac_blocks(rt, ua, mu, rho_n, rho_t, d, False, Ft, Dr, Du, branch)
+                if 0.5 * nFt * nFt <= (1.0 - 2.0 * armijo * t) * phi:
+                    found = True
+                    break
+                t *= 0.5
+                n_backtrack += 1
+            if not found:
+                n_ls_fail += 1
+                sub_ok = False
+                break
+            r[:] = rt
+            u[:] = ut
+            if nFt <= 0.1 * nF and t == 1.0:
+                e_try = siconos_error(r, u, mu, d, norm_q)
+                if e_try <= tol or nFt <= 1e-3 * nF:
+                    solved = True
+                    break
+        matvec_into(W, r, q, u)
+        err = siconos_error(r, u, mu, d, norm_q)
+        if not np.isfinite(err):
+            r[:] = rk
+            status = NUMERICAL_ERROR
+            break
+        if err < best_err:
+            if err < 0.9 * best_err:
+                best_it = it
+            best_err = err
+            best_r[:] = r
+        if err <= tol:
+            status = CONVERGED
+            break
+        if solved and err < err_k:
+            alpha = max(a_min, alpha * 0.1)
+        elif not (solved and err <= nonmonotone * best_err) and (not sub_ok or err >= err_k):
+            alpha = min(a_max, alpha * 10.0)
+            if err > err_k:
+                n_rejected += 1
+                r[:] = rk
+                err = err_k
+                matvec_into(W, r, q, u)
+        if stall_window > 0 and it - best_it >= stall_window:
+            status = STALLED
+            break
+    istate[I_STATUS] = status
+    istate[I_IT] = it
+    istate[I_BEST_IT] = best_it
+    istate[I_NEWTON] += n_newton
+    istate[I_BACKTRACK] += n_backtrack
+    istate[I_LS_FAIL] += n_ls_fail
+    istate[I_SINGULAR] += n_singular
+    istate[I_REJECTED] += n_rejected
+    istate[I_FACTORIZATIONS] += n_fact
+    fstate[F_ALPHA] = alpha
+    fstate[F_ALPHA_MAX_USED] = alpha_max_used
+    fstate[F_ERR] = err
+    fstate[F_BEST_ERR] = best_err
+
+
+__all__ = ["prox_newton_dense", "new_state", "RUNNING", "CONVERGED", "STALLED",
+           "NUMERICAL_ERROR", "FSTATE", "ISTATE", "F_ALPHA", "F_ALPHA_MAX_USED", "F_ERR",
+           "F_BEST_ERR", "I_STARTED", "I_STATUS", "I_IT", "I_BEST_IT", "I_NEWTON",
+           "I_BACKTRACK", "I_LS_FAIL", "I_SINGULAR", "I_REJECTED", "I_FACTORIZATIONS"]

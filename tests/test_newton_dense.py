@@ -1,0 +1,181 @@
+"""The compiled proximal Newton loop (kernels/newton_dense.py) equals its Python reference.
+
+``prox_newton(..., compiled=False)`` is the Python loop, ``compiled=None`` (the
+default) runs the twin on small dense local systems: same status, same number
+of outer iterations, same counters and the same ``r`` on cold and warm starts,
+real and manufactured problems (stick, slide, separated, grazing contacts,
+rank-deficient and asymmetric ``W``, ``mu = 0``), budgets that run out, stalls,
+non-finite starts and the time-limit chunking.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import socp_cd
+from socp_cd import cones
+from socp_cd.bench.evalset import manufacture_local
+from socp_cd.bench.generators import manufactured
+from socp_cd.data import shared_problems
+from socp_cd.errors import UnsupportedError
+from socp_cd.problem import FrictionContactProblem
+from socp_cd.solvers import newton as nt
+from socp_cd.solvers.kernels.cone import project_cone_stacked
+
+#: settings of a cold solve (newton_backend's defaults) and of the polish (newton_polish)
+COLD = dict(alpha0=1.0, alpha_min=1e-10, inner_max_iter=10, stall_window=50)
+WARM = dict(COLD, alpha0=nt.WARM_ALPHA0)
+#: shared problems with m <= COMPILED_LOOP_MAX_M (1-23 contacts; global ones condensed)
+SMALL_SHARED = ["FrictionContact3D_1c.dat", "FrictionContact3D_RR_1c.dat", "Rover11035.dat",
+                "FC2D_SliderCrankLagrangian00000.dat", "FC3D_Example1.dat", "Rover1039.dat",
+                "Confeti-ex13-4contact-Fc3D-SBM.dat", "Rover3865.dat", "NESpheres_10_1.dat",
+                "GFC3D_Example1.dat", "LMGC_GlobalFrictionContactProblem00046.hdf5",
+                "OneObject-i1028-138.hdf5.dat"]
+
+
+def _both(p, r0, tol, max_iter=200, time_limit=None, rho="block", **settings):
+    """``(python, compiled)`` results of ``prox_newton`` on ``p`` from ``r0``."""
+    settings = settings or COLD
+    out = []
+    for compiled in (False, None):
+        system = nt._LocalSystem(p, "auto")
+        mu = np.ascontiguousarray(p.mu, dtype=np.float64)
+        out.append(nt.prox_newton(system, mu, np.array(r0, dtype=np.float64), tol=tol,
+                                  max_iter=max_iter, time_limit=time_limit, history=False,
+                                  rho=rho, **settings))
+    return out
+
+
+def _assert_equal(a, b):
+    sa, ra, ia, _, infa = a
+    sb, rb, ib, _, infb = b
+    assert (sa, ia) == (sb, ib)
+    np.testing.assert_equal(infa, infb)          # every counter, alpha, the internal error
+    np.testing.assert_allclose(rb, ra, rtol=1e-12, atol=1e-300)   # bit-identical here
+
+
+def _shared(name):
+    hits = [s for s in shared_problems() if s.file == name]
+    if not hits:
+        pytest.skip("shared data not available")
+    p = socp_cd.read_problem(hits[0].path)
+    return p.to_local() if p.is_global else p
+
+
+def test_dispatch_rules():
+    p = manufactured(3, 3, 0.5, seed=0)
+    system = nt._LocalSystem(p, "auto")
+    assert system.compiled and p.m <= nt.COMPILED_LOOP_MAX_M
+    mu = np.ascontiguousarray(p.mu)
+    with pytest.raises(UnsupportedError):      # the twin keeps no history
+        nt.prox_newton(system, mu, np.zeros(p.m), tol=1e-10, max_iter=5, time_limit=None,
+                       history=True, compiled=True, **COLD)
+    big = manufactured(25, 3, 0.5, seed=0)         # m = 75 > COMPILED_LOOP_MAX_M
+    assert not nt._LocalSystem(big, "auto").compiled
+    assert not nt._LocalSystem(p, "splu").compiled
+
+
+@pytest.mark.parametrize("name", SMALL_SHARED)
+def test_twin_equals_python_loop_on_shared_problems(name):
+    p = _shared(name)
+    assert p.m <= nt.COMPILED_LOOP_MAX_M
+    a, b = _both(p, np.zeros(p.m), 1e-10)
+    _assert_equal(a, b)
+    assert a[0] == "converged"
+    # warm start near the solution with the polish's settings, and a short budget
+    rng = np.random.default_rng(0)
+    r1 = a[1] * (1.0 + 1e-3 * rng.standard_normal(p.m))
+    _assert_equal(*_both(p, r1, 1e-12, max_iter=15, **WARM))
+    _assert_equal(*_both(p, np.zeros(p.m), 1e-14, max_iter=2, rho="split"))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("structure", ["tree", "redundant"])
+@pytest.mark.parametrize("mu", [0.0, 0.3, 2.0])
+def test_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu):
+    """Mixes of separated/stick/slide/grazing contacts; "redundant": rank-deficient W."""
+    nc = 24 if dim == 3 else 36                    # m = 72 = COMPILED_LOOP_MAX_M
+    for seed, mix in enumerate([(0.25, 0.35, 0.3, 0.1), (0.0, 0.0, 0.0, 1.0),
+                                (0.0, 0.0, 1.0, 0.0), (0.5, 0.0, 0.0, 0.5)]):
+        p = manufactured(nc, dim, mu, structure=structure, mix=mix, seed=seed)
+        assert bool(p.is_rank_deficient) == (structure == "redundant")
+        a, b = _both(p, np.zeros(p.m), 1e-10)
+        _assert_equal(a, b)
+        a, b = _both(p, p.solution.r + 1e-4 * np.abs(p.solution.r).max(), 1e-12, **WARM)
+        _assert_equal(a, b)
+
+
+def test_twin_equals_python_loop_on_asymmetric_w_and_real_w():
+    base = manufactured(8, 3, 0.5, seed=4)
+    rng = np.random.default_rng(4)
+    S = rng.normal(size=(base.m, base.m))
+    W = base.W.toarray() + 0.05 * np.abs(base.W).max() * (S - S.T)
+    p = FrictionContactProblem(W, base.solution.u - W @ base.solution.r, base.mu, 3)
+    assert p.asymmetry > 1e-3
+    _assert_equal(*_both(p, np.zeros(p.m), 1e-10))
+    # manufactured exact solutions on a real (asymmetric, rank-deficient) W
+    real = _shared("FC2D_SliderCrankLagrangian00000.dat")
+    for seed in range(3):
+        q = manufacture_local(real, 0.4, (0.25, 0.35, 0.3, 0.1), seed)
+        _assert_equal(*_both(q, np.zeros(q.m), 1e-10))
+
+
+def test_twin_equals_python_loop_when_it_stalls_runs_out_or_overflows():
+    p = manufactured(9, 3, 1.0, structure="redundant", seed=2)
+    a, b = _both(p, np.zeros(p.m), 1e-16, max_iter=40, **dict(COLD, stall_window=3))
+    _assert_equal(a, b)
+    assert a[0] in ("stalled", "converged")
+    a, b = _both(p, np.zeros(p.m), 1e-16, max_iter=3)
+    _assert_equal(a, b)
+    assert a[0] == "max_iter" and a[2] == 3
+    # a start near overflow: the error is not finite -> numerical_error in both
+    a, b = _both(p, np.full(p.m, 1e300), 1e-10, max_iter=5)
+    _assert_equal(a, b)
+    assert a[0] == "numerical_error"
+
+
+def test_time_limit_chunks_give_the_same_iterates():
+    p = manufactured(9, 3, 0.5, seed=5)
+    a, b = _both(p, np.zeros(p.m), 1e-10)
+    c = _both(p, np.zeros(p.m), 1e-10, time_limit=1e9)[1]     # one outer iteration per call
+    _assert_equal(a, c)
+    _assert_equal(b, c)
+    d = _both(p, np.zeros(p.m), 1e-10, time_limit=0.0)
+    _assert_equal(*d)
+    assert d[0][0] == "time_limit" and d[0][2] == 1
+
+
+def test_project_cone_stacked_equals_reference():
+    rng = np.random.default_rng(1)
+    for dim in (2, 3):
+        nc = 300
+        x = rng.standard_normal(nc * dim) * np.repeat(rng.choice([1e-3, 1.0, 1e3], nc), dim)
+        mu = rng.choice([0.0, 0.1, 0.7, 3.0], size=nc)
+        x.reshape(nc, dim)[::7, 1:] = 0.0
+        x.reshape(nc, dim)[::11] = 0.0
+        np.testing.assert_allclose(project_cone_stacked(x, mu, dim, np.empty_like(x)),
+                                   cones.project_cone(x, mu, dim), rtol=1e-14, atol=1e-300)
+
+
+def test_diag_blocks_of_dense_and_sparse_w_agree():
+    p = manufactured(7, 3, 0.5, seed=3)
+    dense = nt._LocalSystem(p, "dense").diag_blocks()
+    sparse = nt._LocalSystem(p, "splu").diag_blocks()
+    W = p.W.toarray()
+    np.testing.assert_array_equal(dense, sparse)
+    np.testing.assert_array_equal(dense[4], W[12:15, 12:15])
+
+
+def test_block_rho_kernel_equals_numpy_reference():
+    from socp_cd.solvers.kernels.newton_ac import block_rho_dense
+    for dim in (2, 3):
+        p = manufactured(11, dim, 0.5, contact_scale=1e6, seed=dim)
+        W = p.W.toarray()
+        W[:dim, :dim] = 0.0                        # a contact with a zero block: the floor
+        system = nt._LocalSystem(FrictionContactProblem(W, p.q, p.mu, dim), "dense")
+        rho_n, rho_t, ref = nt._rho(system.diag_blocks(), dim, "block")
+        rho = np.empty(11)
+        assert block_rho_dense(system.W, dim, rho) == pytest.approx(ref, rel=1e-14)
+        np.testing.assert_allclose(rho, rho_n, rtol=1e-14)
+        assert rho[0] == pytest.approx(1e8 / ref, rel=1e-14)
+        assert nt._system_rho(system, "block")[0] is nt._system_rho(system, "block")[1]
