@@ -279,7 +279,7 @@ class _ProblemBase:
     def zero_error(self) -> Optional[float]:
         """Siconos error of ``r = 0``, computed once (None when ``M`` is singular)."""
         try:
-            return error(self, np.zeros(self.m))
+            return error(self, np.zeros(self.m), self.q_local)     # u(r = 0) = q_local
         except InvalidProblemError:
             return None
 
