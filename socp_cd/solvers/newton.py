@@ -48,12 +48,16 @@ rho : {"block", "split"}, default "block"
     (the normal diagonal entry of ``W_ii``) and ``rho_T = 1/||W_TT||_2`` (the
     tangential sub-block's spectral norm).  Measured in
     ``validation/results/newton_rho.md``.
-policy : {"prox", "hybrid"}, default "prox"
+policy : {"prox", "hybrid", "plain"}, default "prox"
     Outer policy: the proximal loop alone, or plain Newton steps on the
     Alart–Curnier equation first with the proximal loop as fallback
-    (``formulations/newton.md`` §7; measured in
+    (``"hybrid"``, ``formulations/newton.md`` §7; measured in
     ``validation/results/newton_outer.md``: faster, but not more robust, so
-    not the default).
+    not the default), or ``"plain"``: Siconos NSN_AC's method, one semismooth
+    Newton step per outer iteration with a sufficient-decrease line search
+    that takes the full step when it fails, the best iterate kept, its error
+    measured relative to ``max(||q||, ||u||)`` (``formulations/newton.md`` §8;
+    used by ``solver="auto"`` after the proximal stage).
 
 The common options (``tol``, ``max_iter`` = outer proximal iterations,
 default 200, ``time_limit``, ``verbose``, ``r0``) follow
@@ -104,7 +108,7 @@ OPTIONS = {
     "stall_window": "outer iterations without a 10 % error drop before 'stalled' (default 50)",
     "rho": "Alart–Curnier parameters: 'block' (default, one per contact) or 'split' "
            "(rho_N = 1/W_NN, rho_T = 1/||W_TT||_2)",
-    "policy": "outer policy: 'prox' (default) or 'hybrid' (plain Newton steps while they "
+    "policy": "outer policy: 'prox' (default), 'plain' (nonmonotone semismooth Newton, no proximal term, Siconos NSN_AC style) or 'hybrid' (plain Newton steps while they "
               "cut ||F|| and the error, the proximal loop otherwise; formulations/newton.md §4)",
 }
 #: strategies of the Alart–Curnier parameters (see :func:`_rho`)
@@ -116,7 +120,7 @@ _ALPHA_MAX = 1e8
 #: a solved proximal subproblem is accepted while its error <= NONMONOTONE * best
 NONMONOTONE = 10.0
 #: outer policies of :func:`prox_newton`
-POLICIES = ("prox", "hybrid")
+POLICIES = ("prox", "hybrid", "plain")
 DEFAULT_POLICY = "prox"
 #: ``policy="hybrid"``: a plain Newton step is accepted when ``||F||`` falls to at most
 #: this factor of its value within ``_PLAIN_BACKTRACK`` halvings
@@ -124,6 +128,13 @@ PLAIN_DECREASE = 0.9
 _PLAIN_BACKTRACK = 4
 #: ... and keeps going while each cuts the error (Siconos' measure) by this factor
 PLAIN_PROGRESS = 1.0
+#: ``policy="plain"`` (Siconos NSN_AC's globalization): sufficient-decrease constant of
+#: the line search on ``½||F||²`` (Goldstein's ``m1``); when no step ``t = 1, ½, ...``
+#: (``_MAX_BACKTRACK`` halvings) satisfies it, the full Newton step is taken anyway
+GOLDSTEIN_M1 = 1e-2
+#: ``policy="plain"``: relative proximal shift of the Newton matrix retried once when
+#: ``Dr + Du W`` is singular (rank-deficient ``W`` with sticking rows)
+PLAIN_REGULARIZATION = 1e-10
 
 
 #: above this size the factorizations run with one BLAS thread: on a loaded
@@ -349,6 +360,58 @@ def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch):
     return None
 
 
+def _nonmonotone_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch, reg):
+    """One semismooth Newton step on the Alart–Curnier equation, Siconos NSN_AC style.
+
+    Direction ``(Dr + Du W) dr = -F(r, u)`` (``W + reg I`` when that matrix is
+    singular); step ``t = 1, ½, ...`` until ``½||F(r + t dr)||² <= (1 - 2 m1 t) ½||F||²``
+    (``m1 = GOLDSTEIN_M1``); when no halving satisfies it, the *full* step is
+    taken (a nonmonotone step: the caller keeps the best iterate).  Returns
+    ``(r, u, backtracks, ls_ok)`` or ``None`` when the regularized matrix is
+    singular too.
+    """
+    nF = ac_blocks(r, u, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
+    if nF == 0.0:
+        return r, u, 0, True
+    try:
+        dr, du = system.direction(r, Dr, Du, 0.0, F)
+    except _SingularStep:
+        try:
+            dr, du = system.direction(r, Dr, Du, reg, F)
+        except _SingularStep:
+            return None
+    phi = 0.5 * nF * nF
+    t = 1.0
+    for bt in range(_MAX_BACKTRACK):
+        rt = r + t * dr
+        ut = u + t * du
+        nFt = ac_blocks(rt, ut, mu, rho_n, rho_t, d, False, Ft, Dr, Du, branch)
+        if 0.5 * nFt * nFt <= (1.0 - 2.0 * GOLDSTEIN_M1 * t) * phi:
+            system.accept(t)
+            return rt, ut, bt, True
+        t *= 0.5
+    system.accept(1.0)
+    return r + dr, u + du, _MAX_BACKTRACK, False
+
+
+def velocity_relative_error(err, r, u, norm_q):
+    """Siconos' error ``err`` re-normalized by ``max(||q||, ||u||)`` instead of ``max(||q||, ||r||, ||u||)``.
+
+    On a rank-deficient ``W`` the impulses are not unique: a Newton method can
+    run off along the null space of ``W``, where Siconos' error shrinks with
+    ``1/||r||`` while ``u`` stays wrong.  In the balanced units the backends
+    receive (:func:`socp_cd.residuals.contact_scales`) this is the error part
+    of the dispatcher's units guard, so an iterate accepted by it is not
+    refused by the guard.
+    """
+    nr = float(np.linalg.norm(r))
+    nu = float(np.linalg.norm(u))
+    vel = max(norm_q, nu)
+    if not vel > 0.0:
+        return err
+    return err * max(vel, nr) / vel
+
+
 def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
                 stall_window, time_limit, history, rho=DEFAULT_RHO, policy=None):
     """Run the proximal-point semismooth Newton method.
@@ -362,9 +425,11 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         Initial impulses (modified in place).
     rho : {"block", "split"}
         Strategy of the Alart–Curnier parameters (see :func:`_rho`).
-    policy : {"prox", "hybrid"}, optional
+    policy : {"prox", "hybrid", "plain"}, optional
         ``None``: :data:`DEFAULT_POLICY`.  Outer policy
-        (``formulations/newton.md`` §4): ``"prox"`` the proximal loop alone;
+        (``formulations/newton.md`` §4, §7, §8): ``"prox"`` the proximal loop alone;
+        ``"plain"`` no proximal term: one nonmonotone semismooth Newton step per
+        outer iteration (see :func:`_nonmonotone_step`), the best iterate kept;
         ``"hybrid"`` first tries a plain Newton step on the Alart–Curnier
         equation (see :func:`_plain_step`) and solves the proximal subproblem
         only when that step does not cut ``||F||`` by ``PLAIN_DECREASE``; after
@@ -391,8 +456,14 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     Dr = np.empty((nc, d, d))
     Du = np.empty((nc, d, d))
     branch = np.empty(nc, dtype=np.int64)
+    plain_only = policy == "plain"
+
+    def error_of(r, u):
+        e = siconos_error(r, u, mu, d, system.norm_q)
+        return velocity_relative_error(e, r, u, system.norm_q) if plain_only else e
+
     u = system.start(r)
-    err = siconos_error(r, u, mu, d, system.norm_q)
+    err = error_of(r, u)
     hist = [err] if history else None
     best_err, best_r, best_it = err, r.copy(), 0
     n_newton = n_backtrack = n_ls_fail = n_singular = n_rejected = 0
@@ -412,7 +483,22 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         sub_ok, solved, plain = True, False, False
         n_in = bt_in = 0
         br0 = None
-        if plain_on:
+        if plain_only:
+            step = _nonmonotone_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch,
+                                     PLAIN_REGULARIZATION * wscale)
+            if step is None:
+                n_singular += 1
+                status = "numerical_error"
+                break
+            r, u, bt, ls_ok = step
+            plain, solved, sub_ok = True, True, ls_ok
+            alpha_used = 0.0
+            n_plain += 1
+            n_newton += 1
+            n_backtrack += bt
+            n_ls_fail += 0 if ls_ok else 1
+            bt_in, n_in = bt, 1
+        elif plain_on:
             step = _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch)
             plain_on = step is not None     # off until the proximal loop progresses
             if step is not None:
@@ -465,7 +551,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
                     solved = True
                     break
         u = system.start(r)          # fresh u (and v): no drift from the updates
-        err = siconos_error(r, u, mu, d, system.norm_q)
+        err = error_of(r, u)
         if not np.isfinite(err):
             r = rk
             system.start(r)
@@ -643,5 +729,5 @@ SPEC = SolverSpec(
 
 
 __all__ = ["newton_backend", "prox_newton", "newton_polish", "resolve_polish", "POLISH_NAMES",
-           "WARM_ALPHA0",
+           "WARM_ALPHA0", "velocity_relative_error", "POLICIES",
            "DEFAULT_MAX_ITER", "OPTIONS", "SPEC"]
