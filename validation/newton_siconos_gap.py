@@ -93,7 +93,7 @@ def cases(part, files=FILES):
             yield cid, name, mu, mix, seed, p
 
 
-def run_ours(part, items, labels, tol, time_limit):
+def run_ours(part, items, labels, tol, time_limit, tag=""):
     warm = min(items, key=lambda t: t[5].n_contacts)[5]
     for lab in labels:
         solver, opts = VARIANTS[lab]
@@ -109,7 +109,7 @@ def run_ours(part, items, labels, tol, time_limit):
             path = ";".join(f"{x['method']}:{x['error']:.1e}:{x['time']:.2f}"
                             for x in res.info.get("path", []))
             rows.append(dict(part=part, case=cid, file=name, nc=p.n_contacts, mu=mu, mix=mix,
-                             seed=seed, solver=lab, error=err, guard=g, u_err=uerr, solved=ok,
+                             seed=seed, solver=lab + tag, error=err, guard=g, u_err=uerr, solved=ok,
                             time=dt,
                              status=res.status, iterations=res.iterations, path=path))
         print(cid, " ".join(f"{r['solver']}:{r['error']:.0e}/{r['time']:.2f}s"
@@ -228,6 +228,9 @@ def main(argv=None) -> int:
     ap.add_argument("--siconos-max-iter", type=int, default=1000)
     ap.add_argument("--files", nargs="*", default=list(FILES))
     ap.add_argument("--report-only", action="store_true")
+    ap.add_argument("--tag", default="",
+                    help="suffix of our solver labels, e.g. '@before' for a run of the code "
+                         "before this study (PYTHONPATH pointing at an export of it)")
     args = ap.parse_args(argv)
     OUT.mkdir(parents=True, exist_ok=True)
     if not args.report_only:
@@ -238,7 +241,7 @@ def main(argv=None) -> int:
             write_csv(OUT / f"newton_siconos_gap_{args.part}_siconos.csv", rows)
             print("siconos done", flush=True)
         if args.ours:
-            rows = run_ours(args.part, items, args.ours, args.tol, args.time_limit)
+            rows = run_ours(args.part, items, args.ours, args.tol, args.time_limit, args.tag)
             write_csv(OUT / f"newton_siconos_gap_{args.part}.csv", rows)
     write_report(args.tol, args.time_limit)
     print((OUT / "newton_siconos_gap.md").read_text())
