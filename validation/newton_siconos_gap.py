@@ -185,19 +185,19 @@ def part_lines(part, rows, tol, time_limit):
             solved_by[r["case"]].add(r["solver"])
         err[(r["case"], r["solver"])] = r["error"]
     ours = sorted({r["solver"] for r in rows if not r["solver"].startswith("siconos:")})
-    lines += ["", "Cases a Siconos solver solves and one of ours does not "
-              "(errors; `-` = not run):", ""]
-    header = "| case | " + " | ".join(ours) + " | Siconos solving |"
-    lines += [header, "|---" * (len(ours) + 2) + "|"]
-    any_gap = False
-    for cid in sorted(solved_by):
+    by_siconos = [cid for cid in sorted(solved_by)
+                  if any(s.startswith("siconos:") for s in solved_by[cid])]
+    lines += ["", f"Solved by at least one Siconos solver: {len(by_siconos)}; of those, not "
+              "solved by: " + ", ".join(f"`{s}` {sum(s not in solved_by[c] for c in by_siconos)}"
+                                        for s in ours) + ".", "",
+              "Those `auto` does not solve (errors of ours; `-` = not run):", ""]
+    lines += ["| case | " + " | ".join(ours) + " | Siconos solving |", "|---" * (len(ours) + 2) + "|"]
+    gap = [cid for cid in by_siconos if "auto" not in solved_by[cid]]
+    for cid in gap:
         sic = sorted(s for s in solved_by[cid] if s.startswith("siconos:"))
-        miss = [s for s in ours if s not in solved_by[cid]]
-        if sic and miss:
-            any_gap = True
-            cells = [f"{err[(cid, s)]:.1e}" if (cid, s) in err else "-" for s in ours]
-            lines.append(f"| `{cid}` | " + " | ".join(cells) + " | " + ", ".join(sic) + " |")
-    if not any_gap:
+        cells = [f"{err[(cid, s)]:.1e}" if (cid, s) in err else "-" for s in ours]
+        lines.append(f"| `{cid}` | " + " | ".join(cells) + " | " + ", ".join(sic) + " |")
+    if not gap:
         lines.append("| none |" + " |" * (len(ours) + 1))
     return lines
 
