@@ -78,6 +78,7 @@ from threadpoolctl import ThreadpoolController
 
 from ..cones import project_cone
 from ..errors import UnsupportedError
+from ..residuals import guard_values
 from .kernels.cone import siconos_error
 from .kernels.dense import lu_solve
 from .kernels.newton_ac import ac_blocks, dense_jacobian
@@ -332,43 +333,27 @@ def _rho(diag_blocks, d, strategy="block"):
     return 1.0 / np.maximum(s_n, floor), 1.0 / np.maximum(s_t, floor), ref
 
 
-def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch):
-    """One plain semismooth Newton step (no proximal shift), accepted only if it cuts ``||F||``.
+def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch, *, nonmonotone,
+                reg=0.0):
+    """One plain semismooth Newton step (no proximal shift) on the Alart–Curnier equation.
 
-    Direction ``(Dr + Du W) dr = -F(r, u)`` on the Alart–Curnier equation itself;
-    step ``t = 1, ½, ¼`` (at most ``_PLAIN_BACKTRACK`` halvings), accepted when
-    ``||F(r + t dr)|| <= PLAIN_DECREASE ||F(r)||``.  Returns ``(r, u,
-    backtracks)`` or ``None`` (singular matrix or not enough decrease: the caller
-    solves the proximal subproblem instead).
-    """
-    nF = ac_blocks(r, u, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
-    if nF == 0.0:
-        return r, u, 0
-    try:
-        dr, du = system.direction(r, Dr, Du, 0.0, F)
-    except _SingularStep:
-        return None
-    t = 1.0
-    for bt in range(_PLAIN_BACKTRACK + 1):
-        rt = r + t * dr
-        ut = u + t * du
-        nFt = ac_blocks(rt, ut, mu, rho_n, rho_t, d, False, Ft, Dr, Du, branch)
-        if nFt <= PLAIN_DECREASE * nF:
-            system.accept(t)
-            return rt, ut, bt
-        t *= 0.5
-    return None
+    Direction ``(Dr + Du W) dr = -F(r, u)``; steps ``t = 1, ½, ¼, ...``.
 
+    * ``nonmonotone=False`` (``policy="hybrid"``): at most ``_PLAIN_BACKTRACK``
+      halvings, accepted when ``||F(r + t dr)|| <= PLAIN_DECREASE ||F(r)||``;
+      otherwise, or on a singular matrix, ``None`` (the caller solves the
+      proximal subproblem instead).
+    * ``nonmonotone=True`` (``policy="plain"``, Siconos NSN_AC's globalization):
+      a singular matrix is retried with ``W + reg I``; at most ``_MAX_BACKTRACK``
+      halvings until ``½||F(r + t dr)||² <= (1 - 2 m1 t) ½||F||²``
+      (``m1 = GOLDSTEIN_M1``); when none satisfies it the *full* step is taken
+      (the caller keeps the best iterate).  ``None`` only when the regularized
+      matrix is singular too.
 
-def _nonmonotone_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch, reg):
-    """One semismooth Newton step on the Alart–Curnier equation, Siconos NSN_AC style.
-
-    Direction ``(Dr + Du W) dr = -F(r, u)`` (``W + reg I`` when that matrix is
-    singular); step ``t = 1, ½, ...`` until ``½||F(r + t dr)||² <= (1 - 2 m1 t) ½||F||²``
-    (``m1 = GOLDSTEIN_M1``); when no halving satisfies it, the *full* step is
-    taken (a nonmonotone step: the caller keeps the best iterate).  Returns
-    ``(r, u, backtracks, ls_ok)`` or ``None`` when the regularized matrix is
-    singular too.
+    Returns
+    -------
+    tuple or None
+        ``(r, u, backtracks, line_search_ok)``.
     """
     nF = ac_blocks(r, u, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
     if nF == 0.0:
@@ -376,22 +361,27 @@ def _nonmonotone_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch, 
     try:
         dr, du = system.direction(r, Dr, Du, 0.0, F)
     except _SingularStep:
+        if not nonmonotone:
+            return None
         try:
             dr, du = system.direction(r, Dr, Du, reg, F)
         except _SingularStep:
             return None
-    phi = 0.5 * nF * nF
+    trials = _MAX_BACKTRACK if nonmonotone else _PLAIN_BACKTRACK + 1
     t = 1.0
-    for bt in range(_MAX_BACKTRACK):
+    for bt in range(trials):
         rt = r + t * dr
         ut = u + t * du
         nFt = ac_blocks(rt, ut, mu, rho_n, rho_t, d, False, Ft, Dr, Du, branch)
-        if 0.5 * nFt * nFt <= (1.0 - 2.0 * GOLDSTEIN_M1 * t) * phi:
+        if (nFt * nFt <= (1.0 - 2.0 * GOLDSTEIN_M1 * t) * nF * nF if nonmonotone
+                else nFt <= PLAIN_DECREASE * nF):
             system.accept(t)
             return rt, ut, bt, True
         t *= 0.5
+    if not nonmonotone:
+        return None
     system.accept(1.0)
-    return r + dr, u + du, _MAX_BACKTRACK, False
+    return r + dr, u + du, trials, False
 
 
 def velocity_relative_error(err, r, u, norm_q):
@@ -401,15 +391,11 @@ def velocity_relative_error(err, r, u, norm_q):
     run off along the null space of ``W``, where Siconos' error shrinks with
     ``1/||r||`` while ``u`` stays wrong.  In the balanced units the backends
     receive (:func:`socp_cd.residuals.contact_scales`) this is the error part
-    of the dispatcher's units guard, so an iterate accepted by it is not
-    refused by the guard.
+    of the dispatcher's units guard (:func:`socp_cd.residuals.guard_values`,
+    entry ``"error"``), so an iterate accepted by it is not refused by the guard.
     """
-    nr = float(np.linalg.norm(r))
-    nu = float(np.linalg.norm(u))
-    vel = max(norm_q, nu)
-    if not vel > 0.0:
-        return err
-    return err * max(vel, nr) / vel
+    return guard_values(err, float(np.linalg.norm(r)), float(np.linalg.norm(u)),
+                        float(norm_q))["error"]
 
 
 def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
@@ -429,7 +415,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         ``None``: :data:`DEFAULT_POLICY`.  Outer policy
         (``formulations/newton.md`` §4, §7, §8): ``"prox"`` the proximal loop alone;
         ``"plain"`` no proximal term: one nonmonotone semismooth Newton step per
-        outer iteration (see :func:`_nonmonotone_step`), the best iterate kept;
+        outer iteration (see :func:`_plain_step`), the best iterate kept;
         ``"hybrid"`` first tries a plain Newton step on the Alart–Curnier
         equation (see :func:`_plain_step`) and solves the proximal subproblem
         only when that step does not cut ``||F||`` by ``PLAIN_DECREASE``; after
@@ -484,8 +470,8 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         n_in = bt_in = 0
         br0 = None
         if plain_only:
-            step = _nonmonotone_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch,
-                                     PLAIN_REGULARIZATION * wscale)
+            step = _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch,
+                               nonmonotone=True, reg=PLAIN_REGULARIZATION * wscale)
             if step is None:
                 n_singular += 1
                 status = "numerical_error"
@@ -499,10 +485,11 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
             n_ls_fail += 0 if ls_ok else 1
             bt_in, n_in = bt, 1
         elif plain_on:
-            step = _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch)
+            step = _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch,
+                               nonmonotone=False)
             plain_on = step is not None     # off until the proximal loop progresses
             if step is not None:
-                r, u, bt = step
+                r, u, bt, _ = step
                 plain, solved = True, True
                 n_plain += 1
                 n_newton += 1
