@@ -162,8 +162,10 @@ def test_frictionless_asymmetric_goes_to_the_lcp():
 def test_exact_coulomb_starts_with_newton_and_orders_by_features():
     lo, hi = _local(auto.SMALL_NC + 1, 3, 8, mu=0.3), _local(auto.SMALL_NC + 1, 3, 8, mu=2.0)
     f_lo, f_hi = auto.features(lo, "coulomb"), auto.features(hi, "coulomb")
-    assert [m for m, _ in auto.stage_order(lo, "coulomb", f_lo)][:3] == ["newton", "nsgs", "clarabel"]
-    assert [m for m, _ in auto.stage_order(hi, "coulomb", f_hi)][:3] == ["newton", "clarabel", "nsgs"]
+    def main(order):        # the plain Newton stages are tested apart
+        return [m for m, _ in order if not m.startswith("newton_plain")]
+    assert main(auto.stage_order(lo, "coulomb", f_lo))[:3] == ["newton", "nsgs", "clarabel"]
+    assert main(auto.stage_order(hi, "coulomb", f_hi))[:3] == ["newton", "clarabel", "nsgs"]
     for nc in (1, 4):                   # small: NSGS first (one contact: one local solve)
         small = _local(nc, 3, 8, mu=0.3)
         order = auto.stage_order(small, "coulomb", auto.features(small, "coulomb"))
@@ -181,3 +183,37 @@ def test_options_rejected_like_every_solver():
     with pytest.raises(InvalidProblemError) as exc:
         socp_cd.solve(p, "auto", methods=("newton", "lemke"))
     assert exc.value.field == "methods"
+
+
+def test_plain_newton_stages_follow_the_first_newton_stage():
+    # formulations/auto.md: plain (nonmonotone, Siconos NSN_AC-style) Newton from the
+    # proximal stage's iterate, then from r = 0, before the other methods
+    for p in (_local(auto.SMALL_NC + 1, 3, 8, mu=0.3), _local(auto.SMALL_NC + 1, 3, 8, mu=2.0),
+              _local(4, 3, 8, mu=0.3), _global(1)):
+        names = [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
+        k = names.index("newton")
+        assert names[k:k + 3] == ["newton", "newton_plain", "newton_plain_cold"]
+        assert names[-1] == "newton"
+
+
+def test_cold_plain_stage_starts_from_zero_and_plain_stages_are_capped(monkeypatch):
+    p = _local(4, 3, 2)
+    log = []
+    a, _ = contact_scales(p)
+    r_first = socp_cd.solve(p, "nsgs", tol=1e-14, max_iter=4).r / a
+    monkeypatch.setitem(auto._STAGES, "nsgs", (_spy_stage(log, "a", r_first), {}))
+    seen = []
+
+    def plain(problem, formulation, *, max_iter, r0, time_limit, **options):
+        seen.append({"r0": None if r0 is None else r0.copy(), "max_iter": max_iter,
+                     "time_limit": time_limit, "policy": options.get("policy")})
+        return SolverResult(r=np.zeros(problem.m), status="stalled", iterations=1)
+    spec = SolverSpec("plain", plain, ("coulomb",), global_native=("coulomb",))
+    for name in ("newton_plain", "newton_plain_cold"):
+        monkeypatch.setitem(auto._STAGES, name, (spec, dict(auto._STAGES[name][1])))
+    socp_cd.solve(p, "auto", tol=1e-14, time_limit=100.0,
+                  methods=("nsgs", "newton_plain", "newton_plain_cold"))
+    assert np.array_equal(seen[0]["r0"], r_first)          # warm: the best iterate so far
+    assert seen[1]["r0"] is None                            # cold: r = 0
+    assert all(s["policy"] == "plain" and s["max_iter"] == auto.PLAIN_MAX_ITER for s in seen)
+    assert seen[0]["time_limit"] <= auto.PLAIN_SHARE * 100.0 + 1e-9   # a small share

@@ -63,9 +63,16 @@ HIGH_MU = 1.0
 #: share of the remaining time budget a stage receives (the last stage: all)
 STAGE_SHARE = 0.5
 
+#: ``"newton_plain"`` stages (Siconos NSN_AC's globalization, ``policy="plain"``): stop
+#: after this many steps without a 10 % drop of the best error ...
+PLAIN_STALL = 50
+#: ... and after at most this many steps (unless ``max_iter`` is given)
+PLAIN_MAX_ITER = 200
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
+    "newton_plain": (newton.SPEC, {"policy": "plain", "stall_window": PLAIN_STALL}),
+    "newton_plain_cold": (newton.SPEC, {"policy": "plain", "stall_window": PLAIN_STALL}),
     "nsgs": (nsgs.SPEC, {}),
     "clarabel": (clarabel_backend.SPEC, {}),
     "clarabel_qp": (clarabel_backend.SPEC, {}),
@@ -75,9 +82,17 @@ _STAGES = {
 #: tune split, from a close one (4e-6) it helped (formulations/auto.md)
 COLD_STAGES = ("clarabel", "clarabel_qp")
 WARM_MAX = 1e-5
+#: stages always started from ``r = 0`` (or the caller's ``r0`` when first)
+ALWAYS_COLD = ("newton_plain_cold",)
+#: stages with their own iteration cap (:data:`PLAIN_MAX_ITER`) when ``max_iter`` is None
+_CAPPED = {"newton_plain": PLAIN_MAX_ITER, "newton_plain_cold": PLAIN_MAX_ITER}
+#: share of the remaining budget of the (cheap, trial) plain stages, instead of STAGE_SHARE
+PLAIN_SHARE = 0.25
+_SHARES = {"newton_plain": PLAIN_SHARE, "newton_plain_cold": PLAIN_SHARE}
 
 OPTIONS = {
-    "methods": "explicit stage order, names among 'newton', 'nsgs', 'clarabel', 'clarabel_qp' "
+    "methods": "explicit stage order, names among 'newton', 'newton_plain', 'newton_plain_cold', "
+               "'nsgs', 'clarabel', 'clarabel_qp' "
                "(default: chosen from the problem's features)",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
 }
@@ -116,16 +131,19 @@ def stage_order(problem, formulation, feats) -> tuple:
         return (("nsgs", "tresca"), ("clarabel", "tresca"))
     # exact Coulomb law: Newton first (fastest and most robust on the tune split);
     # high friction or 2D: the fixed point before NSGS
+    # right after the first (proximal) Newton stage: plain nonmonotone Newton steps from
+    # its iterate, then from r = 0 (Siconos NSN_AC's method; formulations/auto.md)
+    plain = (("newton_plain", "coulomb"), ("newton_plain_cold", "coulomb"))
     if feats["n_contacts"] <= SMALL_NC and not feats["global"]:
         # small local problems: NSGS first (one contact: one call of its local solver);
         # it costs a fraction of Newton's set-up and factorizations (formulations/auto.md)
-        return (("nsgs", "coulomb"), ("newton", "coulomb"), ("clarabel", "coulomb"),
-                ("newton", "coulomb"))
+        return ((("nsgs", "coulomb"), ("newton", "coulomb")) + plain
+                + (("clarabel", "coulomb"), ("newton", "coulomb")))
     if feats["mu_max"] >= HIGH_MU or feats["dim"] == 2:
         middle = (("clarabel", "coulomb"), ("nsgs", "coulomb"))
     else:
         middle = (("nsgs", "coulomb"), ("clarabel", "coulomb"))
-    return (("newton", "coulomb"),) + middle + (("newton", "coulomb"),)
+    return (("newton", "coulomb"),) + plain + middle + (("newton", "coulomb"),)
 
 
 class _Judge:
@@ -203,7 +221,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             if left <= 0.0:
                 status, message = "time_limit", f"time budget {time_limit:g} s spent"
                 break
-            stage_limit = left if k == len(order) - 1 else max(STAGE_SHARE * left, 1e-6)
+            share = _SHARES.get(method, STAGE_SHARE)
+            stage_limit = left if k == len(order) - 1 else max(share * left, 1e-6)
         spec, stage_opts = _STAGES[method]
         target = problem
         if problem.is_global and form not in spec.global_native:
@@ -213,13 +232,15 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         opts = dict(stage_opts)
         if method == "newton" and best_r is not None:
             opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
+        stage_max_iter = _CAPPED.get(method) if max_iter is None else max_iter
         if form == "tresca":
             opts["threshold"] = options["threshold"]
         t0 = _clock()
         try:
-            start = (None if (method in COLD_STAGES and k > 0 and not best_err <= WARM_MAX)
-                     else best_r)
-            res = spec.func(target, form, tol=tol, max_iter=max_iter, r0=start, history=history,
+            cold = (method in ALWAYS_COLD or (method in COLD_STAGES and not best_err <= WARM_MAX))
+            start = None if (cold and k > 0) else best_r
+            res = spec.func(target, form, tol=tol, max_iter=stage_max_iter, r0=start,
+                            history=history,
                             time_limit=stage_limit, verbose=verbose, inner_settings={}, **opts)
             r = np.asarray(res.r, dtype=np.float64).reshape(-1)
             st, its = res.status, int(res.iterations)
@@ -261,4 +282,5 @@ SPEC = SolverSpec(
     inner_settings="not applicable (rejected)", check=check)
 
 __all__ = ["auto_backend", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
-           "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC"]
+           "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
+           "PLAIN_MAX_ITER", "PLAIN_SHARE"]

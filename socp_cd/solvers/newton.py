@@ -52,12 +52,16 @@ rho : {"block", "split"}, default "block"
     (the normal diagonal entry of ``W_ii``) and ``rho_T = 1/||W_TT||_2`` (the
     tangential sub-block's spectral norm).  Measured in
     ``validation/results/newton_rho.md``.
-policy : {"prox", "hybrid"}, default "prox"
+policy : {"prox", "hybrid", "plain"}, default "prox"
     Outer policy: the proximal loop alone, or plain Newton steps on the
     Alart–Curnier equation first with the proximal loop as fallback
-    (``formulations/newton.md`` §7; measured in
+    (``"hybrid"``, ``formulations/newton.md`` §7; measured in
     ``validation/results/newton_outer.md``: faster, but not more robust, so
-    not the default).
+    not the default), or ``"plain"``: Siconos NSN_AC's method, one semismooth
+    Newton step per outer iteration with a sufficient-decrease line search
+    that takes the full step when it fails, the best iterate kept, its error
+    measured relative to ``max(||q||, ||u||)`` (``formulations/newton.md`` §8;
+    used by ``solver="auto"`` after the proximal stage).
 
 The common options (``tol``, ``max_iter`` = outer proximal iterations,
 default 200, ``time_limit``, ``verbose``, ``r0``) follow
@@ -78,6 +82,7 @@ import scipy.sparse.linalg as spla
 from threadpoolctl import ThreadpoolController
 
 from ..errors import UnsupportedError
+from ..residuals import guard_values
 from .kernels import newton_dense as nd
 from .kernels.cone import project_cone_stacked, siconos_error
 from .kernels.dense import csr_to_dense, lu_solve, matvec, matvec_into
@@ -118,7 +123,7 @@ OPTIONS = {
     "stall_window": "outer iterations without a 10 % error drop before 'stalled' (default 50)",
     "rho": "Alart–Curnier parameters: 'block' (default, one per contact) or 'split' "
            "(rho_N = 1/W_NN, rho_T = 1/||W_TT||_2)",
-    "policy": "outer policy: 'prox' (default) or 'hybrid' (plain Newton steps while they "
+    "policy": "outer policy: 'prox' (default), 'plain' (nonmonotone semismooth Newton, no proximal term, Siconos NSN_AC style) or 'hybrid' (plain Newton steps while they "
               "cut ||F|| and the error, the proximal loop otherwise; formulations/newton.md §4)",
 }
 #: strategies of the Alart–Curnier parameters (see :func:`_rho`)
@@ -130,7 +135,7 @@ _ALPHA_MAX = 1e8
 #: a solved proximal subproblem is accepted while its error <= NONMONOTONE * best
 NONMONOTONE = 10.0
 #: outer policies of :func:`prox_newton`
-POLICIES = ("prox", "hybrid")
+POLICIES = ("prox", "hybrid", "plain")
 DEFAULT_POLICY = "prox"
 #: ``policy="hybrid"``: a plain Newton step is accepted when ``||F||`` falls to at most
 #: this factor of its value within ``_PLAIN_BACKTRACK`` halvings
@@ -138,6 +143,13 @@ PLAIN_DECREASE = 0.9
 _PLAIN_BACKTRACK = 4
 #: ... and keeps going while each cuts the error (Siconos' measure) by this factor
 PLAIN_PROGRESS = 1.0
+#: ``policy="plain"`` (Siconos NSN_AC's globalization): sufficient-decrease constant of
+#: the line search on ``½||F||²`` (Goldstein's ``m1``); when no step ``t = 1, ½, ...``
+#: (``_MAX_BACKTRACK`` halvings) satisfies it, the full Newton step is taken anyway
+GOLDSTEIN_M1 = 1e-2
+#: ``policy="plain"``: relative proximal shift of the Newton matrix retried once when
+#: ``Dr + Du W`` is singular (rank-deficient ``W`` with sticking rows)
+PLAIN_REGULARIZATION = 1e-10
 
 
 #: above this size the factorizations run with one BLAS thread: on a loaded
@@ -376,32 +388,69 @@ def _system_rho(system, strategy):
     return hit
 
 
-def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch):
-    """One plain semismooth Newton step (no proximal shift), accepted only if it cuts ``||F||``.
+def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch, *, nonmonotone,
+                reg=0.0):
+    """One plain semismooth Newton step (no proximal shift) on the Alart–Curnier equation.
 
-    Direction ``(Dr + Du W) dr = -F(r, u)`` on the Alart–Curnier equation itself;
-    step ``t = 1, ½, ¼`` (at most ``_PLAIN_BACKTRACK`` halvings), accepted when
-    ``||F(r + t dr)|| <= PLAIN_DECREASE ||F(r)||``.  Returns ``(r, u,
-    backtracks)`` or ``None`` (singular matrix or not enough decrease: the caller
-    solves the proximal subproblem instead).
+    Direction ``(Dr + Du W) dr = -F(r, u)``; steps ``t = 1, ½, ¼, ...``.
+
+    * ``nonmonotone=False`` (``policy="hybrid"``): at most ``_PLAIN_BACKTRACK``
+      halvings, accepted when ``||F(r + t dr)|| <= PLAIN_DECREASE ||F(r)||``;
+      otherwise, or on a singular matrix, ``None`` (the caller solves the
+      proximal subproblem instead).
+    * ``nonmonotone=True`` (``policy="plain"``, Siconos NSN_AC's globalization):
+      a singular matrix is retried with ``W + reg I``; at most ``_MAX_BACKTRACK``
+      halvings until ``½||F(r + t dr)||² <= (1 - 2 m1 t) ½||F||²``
+      (``m1 = GOLDSTEIN_M1``); when none satisfies it the *full* step is taken
+      (the caller keeps the best iterate).  ``None`` only when the regularized
+      matrix is singular too.
+
+    Returns
+    -------
+    tuple or None
+        ``(r, u, backtracks, line_search_ok)``.
     """
     nF = ac_blocks(r, u, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
     if nF == 0.0:
-        return r, u, 0
+        return r, u, 0, True
     try:
         dr, du = system.direction(r, Dr, Du, 0.0, F)
     except _SingularStep:
-        return None
+        if not nonmonotone:
+            return None
+        try:
+            dr, du = system.direction(r, Dr, Du, reg, F)
+        except _SingularStep:
+            return None
+    trials = _MAX_BACKTRACK if nonmonotone else _PLAIN_BACKTRACK + 1
     t = 1.0
-    for bt in range(_PLAIN_BACKTRACK + 1):
+    for bt in range(trials):
         rt = r + t * dr
         ut = u + t * du
         nFt = ac_blocks(rt, ut, mu, rho_n, rho_t, d, False, Ft, Dr, Du, branch)
-        if nFt <= PLAIN_DECREASE * nF:
+        if (nFt * nFt <= (1.0 - 2.0 * GOLDSTEIN_M1 * t) * nF * nF if nonmonotone
+                else nFt <= PLAIN_DECREASE * nF):
             system.accept(t)
-            return rt, ut, bt
+            return rt, ut, bt, True
         t *= 0.5
-    return None
+    if not nonmonotone:
+        return None
+    system.accept(1.0)
+    return r + dr, u + du, trials, False
+
+
+def velocity_relative_error(err, r, u, norm_q):
+    """Siconos' error ``err`` re-normalized by ``max(||q||, ||u||)`` instead of ``max(||q||, ||r||, ||u||)``.
+
+    On a rank-deficient ``W`` the impulses are not unique: a Newton method can
+    run off along the null space of ``W``, where Siconos' error shrinks with
+    ``1/||r||`` while ``u`` stays wrong.  In the balanced units the backends
+    receive (:func:`socp_cd.residuals.contact_scales`) this is the error part
+    of the dispatcher's units guard (:func:`socp_cd.residuals.guard_values`,
+    entry ``"error"``), so an iterate accepted by it is not refused by the guard.
+    """
+    return guard_values(err, float(np.linalg.norm(r)), float(np.linalg.norm(u)),
+                        float(norm_q))["error"]
 
 
 def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
@@ -423,9 +472,11 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         Initial impulses (modified in place).
     rho : {"block", "split"}
         Strategy of the Alart–Curnier parameters (see :func:`_rho`).
-    policy : {"prox", "hybrid"}, optional
+    policy : {"prox", "hybrid", "plain"}, optional
         ``None``: :data:`DEFAULT_POLICY`.  Outer policy
-        (``formulations/newton.md`` §4): ``"prox"`` the proximal loop alone;
+        (``formulations/newton.md`` §4, §7, §8): ``"prox"`` the proximal loop alone;
+        ``"plain"`` no proximal term: one nonmonotone semismooth Newton step per
+        outer iteration (see :func:`_plain_step`), the best iterate kept;
         ``"hybrid"`` first tries a plain Newton step on the Alart–Curnier
         equation (see :func:`_plain_step`) and solves the proximal subproblem
         only when that step does not cut ``||F||`` by ``PLAIN_DECREASE``; after
@@ -465,8 +516,14 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     Dr = np.empty((nc, d, d))
     Du = np.empty((nc, d, d))
     branch = np.empty(nc, dtype=np.int64)
+    plain_only = policy == "plain"
+
+    def error_of(r, u):
+        e = siconos_error(r, u, mu, d, system.norm_q)
+        return velocity_relative_error(e, r, u, system.norm_q) if plain_only else e
+
     u = system.start(r)
-    err = siconos_error(r, u, mu, d, system.norm_q)
+    err = error_of(r, u)
     hist = [err] if history else None
     best_err, best_r, best_it = err, r.copy(), 0
     n_newton = n_backtrack = n_ls_fail = n_singular = n_rejected = 0
@@ -486,11 +543,27 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         sub_ok, solved, plain = True, False, False
         n_in = bt_in = 0
         br0 = None
-        if plain_on:
-            step = _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch)
+        if plain_only:
+            step = _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch,
+                               nonmonotone=True, reg=PLAIN_REGULARIZATION * wscale)
+            if step is None:
+                n_singular += 1
+                status = "numerical_error"
+                break
+            r, u, bt, ls_ok = step
+            plain, solved, sub_ok = True, True, ls_ok
+            alpha_used = 0.0
+            n_plain += 1
+            n_newton += 1
+            n_backtrack += bt
+            n_ls_fail += 0 if ls_ok else 1
+            bt_in, n_in = bt, 1
+        elif plain_on:
+            step = _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch,
+                               nonmonotone=False)
             plain_on = step is not None     # off until the proximal loop progresses
             if step is not None:
-                r, u, bt = step
+                r, u, bt, _ = step
                 plain, solved = True, True
                 n_plain += 1
                 n_newton += 1
@@ -539,7 +612,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
                     solved = True
                     break
         u = system.start(r)          # fresh u (and v): no drift from the updates
-        err = siconos_error(r, u, mu, d, system.norm_q)
+        err = error_of(r, u)
         if not np.isfinite(err):
             r = rk
             system.start(r)
@@ -772,5 +845,5 @@ SPEC = SolverSpec(
 
 
 __all__ = ["newton_backend", "prox_newton", "newton_polish", "resolve_polish", "POLISH_NAMES",
-           "WARM_ALPHA0",
+           "WARM_ALPHA0", "velocity_relative_error", "POLICIES",
            "DEFAULT_MAX_ITER", "OPTIONS", "SPEC"]

@@ -1,0 +1,97 @@
+"""``policy="plain"`` of the newton backend and the plain Newton stages of ``solver="auto"``
+(issue #10: what Siconos NSN_AC solves; ``formulations/newton.md`` §8)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.csgraph as csgraph
+
+import socp_cd
+from socp_cd.bench.evalset import MIXES, manufacture
+from socp_cd.data import shared_problems
+from socp_cd.problem import FrictionContactProblem
+from socp_cd.solvers.checks import coulomb_guard
+from socp_cd.solvers.kernels.cone import siconos_error
+from socp_cd.solvers.newton import velocity_relative_error
+
+TOL = 1e-8
+#: the chain of ``auto`` for small local problems before the plain stages were added
+PREVIOUS_SMALL_CHAIN = ("nsgs", "newton", "clarabel", "newton")
+
+
+def _capsule_block(contact=7, mu=0.5, mix="mixed", seed=112):
+    """Exact solution manufactured on one independent block of the real Capsules ``W``.
+
+    The block of the contacts coupled to ``contact`` (34 contacts, m = 102,
+    rank 66) of ``Capsules-i125-1213.hdf5``; ``mu``, ``mix`` and ``seed`` are
+    those of a diagnosis case of ``validation/newton_siconos_gap.py`` (seed
+    112: mixed, mu = 0.5) on which the proximal method stalls near 5e-7.
+    """
+    hits = [s for s in shared_problems() if s.file == "Capsules-i125-1213.hdf5"]
+    if not hits:
+        pytest.skip("shared data not available")
+    base = socp_cd.read_problem(hits[0].path)
+    W, d = sp.csr_matrix(base.W), base.dim
+    rows, cols = W.nonzero()
+    graph = sp.csr_matrix((np.ones(rows.size), (rows // d, cols // d)),
+                          shape=(base.n_contacts, base.n_contacts))
+    _, label = csgraph.connected_components(graph, directed=False)
+    idx = np.flatnonzero(label == label[contact])
+    dofs = (idx[:, None] * d + np.arange(d)).reshape(-1)
+    block = FrictionContactProblem(W[dofs][:, dofs], np.zeros(dofs.size), np.full(idx.size, mu), d)
+    return manufacture(block, mu, MIXES[mix], seed)
+
+
+def _solved(p, res):
+    err = socp_cd.error(p, res.r)
+    guard = coulomb_guard(p, res.r, p.velocity(res.r))["value"]
+    return err <= TOL and guard <= TOL
+
+
+def test_plain_newton_solves_the_rank_deficient_block():
+    p = _capsule_block()
+    W = p.W.toarray() if sp.issparse(p.W) else np.asarray(p.W)
+    assert np.linalg.matrix_rank(W) < p.m                     # the failure type: singular W
+    res = socp_cd.solve(p, "newton", tol=TOL, policy="plain", history=True)
+    assert res.converged and _solved(p, res)
+    assert all(row[0] == 0.0 and row[7] for row in res.info["trace"])   # no proximal term
+    assert res.info["plain_steps"] == res.iterations
+
+
+def test_auto_plain_stage_solves_what_the_previous_chain_did_not():
+    p = _capsule_block()
+    before = socp_cd.solve(p, "auto", tol=TOL, methods=PREVIOUS_SMALL_CHAIN)
+    assert not before.converged and not _solved(p, before)
+    res = socp_cd.solve(p, "auto", tol=TOL)
+    assert res.converged and _solved(p, res)
+    assert "newton_plain" in [s["method"] for s in res.info["path"]]
+    # never worse than a stage it tried (stage errors in the dispatcher's balanced units)
+    best = min(s["error"] for s in res.info["path"])
+    assert res.info["guard"]["balanced_siconos"] <= best * (1 + 1e-3)
+
+
+def test_velocity_relative_error_discounts_a_large_r():
+    rng = np.random.default_rng(3)
+    u, q = rng.normal(size=6), rng.normal(size=6)
+    small = 0.1 * rng.normal(size=6)
+    assert velocity_relative_error(2e-3, small, u, float(np.linalg.norm(q))) == 2e-3
+    big = 1e4 * small
+    vel = max(np.linalg.norm(q), np.linalg.norm(u))
+    assert velocity_relative_error(2e-3, big, u, float(np.linalg.norm(q))) == \
+        pytest.approx(2e-3 * np.linalg.norm(big) / vel)
+
+
+def test_plain_iterates_running_off_along_the_null_space_are_not_reported():
+    # a null-space direction of W added to a solution: Siconos' error shrinks with ||r||,
+    # the error relative to the velocity scale does not
+    p = _capsule_block()
+    W = p.W.toarray()
+    _, s, vt = np.linalg.svd(W)
+    z = vt[-1]
+    assert s[-1] < 1e-10 * s[0]
+    r = p.solution.r + 1e6 * z
+    u = W @ r + p.q
+    nq = float(np.linalg.norm(p.q))
+    e = siconos_error(r, u, np.asarray(p.mu, float), 3, nq)
+    assert velocity_relative_error(e, r, u, nq) > 1e3 * e
