@@ -51,3 +51,19 @@ def test_biaxial_sample_is_at_rest_and_moreau_exact():
     assert r["decomposition_residual_any_reference"] < 1e-10
     assert 0 < r["weber_moreau_rel"] < 0.5 and r["weber_reference_change_mean"] > 0
     assert np.isfinite(r["rms_normal"]) and np.isfinite(r["rms_shear"])
+
+
+def test_biaxial_compression_resumes_from_its_checkpoint(tmp_path):
+    """An interrupted compression resumed from its HDF5 checkpoint ends where an uninterrupted one does."""
+    sys.path.insert(0, str(VALIDATION))
+    import granular_convergence as gc
+    kw = dict(quench=2, final_solver="nsgs", final_iter=200, final_tol=1e-4, max_iter=30)
+    whole = gc.make_sample(20, "polygon", max_steps=40, **kw)
+    ck = tmp_path / "box.ckpt.h5"
+    gc.make_sample(20, "polygon", max_steps=20, checkpoint=ck, checkpoint_every=10, **kw)
+    assert ck.exists()
+    resumed = gc.make_sample(20, "polygon", max_steps=40, checkpoint=ck, checkpoint_every=10, **kw)
+    assert resumed[3]["compress_steps"] == whole[3]["compress_steps"] == 40
+    assert resumed[3]["resumed_at_step"] == 20 and whole[3]["resumed_at_step"] == 0
+    np.testing.assert_array_equal(resumed[0].centers, whole[0].centers)
+    np.testing.assert_array_equal(resumed[0].forces, whole[0].forces)

@@ -31,7 +31,7 @@ cuts_convergence.png, weber_moreau_convergence.png.  States (HDF5, git-ignored):
 validation/results/states/biaxial_<shape><N>.h5; a case whose state exists is
 not simulated again (delete it or pass ``--redo``), so an interrupted run resumes
 at the first missing case, and inside it from the compression checkpoint
-``biaxial_<shape><N>.ckpt.npz`` written every 100 steps.
+``biaxial_<shape><N>.ckpt.h5`` (HDF5) written every 100 steps.
 
 Usage: python validation/granular_convergence.py [--quick] [--n 200 500 ...]
        [--shapes disk polygon] [--redo] [--analyse-only]
@@ -70,18 +70,17 @@ def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=3000, quench=200, tol=1e-
                 v_wall=2e-2, label="", checkpoint=None, checkpoint_every=100):
     """Compress, quench and finish one biaxial sample; returns (state, W, H, info).
 
-    With ``checkpoint`` (an ``.npz`` path) the compression writes the simulation state
+    With ``checkpoint`` (an HDF5 path) the compression writes the simulation state
     there every ``checkpoint_every`` steps and resumes from it when the file exists.
     """
     box = biaxial_box_scene(n=n, pressure=PRESSURE, seed=seed, loose=1.05, mu_wall=0.3,
                             shape=shape)
     sim = Simulation(box.scene, h=h, tol=tol, solver="nsgs", max_iter=max_iter)
     t0 = time.perf_counter()
-    unconv, steps, vmax, vw, spent = 0, 0, np.inf, np.inf, 0.0
+    unconv, steps, vmax, vw, spent, resumed_at = 0, 0, np.inf, np.inf, 0.0, 0
     if checkpoint is not None and Path(checkpoint).exists():      # resume the compression
-        with np.load(checkpoint, allow_pickle=False) as z:
-            sim.set_state({k[6:]: z[k] for k in z.files if k.startswith("state_")})
-            steps, unconv, spent = int(z["steps"]), int(z["unconv"]), float(z["spent"])
+        steps, unconv, spent = load_checkpoint(checkpoint, sim)
+        resumed_at = steps
         t0 -= spent
         print(f"{label}: resumed the compression at step {steps} ({spent:.0f} s spent)", flush=True)
     bar = tqdm(total=max_steps, initial=steps, desc=f"compress {label}", mininterval=10, leave=False)
@@ -124,7 +123,7 @@ def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=3000, quench=200, tol=1e-
     H = float(sim.sys.pos[box.top_wall, 1] - box.wall_thickness / 2)
     v_after = np.linalg.norm(sim.sys.vel[:n, :2], axis=1)
     info = dict(n_grains=n, shape=shape, seed=seed, h=h, tol=tol, max_iter=max_iter,
-                compress_steps=steps, compress_vmax=vmax, compress_vwall=vw, quench_steps=quench,
+                compress_steps=steps, resumed_at_step=resumed_at, compress_vmax=vmax, compress_vwall=vw, quench_steps=quench,
                 final_tol=final_tol, final_solver=final_solver, final_form=final_form,
                 final_converged=bool(st.converged),
                 final_error=float(st.error), final_iterations=int(st.iterations),
@@ -137,11 +136,23 @@ def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=3000, quench=200, tol=1e-
 
 
 def save_checkpoint(path, sim, steps, unconv, spent):
-    """Write the compression's simulation state (``Simulation.get_state``) atomically."""
-    st = {f"state_{k}": v for k, v in sim.get_state().items() if v is not None}
-    tmp = Path(str(path) + ".tmp.npz")
-    np.savez(tmp, steps=steps, unconv=unconv, spent=spent, **st)
+    """Write the compression's simulation state (``Simulation.get_state``) to HDF5, atomically."""
+    import h5py
+    tmp = Path(str(path) + ".tmp")
+    with h5py.File(tmp, "w") as f:
+        for k, v in sim.get_state().items():
+            if v is not None:
+                f[f"state/{k}"] = v
+        f.attrs["steps"], f.attrs["unconv"], f.attrs["spent"] = steps, unconv, spent
     os.replace(tmp, path)
+
+
+def load_checkpoint(path, sim):
+    """Restore :func:`save_checkpoint`'s state into ``sim``; returns ``(steps, unconv, spent)``."""
+    import h5py
+    with h5py.File(path, "r") as f:
+        sim.set_state({k: f["state"][k][()] for k in f["state"]})
+        return int(f.attrs["steps"]), int(f.attrs["unconv"]), float(f.attrs["spent"])
 
 
 def save_state(path, state, W, H, info):
@@ -415,9 +426,9 @@ def main(argv=None):
                                                 quench=args.quench, tol=args.tol,
                                                 final_tol=args.final_tol, final_solver=args.final_solver,
                                                 label=f"{shape}{n}",
-                                                checkpoint=path.with_suffix(".ckpt.npz"))
+                                                checkpoint=path.with_suffix(".ckpt.h5"))
                 save_state(path, state, W, H, info)
-                path.with_suffix(".ckpt.npz").unlink(missing_ok=True)
+                path.with_suffix(".ckpt.h5").unlink(missing_ok=True)
             r = analyse(state, W, H, info)
             rows.append(r)
             print(f"{shape:8s} N={n:5d} rms_n={100 * r['rms_normal']:.1f}% "
