@@ -119,7 +119,13 @@ def main(argv=None) -> int:
         nc = [int(f.name.split("-")[-2]) for f in s["fclib_files"]]
         lines.append(f"| {name} | {len(nc)} | {min(nc, default=0)}–{max(nc, default=0)} | {s['steps']} | {wall:.0f} |")
         print(lines[-1], flush=True)
-    (args.out / "collections.md").write_text("\n".join(lines) + "\n")
+    index = args.out / "collections.md"
+    if args.only and index.exists():          # keep the rows of the collections not rebuilt
+        built = {ln.split("|")[1].strip() for ln in lines[6:]}
+        lines += [ln for ln in index.read_text().splitlines()
+                  if ln.startswith("| ") and not ln.startswith("| collection")
+                  and ln.split("|")[1].strip() not in built]
+    index.write_text("\n".join(lines) + "\n")
     return 0
 
 
