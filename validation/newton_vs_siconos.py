@@ -72,7 +72,8 @@ def problem_set(args) -> list[dict]:
     """``[{"set", "id", "split", "kind", "nc", "problem"}]`` of the run."""
     data = shared_problems_dir()
     items = []
-    for path in sorted(Path(data).iterdir()):
+    sets = set(args.sets)
+    for path in sorted(Path(data).iterdir()) if "shared" in sets else ():
         if path.name == "MANIFEST.tsv":
             continue
         p = socp_cd.read_problem(path)
@@ -80,7 +81,7 @@ def problem_set(args) -> list[dict]:
             items.append(dict(set="shared", id=path.name, split="shared", kind=kind_of(p),
                               nc=p.n_contacts, problem=p))
     rng = np.random.default_rng(args.seed)
-    cases = manufactured_cases(data, max_contacts=args.max_contacts)
+    cases = manufactured_cases(data, max_contacts=args.max_contacts) if "eval" in sets else []
     by_kind = defaultdict(list)
     for c in cases:
         if c.is_global:
@@ -160,6 +161,8 @@ def main(argv=None) -> int:
     ap.add_argument("--ours", nargs="+", default=["auto", "newton", "clarabel", "nsgs"])
     ap.add_argument("--siconos", nargs="*", default=None,
                     help="Siconos solver names (default: all of each kind)")
+    ap.add_argument("--sets", nargs="+", choices=("shared", "eval", "sim"),
+                    default=["shared", "eval", "sim"], help="problem sets of the run (default: all)")
     ap.add_argument("--n-eval", type=int, default=80, help="generated cases drawn (3D local; a third per other kind)")
     ap.add_argument("--max-contacts", type=int, default=700)
     ap.add_argument("--sweep", type=float, nargs="*", default=[1e-4, 1e-6, 1e-10],
