@@ -67,3 +67,17 @@ def test_biaxial_compression_resumes_from_its_checkpoint(tmp_path):
     assert resumed[3]["resumed_at_step"] == 20 and whole[3]["resumed_at_step"] == 0
     np.testing.assert_array_equal(resumed[0].centers, whole[0].centers)
     np.testing.assert_array_equal(resumed[0].forces, whole[0].forces)
+
+
+def test_sample_spread_reports_every_seed():
+    """cuts_sample_spread --quick: one record per shape with each seed's values, mean and spread."""
+    sys.path.insert(0, str(VALIDATION))
+    import cuts_sample_spread as css
+    recs = css.main(["--quick"])
+    assert {r["shape"] for r in recs} == {"disk", "polygon"}
+    for r in recs:
+        assert r["seeds"] == [1, 2] and r["n_grains"] == 40
+        for k in css.KEYS:
+            v = np.array(r[k]["values"])
+            assert v.shape == (2,) and np.all(v > 0)
+            assert r[k]["mean"] == pytest.approx(v.mean()) and r[k]["std"] == pytest.approx(v.std(ddof=1))
