@@ -371,6 +371,13 @@ class FrictionContactProblem(_ProblemBase):
     Asymmetry and rank deficiency of ``W`` are legitimate (they occur in real
     data) and are reported by :attr:`is_symmetric`, :attr:`asymmetry`,
     :attr:`rank` and :attr:`is_rank_deficient` rather than rejected.
+
+    A problem is immutable once built: it may share the caller's arrays (no
+    copy is made when they are already float64), and the quantities derived
+    from them (the error of ``r = 0``, ``||q||``, the dispatcher's unit
+    factors and balanced copy, NSGS's block storage) are computed once per
+    object.  Changing ``W``, ``q`` or ``mu`` in place afterwards leaves those
+    stale: build a new problem instead (:meth:`with_`).
     """
 
     is_global = False

@@ -252,7 +252,12 @@ def test_use_solver_switches_the_next_steps():
     assert sim.last_result.error <= 1e-10
     sim.use_solver("nsgs", max_iter=3)                       # no time limit, tol kept
     assert sim.solver_options == {} and sim.tol == 1e-10 and sim.max_iter == 3
-    for bad in (dict(tol=0.0), dict(time_limit=-1.0), dict(form="mixed")):
+    sim.use_solver("nsgs", options={"omega": 1.2})
+    assert sim.solver_options == {"omega": 1.2}
+    sim.use_solver("newton")                                 # nsgs's omega is not carried over
+    assert sim.solver_options == {}
+    for bad in (dict(tol=0.0), dict(tol="x"), dict(time_limit=-1.0), dict(form="mixed"),
+                dict(max_iter=0), dict(max_iter=2.5)):
         with pytest.raises(InvalidProblemError):
             sim.use_solver("nsgs", **bad)
 

@@ -81,3 +81,19 @@ def test_sample_spread_reports_every_seed():
             v = np.array(r[k]["values"])
             assert v.shape == (2,) and np.all(v > 0)
             assert r[k]["mean"] == pytest.approx(v.mean()) and r[k]["std"] == pytest.approx(v.std(ddof=1))
+
+
+def test_biaxial_checkpoint_of_a_jammed_box_is_not_compressed_again(tmp_path):
+    """A crash after the walls stopped: the rerun goes straight to the quench; other settings are refused."""
+    sys.path.insert(0, str(VALIDATION))
+    import granular_convergence as gc
+    kw = dict(quench=2, final_solver="nsgs", final_iter=200, final_tol=1e-4, max_iter=30,
+              v_wall=1e3, max_steps=1000)          # any wall speed counts as stopped: jams at step 300
+    ck = tmp_path / "box.ckpt.h5"
+    first = gc.make_sample(20, "polygon", checkpoint=ck, checkpoint_every=100, **kw)
+    rerun = gc.make_sample(20, "polygon", checkpoint=ck, checkpoint_every=100, **kw)
+    assert first[3]["compress_steps"] == rerun[3]["compress_steps"] == 300
+    assert rerun[3]["resumed_at_step"] == 300
+    np.testing.assert_array_equal(rerun[0].centers, first[0].centers)
+    with pytest.raises(SystemExit, match="another run"):
+        gc.make_sample(20, "polygon", checkpoint=ck, **dict(kw, seed=1))

@@ -78,18 +78,22 @@ def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=3000, quench=200, tol=1e-
     sim = Simulation(box.scene, h=h, tol=tol, solver="nsgs", max_iter=max_iter)
     t0 = time.perf_counter()
     unconv, steps, vmax, vw, spent, resumed_at = 0, 0, np.inf, np.inf, 0.0, 0
+    settings = dict(n=n, shape=shape, seed=seed, h=h, tol=tol, max_iter=max_iter, v_wall=v_wall)
+    jammed = False
     if checkpoint is not None and Path(checkpoint).exists():      # resume the compression
-        steps, unconv, spent = load_checkpoint(checkpoint, sim)
+        steps, unconv, spent, vmax, vw, jammed = load_checkpoint(checkpoint, sim, settings)
         resumed_at = steps
         t0 -= spent
-        print(f"{label}: resumed the compression at step {steps} ({spent:.0f} s spent)", flush=True)
+        print(f"{label}: resumed the compression at step {steps} ({spent:.0f} s spent"
+              f"{', box jammed' if jammed else ''})", flush=True)
     bar = tqdm(total=max_steps, initial=steps, desc=f"compress {label}", mininterval=10, leave=False)
-    while steps < max_steps:
+    while steps < max_steps and not jammed:
         st = sim.step()
         steps += 1
         unconv += int(not st.converged)
         if checkpoint is not None and steps % checkpoint_every == 0:
-            save_checkpoint(checkpoint, sim, steps, unconv, time.perf_counter() - t0)
+            save_checkpoint(checkpoint, sim, settings, steps, unconv,
+                            time.perf_counter() - t0, vmax, vw, False)
         if steps % 50 == 0:
             p = sim.last_contacts.pairs
             loaded = np.intersect1d(np.arange(n), p[p >= 0])
@@ -99,9 +103,12 @@ def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=3000, quench=200, tol=1e-
             bar.set_postfix(vmax=f"{vmax:.2e}", vwall=f"{vw:.1e}", contacts=st.n_active,
                             it=st.iterations)
             if steps >= 300 and vw < v_wall:      # walls stopped: the box is jammed
+                jammed = True
                 break
     bar.close()
     wall_compress = time.perf_counter() - t0
+    if checkpoint is not None:       # a rerun after a crash later on does not compress further
+        save_checkpoint(checkpoint, sim, settings, steps, unconv, wall_compress, vmax, vw, jammed)
     t1 = time.perf_counter()
     sim.tol, sim.max_iter = quench_tol, quench_iter
     for _ in range(quench):
@@ -135,24 +142,43 @@ def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=3000, quench=200, tol=1e-
     return state, W, H, info
 
 
-def save_checkpoint(path, sim, steps, unconv, spent):
-    """Write the compression's simulation state (``Simulation.get_state``) to HDF5, atomically."""
+def save_checkpoint(path, sim, settings, steps, unconv, spent, vmax, vw, jammed):
+    """Write the compression's simulation state (``Simulation.get_state``) to HDF5, atomically.
+
+    ``settings`` (the sample's arguments but ``max_steps``, which a resume may
+    raise) are stored so that a resume with other ones is refused; ``jammed``
+    marks a compression stopped by the walls (a rerun after a crash in the
+    quench or the static step goes straight to the quench).
+    """
     import h5py
     tmp = Path(str(path) + ".tmp")
     with h5py.File(tmp, "w") as f:
         for k, v in sim.get_state().items():
             if v is not None:
                 f[f"state/{k}"] = v
-        f.attrs["steps"], f.attrs["unconv"], f.attrs["spent"] = steps, unconv, spent
+        f.attrs["settings"] = json.dumps(settings)
+        for k, v in dict(steps=steps, unconv=unconv, spent=spent, vmax=vmax, vw=vw,
+                         jammed=jammed).items():
+            f.attrs[k] = v
     os.replace(tmp, path)
 
 
-def load_checkpoint(path, sim):
-    """Restore :func:`save_checkpoint`'s state into ``sim``; returns ``(steps, unconv, spent)``."""
+def load_checkpoint(path, sim, settings):
+    """Restore :func:`save_checkpoint`'s state into ``sim``.
+
+    Returns ``(steps, unconv, spent, vmax, vw, jammed)``; refuses (SystemExit)
+    a checkpoint written with other settings.
+    """
     import h5py
     with h5py.File(path, "r") as f:
+        saved = json.loads(f.attrs["settings"])
+        if saved != json.loads(json.dumps(settings)):
+            raise SystemExit(f"{path}: checkpoint of another run ({saved}); this run: {settings}. "
+                             "Delete it or pass --redo.")
         sim.set_state({k: f["state"][k][()] for k in f["state"]})
-        return int(f.attrs["steps"]), int(f.attrs["unconv"]), float(f.attrs["spent"])
+        a = f.attrs
+        return (int(a["steps"]), int(a["unconv"]), float(a["spent"]), float(a["vmax"]),
+                float(a["vw"]), bool(a["jammed"]))
 
 
 def save_state(path, state, W, H, info):
@@ -422,6 +448,8 @@ def main(argv=None):
             elif args.analyse_only:
                 continue
             else:
+                if args.redo:
+                    path.with_suffix(".ckpt.h5").unlink(missing_ok=True)
                 state, W, H, info = make_sample(n, shape, h=args.h, max_steps=args.max_steps,
                                                 quench=args.quench, tol=args.tol,
                                                 final_tol=args.final_tol, final_solver=args.final_solver,

@@ -195,7 +195,7 @@ def main(argv=None) -> int:
         if it is not None:
             for s in args.ours:
                 try:
-                    socp_cd.solve(it["problem"], solver=s, tol=1e-4)
+                    socp_cd.solve(copy.copy(it["problem"]), solver=s, tol=1e-4)   # its caches stay off
                 except socp_cd.UnsupportedError:
                     pass
 

@@ -162,7 +162,8 @@ class Simulation:
 
     # ------------------------------------------------------------------ state
     def use_solver(self, solver, *, tol: Optional[float] = None, max_iter: Optional[int] = None,
-                   form: Optional[str] = None, time_limit: Optional[float] = None) -> None:
+                   form: Optional[str] = None, time_limit: Optional[float] = None,
+                   options: Optional[dict] = None) -> None:
         """Solver settings of the next steps (e.g. a tight final step after a loose transient).
 
         Parameters
@@ -177,28 +178,42 @@ class Simulation:
         form : {"local", "global"}, optional
             Kept when None.
         time_limit : float, optional
-            Seconds per step (``time_limit`` of :func:`socp_cd.solve`); None
-            removes a previous limit.
+            Seconds per step (``time_limit`` of :func:`socp_cd.solve`); None:
+            no limit.
+        options : dict, optional
+            Solver-specific options of the new solver (those of the previous
+            one are dropped: they may not exist for this one).
 
         Raises
         ------
         InvalidProblemError
-            A non-positive ``tol`` or ``time_limit``, or an unknown ``form``.
+            A ``tol`` or ``time_limit`` that is not a positive number, a
+            ``max_iter`` that is not a positive integer, or an unknown ``form``.
         """
-        if tol is not None and not (np.isfinite(tol) and tol > 0):
-            raise InvalidProblemError("tol", f"must be a positive tolerance, got {tol!r}")
-        if time_limit is not None and not (np.isfinite(time_limit) and time_limit > 0):
-            raise InvalidProblemError("time_limit", f"must be positive seconds, got {time_limit!r}")
+        def positive(name, value):
+            try:
+                v = float(value)
+            except (TypeError, ValueError):
+                v = float("nan")
+            if not (np.isfinite(v) and v > 0):
+                raise InvalidProblemError(name, f"must be a positive number, got {value!r}")
+            return v
+
+        tol = None if tol is None else positive("tol", tol)
+        time_limit = None if time_limit is None else positive("time_limit", time_limit)
+        if max_iter is not None and (isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer))
+                                     or max_iter < 1):
+            raise InvalidProblemError("max_iter", f"must be a positive integer, got {max_iter!r}")
         if form is not None and form not in ("local", "global"):
             raise InvalidProblemError("form", f"must be 'local' or 'global', got {form!r}")
-        self.solver, self.max_iter = solver, max_iter
+        self.solver, self.max_iter = solver, None if max_iter is None else int(max_iter)
         if tol is not None:
-            self.tol = float(tol)
+            self.tol = tol
         if form is not None:
             self.form = form
-        opts = {k: v for k, v in self.solver_options.items() if k != "time_limit"}
+        opts = dict(options or {})
         if time_limit is not None:
-            opts["time_limit"] = float(time_limit)
+            opts["time_limit"] = time_limit
         self.solver_options = opts
 
     def get_state(self) -> dict:

@@ -686,7 +686,7 @@ def _prox_newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, in
     """
     rho_n, rho_t, wscale = _system_rho(system, rho)
     fstate, istate = nd.new_state(alpha0 * wscale)
-    r = np.ascontiguousarray(r, dtype=np.float64)
+    r = np.array(r, dtype=np.float64)         # a copy: the caller's r is never written
     best_r = np.empty_like(r)
     if not mu.flags.writeable:      # one compiled signature: numba types read-only arrays apart
         mu = mu.copy()
