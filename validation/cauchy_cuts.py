@@ -112,7 +112,9 @@ def write_summary(results_dir: Path = RESULTS) -> Path:
                        ("cuts_convergence.md", "Cut tractions and Weber vs Moreau with N "
                         "(`validation/granular_convergence.py`): figures `cuts_convergence.png`, "
                         "`weber_moreau_convergence.png`; angle sweeps `cauchy_cuts.png` "
-                        "(`validation/cauchy_cuts.py`)")):
+                        "(`validation/cauchy_cuts.py`)"),
+                       ("cuts_sample_spread.md", "Sample-to-sample spread at fixed N "
+                        "(`validation/cuts_sample_spread.py`)")):
         f = results_dir / name
         parts += [f"## {what}", ""]
         if f.exists():
