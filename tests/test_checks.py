@@ -135,3 +135,24 @@ def test_global_problem_condensed_once():
     ref = p.to_local()
     assert np.array_equal(p.local.W.toarray(), ref.W.toarray())
     assert np.array_equal(p.local.q, ref.q)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_compiled_global_scales_equal_the_reference(seed):
+    """scaling.balanced of a global problem (compiled Jacobi estimate) = contact_scales."""
+    rng = np.random.default_rng(40 + seed)
+    n, m = 10, 9
+    A = rng.standard_normal((n, n))
+    M = A @ A.T + n * np.eye(n)
+    if seed == 1:
+        M[0, 0] = 0.0                 # a zero mass entry: no Jacobi weight for that dof
+    H = rng.standard_normal((n, m))
+    if seed == 2:
+        H[:, :3] = 0.0                # a contact with no coupling: filled by the geometric mean
+    p = GlobalFrictionContactProblem(M, H, rng.standard_normal(n), 1e3 * rng.standard_normal(m),
+                                     0.4, 3)
+    a, b = residuals.contact_scales(p)
+    rec = balanced(p)
+    assert rec.problem is None and rec.zero_error is None
+    assert np.allclose(rec.a, a, rtol=1e-14, atol=0) and np.allclose(rec.b, b, rtol=1e-14, atol=0)
+    assert rec.q_norm == pytest.approx(float(np.linalg.norm(p.q_local / b)), rel=1e-13)

@@ -18,9 +18,11 @@ problems.
 
 Everything per problem is computed once and kept on the problem object
 (:meth:`~socp_cd.problem.FrictionContactProblem.derived`) as a :class:`Balanced`
-record (:func:`balanced`): for a local problem by one compiled pass
-(:func:`~socp_cd.solvers.kernels.scaling.balance_csr`), for a global one by the
-NumPy reference :func:`~socp_cd.residuals.contact_scales`.
+record (:func:`balanced`), by compiled passes held equal to the NumPy reference
+:func:`~socp_cd.residuals.contact_scales`: for a local problem
+:func:`~socp_cd.solvers.kernels.scaling.balance_csr`, for a global one the
+Jacobi estimate :func:`~socp_cd.solvers.kernels.scaling.jacobi_diagonal` and
+:func:`~socp_cd.solvers.kernels.scaling.unit_factors`.
 """
 from __future__ import annotations
 
@@ -30,8 +32,7 @@ from typing import Optional
 import numpy as np
 
 from ..problem import FrictionContactProblem
-from ..residuals import contact_scales
-from .kernels.scaling import balance_csr
+from .kernels.scaling import balance_csr, jacobi_diagonal, unit_factors
 
 
 @dataclass(frozen=True)
@@ -62,9 +63,16 @@ class Balanced:
 
 
 def _compute(problem) -> Balanced:
-    if problem.is_global:
-        a, b = contact_scales(problem)
-        out = Balanced(a, b, None, float(np.linalg.norm(problem.q_local / b)), None)
+    if problem.is_global:            # Jacobi estimate of diag(W) (a scale, not a solve)
+        dM = np.abs(problem.M.diagonal())
+        with np.errstate(divide="ignore"):
+            inv = np.where(dM > 0, 1.0 / dM, 0.0)
+        H = problem.H.tocsr()
+        diag = jacobi_diagonal(H.indptr, H.indices, np.ascontiguousarray(H.data, dtype=np.float64),
+                               inv, problem.m)
+        a, b, _, _, q_s2 = unit_factors(diag, np.ascontiguousarray(problem.q_local, dtype=np.float64),
+                                        problem.dim)
+        out = Balanced(a, b, None, float(np.sqrt(q_s2)), None)
     else:
         W = problem.W
         a, b, data_s, q_s, _, q_s_norm, err0 = balance_csr(

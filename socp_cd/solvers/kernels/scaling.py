@@ -20,6 +20,82 @@ from .cone import LAW_COULOMB, coulomb_violations, error_parts, relative_error
 
 
 @njit(cache=True)
+def unit_factors(diag, q, dim):
+    """The unit factors of :func:`socp_cd.residuals.contact_scales` from ``diag(W)``.
+
+    Parameters
+    ----------
+    diag : ndarray (m,)
+        Diagonal of ``W`` (or its estimate); ``d_i`` is the mean of ``|diag|``
+        over contact ``i``'s components.
+    q : ndarray (m,)
+    dim : int
+
+    Returns
+    -------
+    a, b, q_s : ndarray (m,)
+        The factors and ``q / b``.
+    q2, q_s2 : float
+        ``||q||²`` and ``||q / b||²``.
+    """
+    m = q.shape[0]
+    nc = m // dim
+    d = np.zeros(nc)
+    for j in range(m):
+        d[j // dim] += abs(diag[j])
+    n_good = 0
+    log_sum = 0.0
+    for i in range(nc):
+        d[i] /= dim
+        if np.isfinite(d[i]) and d[i] > 0.0:
+            n_good += 1
+            log_sum += np.log(d[i])
+    if n_good < nc:
+        fill = np.exp(log_sum / n_good) if n_good > 0 else 1.0
+        for i in range(nc):
+            if not (np.isfinite(d[i]) and d[i] > 0.0):
+                d[i] = fill
+    s = np.empty(nc)
+    sq = 0.0
+    for i in range(nc):
+        s[i] = 1.0 / np.sqrt(d[i])
+        for k in range(dim):
+            v = s[i] * q[i * dim + k]
+            sq += v * v
+    sigma = np.sqrt(sq) / np.sqrt(m)
+    if not (np.isfinite(sigma) and sigma > 0.0):
+        sigma = 1.0
+    a = np.empty(m)
+    b = np.empty(m)
+    q_s = np.empty(m)
+    q2 = 0.0
+    qs2 = 0.0
+    for i in range(nc):
+        ai = sigma * s[i]
+        bi = sigma / s[i]
+        for k in range(dim):
+            j = i * dim + k
+            a[j] = ai
+            b[j] = bi
+            q_s[j] = q[j] / bi
+            q2 += q[j] * q[j]
+            qs2 += q_s[j] * q_s[j]
+    return a, b, q_s, q2, qs2
+
+
+@njit(cache=True)
+def jacobi_diagonal(indptr, indices, data, inv_m, m):
+    """``diag(Hᵀ diag(inv_m) H)`` for ``H`` (``n x m``) in CSR form: the Jacobi estimate of
+    ``diag(W)`` of a global problem (:func:`socp_cd.residuals.contact_scales`)."""
+    out = np.zeros(m)
+    for row in range(indptr.shape[0] - 1):
+        w = inv_m[row]
+        for k in range(indptr[row], indptr[row + 1]):
+            out[indices[k]] += data[k] * data[k] * w
+    return out
+
+
+@njit(cache=True)
 def balance_csr(indptr, indices, data, q, mu, dim):
     """Balancing factors, balanced entries of ``W`` and ``q``, and the norms of a local problem.
 
@@ -50,58 +126,21 @@ def balance_csr(indptr, indices, data, q, mu, dim):
         Siconos' relative error of ``r = 0`` (``u = q``) of the original problem.
     """
     m = q.shape[0]
-    nc = m // dim
-    d = np.zeros(nc)
+    diag = np.zeros(m)
     for row in range(m):
         for k in range(indptr[row], indptr[row + 1]):
             if indices[k] == row:
-                d[row // dim] += abs(data[k])
-    n_good = 0
-    log_sum = 0.0
-    for i in range(nc):
-        d[i] /= dim
-        if np.isfinite(d[i]) and d[i] > 0.0:
-            n_good += 1
-            log_sum += np.log(d[i])
-    if n_good < nc:
-        fill = np.exp(log_sum / n_good) if n_good > 0 else 1.0
-        for i in range(nc):
-            if not (np.isfinite(d[i]) and d[i] > 0.0):
-                d[i] = fill
-    s = np.empty(nc)
-    sq = 0.0
-    for i in range(nc):
-        s[i] = 1.0 / np.sqrt(d[i])
-        for k in range(dim):
-            v = s[i] * q[i * dim + k]
-            sq += v * v
-    sigma = np.sqrt(sq) / np.sqrt(m)
-    if not (np.isfinite(sigma) and sigma > 0.0):
-        sigma = 1.0
-    a = np.empty(m)
-    b = np.empty(m)
+                diag[row] += data[k]
+    a, b, q_s, q2, qs2 = unit_factors(diag, q, dim)
     srt = np.empty(m)
-    q_s = np.empty(m)
-    q2 = 0.0
-    qs2 = 0.0
-    for i in range(nc):
-        ai = sigma * s[i]
-        bi = sigma / s[i]
-        si = np.sqrt(ai / bi)
-        for k in range(dim):
-            j = i * dim + k
-            a[j] = ai
-            b[j] = bi
-            srt[j] = si
-            q_s[j] = q[j] / bi
-            q2 += q[j] * q[j]
-            qs2 += q_s[j] * q_s[j]
+    for j in range(m):
+        srt[j] = np.sqrt(a[j] / b[j])
     data_s = np.empty(data.shape[0])
     for row in range(m):
         for k in range(indptr[row], indptr[row + 1]):
             data_s[k] = data[k] * (srt[row] * srt[indices[k]])
     q_norm = np.sqrt(q2)
-    f2, r2, u2 = error_parts(np.zeros(m), q, mu, np.zeros(nc), dim, LAW_COULOMB)
+    f2, r2, u2 = error_parts(np.zeros(m), q, mu, np.zeros(mu.shape[0]), dim, LAW_COULOMB)
     zero_error = relative_error(f2, r2, u2, q_norm)
     return a, b, data_s, q_s, q_norm, np.sqrt(qs2), zero_error
 
@@ -132,4 +171,4 @@ def balanced_guard_parts(r, u, a, b, mu, dim):
     return True, f2, r2, u2, cone, normal, gap
 
 
-__all__ = ["balance_csr", "balanced_guard_parts"]
+__all__ = ["balance_csr", "balanced_guard_parts", "jacobi_diagonal", "unit_factors"]
