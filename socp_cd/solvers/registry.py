@@ -27,7 +27,7 @@ from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
 from .checks import coulomb_error, coulomb_guard, zero_error
 from .options import COMMON_OPTIONS, check_common, check_unknown
 from .result import STATUSES, SolverResult
-from .scaling import balance
+from .scaling import balance, balanced
 from .spec import SolverSpec
 
 FORMULATIONS = ("coulomb", "associated", "tresca", "frictionless", "faceted")
@@ -93,14 +93,13 @@ def law_residual(problem, formulation, r, u=None, **params) -> float:
     return LAW_RESIDUALS[formulation](problem, r, u, **law_parameters(formulation, params))
 
 
-def _finalize(problem, res: SolverResult, formulation: str, tol: float, params,
-              scales=None) -> SolverResult:
+def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) -> SolverResult:
     """Recompute u and residuals and set honest ``converged``/``status``.
 
     ``converged`` needs the law's residual ``<= tol`` and the units guard
     (:func:`socp_cd.residuals.guard`, reported in ``info["guard"]``) ``<= tol``;
-    ``trivial`` records whether ``r = 0`` already meets ``tol``.  ``scales``: the
-    problem's :func:`~socp_cd.residuals.contact_scales` when already known.
+    ``trivial`` records whether ``r = 0`` already meets ``tol``.  The guard's unit
+    factors are the problem's own, computed once (:func:`~socp_cd.solvers.scaling.balanced`).
     """
     r = np.asarray(res.r, dtype=np.float64).reshape(-1)
     res.tol = tol
@@ -134,10 +133,11 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params,
         res.status = "numerical_error"
         res.message = (res.message + "; " if res.message else "") + "non-finite residual"
     res.error = law
-    if compiled and formulation == "coulomb":    # its own scales: those passed are the same
+    if compiled and formulation == "coulomb":
         checked = coulomb_guard(problem, r, res.u)
     else:
-        checked = guard(problem, r, res.u, scales, law=LAW_RESIDUALS[formulation],
+        rec = balanced(problem)
+        checked = guard(problem, r, res.u, (rec.a, rec.b), law=LAW_RESIDUALS[formulation],
                         **law_parameters(formulation, params))
     res.info["guard"] = checked
     res.converged = bool(law <= tol and checked["value"] <= tol)
@@ -177,7 +177,7 @@ def _run_backend(spec, target, scaling, formulation, tol, r0, time_limit, *, max
     return res
 
 
-def _retry(first, problem, spec, target, scaling, scales, formulation, tol, options, time_limit,
+def _retry(first, problem, spec, target, scaling, formulation, tol, options, time_limit,
            t0, run) -> SolverResult:
     """One more backend run when it claimed convergence and the recomputed checks disagree.
 
@@ -202,7 +202,7 @@ def _retry(first, problem, spec, target, scaling, scales, formulation, tol, opti
         return first
     res = _run_backend(spec, target, scaling, formulation, tighter, start, left, **run)
     res.solver, res.formulation = first.solver, first.formulation
-    res = _finalize(problem, res, formulation, tol, options, scales)
+    res = _finalize(problem, res, formulation, tol, options)
     record = {"tol": tighter, "first_error": first.error, "first_guard": checked["value"],
               "first_iterations": first.iterations, "retry_error": res.error,
               "retry_iterations": res.iterations}
@@ -340,10 +340,9 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
     res = _run_backend(spec, target, scaling, formulation, tol, r0, time_limit, **run)
     claimed = res.status
     res.solver, res.formulation = name, formulation
-    scales = None if scaling is None or target is not problem else (scaling.a, scaling.b)
-    res = _finalize(problem, res, formulation, tol, options, scales)
+    res = _finalize(problem, res, formulation, tol, options)
     if claimed == "converged" and not res.converged and np.isfinite(res.error):
-        res = _retry(res, problem, spec, target, scaling, scales, formulation, tol, options,
+        res = _retry(res, problem, spec, target, scaling, formulation, tol, options,
                      time_limit, t0, run)
     res.time = _time.perf_counter() - t0
     if target is not problem:
