@@ -38,12 +38,7 @@ def sample(label, states_dir):
     m = re.fullmatch(r"(disk|polygon)(\d+)", label)
     if m is None:
         raise SystemExit(f"bad sample name {label!r}: expected disk<N> or polygon<N>")
-    shape, n = m.group(1), int(m.group(2))
-    path = states_dir / f"biaxial_{shape}{n}.h5"
-    if not path.exists():
-        state, W, H, info = gc.make_sample(n, shape, label=label)
-        gc.save_state(path, state, W, H, info)
-    return gc.load_state(path)
+    return gc.sample_state(states_dir, int(m.group(2)), m.group(1))
 
 
 def sweep(state, W, H, n):

@@ -35,18 +35,10 @@ KEYS = ("rms_normal", "rms_shear", "weber_moreau_rel")
 
 
 def sample(n, shape, seed, states, **kw):
-    """Analysed row of one sample (simulated, or read from its state)."""
-    path = states / (f"biaxial_{shape}{n}.h5" if seed == 0 else f"biaxial_{shape}{n}_s{seed}.h5")
-    if path.exists():
-        state, W, H, info = gc.load_state(path)
-    else:
-        t0 = time.perf_counter()
-        state, W, H, info = gc.make_sample(n, shape, seed=seed, label=f"{shape}{n} seed {seed}",
-                                           checkpoint=path.with_suffix(".ckpt.h5"), **kw)
-        gc.save_state(path, state, W, H, info)
-        path.with_suffix(".ckpt.h5").unlink(missing_ok=True)
-        print(f"{shape}{n} seed {seed}: simulated in {time.perf_counter() - t0:.0f} s", flush=True)
-    row = gc.analyse(state, W, H, info)
+    """Analysed row of one sample (simulated with :func:`granular_convergence.sample_state`, or read)."""
+    t0 = time.perf_counter()
+    row = gc.analyse(*gc.sample_state(states, n, shape, seed=seed, **kw))
+    print(f"{shape}{n} seed {seed}: {time.perf_counter() - t0:.0f} s", flush=True)
     row["seed"] = seed
     return row
 

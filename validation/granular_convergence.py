@@ -65,7 +65,7 @@ N_ANGLES = 180
 # ---------------------------------------------------------------- simulation
 def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=3000, quench=200, tol=1e-3, max_iter=100,
                 quench_tol=1e-6, quench_iter=2000,
-                final_tol=1e-8, final_iter=50000, final_solver="nsgs", final_form="local",
+                final_tol=1e-8, final_iter=50000, final_solver="auto", final_form="local",
                 final_time_limit=900.0,
                 v_wall=2e-2, label="", checkpoint=None, checkpoint_every=100):
     """Compress, quench and finish one biaxial sample; returns (state, W, H, info).
@@ -140,6 +140,29 @@ def make_sample(n, shape, *, seed=0, h=8e-3, max_steps=3000, quench=200, tol=1e-
                 ms_per_step=1e3 * (wall_compress + wall_quench) / (steps + quench),
                 n_contacts=int(state.n_contacts))
     return state, W, H, info
+
+
+def sample_state(states, n, shape, *, seed=0, redo=False, label=None, **kw):
+    """The state of one sample: read from ``states`` or simulated (:func:`make_sample`).
+
+    ``biaxial_<shape><N>.h5`` for seed 0, ``biaxial_<shape><N>_s<seed>.h5`` for
+    the others; a simulation checkpoints its compression next to it and
+    resumes from that checkpoint (``redo``: simulate again from scratch).
+    ``kw`` are :func:`make_sample`'s protocol arguments.  Returns
+    ``(state, W, H, info)``.
+    """
+    path = Path(states) / (f"biaxial_{shape}{n}.h5" if seed == 0
+                           else f"biaxial_{shape}{n}_s{seed}.h5")
+    if path.exists() and not redo:
+        return load_state(path)
+    ck = path.with_suffix(".ckpt.h5")
+    if redo:
+        ck.unlink(missing_ok=True)
+    out = make_sample(n, shape, seed=seed, label=label or path.stem[len("biaxial_"):],
+                      checkpoint=ck, **kw)
+    save_state(path, *out)
+    ck.unlink(missing_ok=True)
+    return out
 
 
 def save_checkpoint(path, sim, settings, steps, unconv, spent, vmax, vw, jammed):
@@ -442,21 +465,12 @@ def main(argv=None):
     rows = []
     for n in sorted(args.n):                 # smallest first: an interrupted run keeps them
         for shape in args.shapes:
-            path = states / f"biaxial_{shape}{n}.h5"
-            if path.exists() and not args.redo:
-                state, W, H, info = load_state(path)
-            elif args.analyse_only:
+            if args.analyse_only and not (states / f"biaxial_{shape}{n}.h5").exists():
                 continue
-            else:
-                if args.redo:
-                    path.with_suffix(".ckpt.h5").unlink(missing_ok=True)
-                state, W, H, info = make_sample(n, shape, h=args.h, max_steps=args.max_steps,
-                                                quench=args.quench, tol=args.tol,
-                                                final_tol=args.final_tol, final_solver=args.final_solver,
-                                                label=f"{shape}{n}",
-                                                checkpoint=path.with_suffix(".ckpt.h5"))
-                save_state(path, state, W, H, info)
-                path.with_suffix(".ckpt.h5").unlink(missing_ok=True)
+            state, W, H, info = sample_state(
+                states, n, shape, redo=args.redo and not args.analyse_only, h=args.h,
+                max_steps=args.max_steps, quench=args.quench, tol=args.tol,
+                final_tol=args.final_tol, final_solver=args.final_solver)
             r = analyse(state, W, H, info)
             rows.append(r)
             print(f"{shape:8s} N={n:5d} rms_n={100 * r['rms_normal']:.1f}% "
