@@ -39,6 +39,7 @@ from pathlib import Path
 
 import socp_cd
 from socp_cd.bench.evalset import manufactured_cases
+from socp_cd.bench import reports
 from socp_cd.bench.reports import variant_comparison_by, variant_disagreements
 from socp_cd.data import shared_problems_dir
 from socp_cd.solvers import newton
@@ -105,12 +106,7 @@ def run(split, cases, policies, tol, time_limit):
 
 
 def read_rows(path):
-    with open(path, newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    for r in rows:
-        r["error"], r["time"] = float(r["error"]), float(r["time"])
-        r["solved"] = r["solved"] == "True"
-    return rows
+    return reports.read_rows(path, floats=("error", "time"))
 
 
 def summary(rows, time_limit):

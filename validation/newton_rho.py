@@ -32,6 +32,7 @@ import numpy as np
 
 import socp_cd
 from socp_cd.bench.evalset import manufactured_cases
+from socp_cd.bench import reports
 from socp_cd.bench.reports import variant_comparison_by, variant_disagreements
 from socp_cd.data import shared_problems_dir
 
@@ -123,13 +124,7 @@ def siconos_lines(path):
 
 
 def read_rows(path):
-    with open(path, newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    for r in rows:
-        r["error"], r["time"], r["aniso"] = float(r["error"]), float(r["time"]), float(r["aniso"])
-        r["solved"] = r["solved"] == "True"
-        r["nc"], r["iterations"] = int(r["nc"]), int(r["iterations"])
-    return rows
+    return reports.read_rows(path, floats=("error", "time", "aniso"), ints=("nc", "iterations"))
 
 
 def summary(rows, tol, time_limit):

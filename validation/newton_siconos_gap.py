@@ -44,6 +44,7 @@ import numpy as np
 
 import socp_cd
 from socp_cd.bench.evalset import MIXES, manufacture
+from socp_cd.bench import reports
 from socp_cd.bench.reports import shifted_geometric_mean
 from socp_cd.data import shared_problems_dir
 
@@ -153,13 +154,7 @@ def write_csv(path, rows, merge_key=("case", "solver")):
 
 
 def read_csv(path):
-    with open(path, newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    for r in rows:
-        for k in ("error", "guard", "u_err", "time"):
-            r[k] = float(r[k])
-        r["solved"] = r["solved"] in ("True", True)
-    return rows
+    return reports.read_rows(path, floats=("error", "guard", "u_err", "time"))
 
 
 def part_lines(part, rows, tol, time_limit):

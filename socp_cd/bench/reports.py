@@ -363,6 +363,25 @@ def write_report(records, outdir, title="Solver comparison", presets=None) -> di
 
 
 
+def read_rows(path, floats=(), ints=(), bools=("solved",)) -> list:
+    """Rows of a study's CSV (``csv.DictReader``) with the named fields converted.
+
+    ``floats``/``ints`` are parsed with ``float``/``int``; ``bools`` are True
+    when the field reads ``"True"``.  Other fields stay strings.
+    """
+    import csv
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    for r in rows:
+        for k in floats:
+            r[k] = float(r[k])
+        for k in ints:
+            r[k] = int(r[k])
+        for k in bools:
+            r[k] = r[k] == "True"
+    return rows
+
+
 def variant_comparison(rows, key: str, variants, time_limit: float) -> dict:
     """Solved counts and shifted geometric mean times of several variants of one solver.
 
@@ -420,7 +439,7 @@ def variant_disagreements(rows, key: str) -> list:
     return sorted((cid, d) for cid, d in by_case.items()
                   if len({bool(d[v]["solved"]) for v in d}) > 1)
 
-__all__ = ["SGM_SHIFT", "shifted_geometric_mean", "charged_time", "variant_comparison", "variant_comparison_by", "variant_disagreements", "summary_table", "time_table",
+__all__ = ["SGM_SHIFT", "shifted_geometric_mean", "charged_time", "read_rows", "variant_comparison", "variant_comparison_by", "variant_disagreements", "summary_table", "time_table",
            "performance_ratios", "performance_profile", "work_precision_data",
            "plot_work_precision", "plot_performance_profiles", "summary_markdown", "write_report",
            "readme_table", "update_readme"]
