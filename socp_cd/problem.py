@@ -390,13 +390,34 @@ class FrictionContactProblem(_ProblemBase):
             raise InvalidProblemError("W", f"must be square, got shape {W.shape}", source)
         nc = _n_contacts(W.shape[0], dim, "W", source)
         self.dim = dim
-        self.W = W
+        self._W, self._csr_parts = W, None
         self.q = _as_vector(q, "q", W.shape[0], source)
         self.mu = _as_mu(mu, nc, source)
         self._init_meta(source, name, info, solution, guesses)
 
+    @property
+    def W(self) -> sp.csr_matrix:
+        """The Delassus operator, CSR (built on first use for a problem made from CSR arrays)."""
+        W = self._W
+        if W is None:
+            indptr, indices, data = self._csr_parts
+            W = self._W = sp.csr_matrix((data, indices, indptr), shape=(self.m, self.m))
+        return W
+
+    @property
+    def csr_parts(self) -> tuple:
+        """``(indptr, indices, data)`` of ``W`` in CSR form, without building a scipy matrix.
+
+        Compiled kernels read these; a problem derived with :meth:`from_checked`
+        from CSR arrays builds its scipy matrix only when :attr:`W` is asked for.
+        """
+        if self._W is None:
+            return self._csr_parts
+        W = self._W
+        return W.indptr, W.indices, W.data
+
     @classmethod
-    def from_checked(cls, W: sp.csr_matrix, q: np.ndarray, mu: np.ndarray, dim: int, *,
+    def from_checked(cls, W, q: np.ndarray, mu: np.ndarray, dim: int, *,
                      source=None, name=None, info=None, solution: Optional[Solution] = None,
                      guesses=None) -> "FrictionContactProblem":
         """A problem from data already in validated form, without checking them again.
@@ -404,14 +425,15 @@ class FrictionContactProblem(_ProblemBase):
         For code that derives a problem from a validated one (e.g. the
         dispatcher's balanced copy, :mod:`socp_cd.solvers.scaling`): ``W`` a
         square float64 CSR matrix of size ``m = dim * n_contacts`` with summed
-        duplicates and finite entries, ``q`` a finite contiguous float64
+        duplicates and finite entries, or its arrays ``(indptr, indices, data)``
+        (the scipy matrix is then built on first use of :attr:`W`), ``q`` a finite contiguous float64
         vector of length ``m``, ``mu`` a finite, non-negative contiguous float64
         vector with one entry per contact, ``dim`` 2 or 3.  Data from users or
         files go through the constructor, which checks all of this.
         """
         self = cls.__new__(cls)
         self.dim = int(dim)
-        self.W = W
+        self._W, self._csr_parts = (None, W) if isinstance(W, tuple) else (W, None)
         self.q = q
         self.mu = mu
         self._init_meta(source, name, info, solution, guesses)
@@ -429,19 +451,19 @@ class FrictionContactProblem(_ProblemBase):
         (``q / b``) may be passed when already computed (the dispatcher's
         compiled balancing, :mod:`socp_cd.solvers.scaling`).
         """
-        Wc = self.W
+        indptr, indices, data = self.csr_parts
         if W_data is None:
             s = np.sqrt(a / b)                          # s_i = 1/sqrt(d_i) for the balancing scales
-            rows = np.repeat(np.arange(self.m), np.diff(Wc.indptr))
-            W_data = Wc.data * (s[rows] * s[Wc.indices])
-        W = sp.csr_matrix((W_data, Wc.indices, Wc.indptr), shape=Wc.shape)   # S W S, same sparsity
+            rows = np.repeat(np.arange(self.m), np.diff(indptr))
+            W_data = data * (s[rows] * s[indices])
 
         def convert(sol: Solution) -> Solution:
             return Solution(r=None if sol.r is None else sol.r / a,
                             u=None if sol.u is None else sol.u / b)
 
-        return FrictionContactProblem.from_checked(
-            W, self.q / b if q is None else q, self.mu, self.dim, source=self.source,
+        return FrictionContactProblem.from_checked(     # S W S, same sparsity
+            (indptr, indices, W_data), self.q / b if q is None else q, self.mu, self.dim,
+            source=self.source,
             name=self.name, info=self.info,
             solution=None if self.solution is None else convert(self.solution),
             guesses=[convert(g) for g in self.guesses])
@@ -590,6 +612,11 @@ class GlobalFrictionContactProblem(_ProblemBase):
             raise InvalidProblemError("M", f"is singular ({exc})", self.source) from None
         return lu
 
+    @cached_property
+    def _HT(self):
+        """``Hᵀ`` (a CSC view of ``H``), built once: every ``u`` needs it."""
+        return self.H.T
+
     def solve_M(self, b) -> np.ndarray:
         """Solve ``M x = b`` with a cached sparse LU factorization."""
         return self._lu.solve(np.asarray(b, dtype=np.float64))
@@ -600,12 +627,12 @@ class GlobalFrictionContactProblem(_ProblemBase):
 
     def velocity(self, r) -> np.ndarray:
         """Local velocity ``u = H^T M^{-1} (H r + f) + w``."""
-        return self.H.T @ self.global_velocity(r) + self.w
+        return self._HT @ self.global_velocity(r) + self.w
 
     @cached_property
     def q_local(self) -> np.ndarray:
         """Local free velocity ``q = H^T M^{-1} f + w``."""
-        return self.H.T @ self.solve_M(self.f) + self.w
+        return self._HT @ self.solve_M(self.f) + self.w
 
     def to_local(self, chunk: int = 512) -> FrictionContactProblem:
         """Condense to the local problem ``W = H^T M^{-1} H``, ``q = H^T M^{-1} f + w``.
@@ -615,12 +642,20 @@ class GlobalFrictionContactProblem(_ProblemBase):
         """
         H = self.H.tocsc()
         HT = H.T.tocsr()
-        blocks = []
-        for start in range(0, self.m, chunk):
-            X = self.solve_M(H[:, start:start + chunk].toarray())
-            blocks.append(sp.csc_matrix(HT @ X))
-        W = sp.hstack(blocks).tocsr()
-        W.eliminate_zeros()
+        if self.m <= chunk:                  # one block: a dense product, its nonzeros kept
+            Wd = np.asarray(HT @ self.solve_M(H.toarray()))
+            rows, cols = np.nonzero(Wd)      # row-major: CSR order, sorted columns
+            indptr = np.zeros(self.m + 1, dtype=np.int32)
+            np.cumsum(np.bincount(rows, minlength=self.m), out=indptr[1:])
+            W = sp.csr_matrix((Wd[rows, cols], cols.astype(np.int32), indptr),
+                              shape=(self.m, self.m))
+        else:
+            blocks = []
+            for start in range(0, self.m, chunk):
+                X = self.solve_M(H[:, start:start + chunk].toarray())
+                blocks.append(sp.csc_matrix(HT @ X))
+            W = sp.hstack(blocks).tocsr()
+            W.eliminate_zeros()
         sol = None
         if self.solution is not None:
             sol = Solution(r=self.solution.r, u=self.solution.u)

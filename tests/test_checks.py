@@ -95,6 +95,7 @@ def test_compiled_balancing_equals_the_references(k):
     assert np.allclose(rec.problem.W.data, ref.W.data, rtol=1e-13, atol=0)
     assert np.allclose(rec.problem.q, ref.q, rtol=1e-13, atol=0)
     assert rec.q_norm == pytest.approx(float(np.linalg.norm(ref.q)), rel=1e-13)
+    assert rec.raw_q_norm == pytest.approx(float(np.linalg.norm(p.q)), rel=1e-14)
     assert rec.zero_error == pytest.approx(residuals.error(p, np.zeros(p.m)), rel=1e-13, abs=1e-300)
     assert checks.zero_error(p) == rec.zero_error
 
@@ -153,6 +154,58 @@ def test_compiled_global_scales_equal_the_reference(seed):
                                      0.4, 3)
     a, b = residuals.contact_scales(p)
     rec = balanced(p)
-    assert rec.problem is None and rec.zero_error is None
+    assert rec.problem is None
     assert np.allclose(rec.a, a, rtol=1e-14, atol=0) and np.allclose(rec.b, b, rtol=1e-14, atol=0)
     assert rec.q_norm == pytest.approx(float(np.linalg.norm(p.q_local / b)), rel=1e-13)
+    assert rec.raw_q_norm == pytest.approx(p.q_norm, rel=1e-14)
+    # the compiled error of r = 0 (u = q_local) is the NumPy reference's
+    assert rec.zero_error == pytest.approx(residuals.error(p, np.zeros(p.m)), rel=1e-13, abs=1e-300)
+    assert checks.zero_error(p) == rec.zero_error == pytest.approx(p.zero_error, rel=1e-13)
+
+
+def test_problem_from_csr_arrays_builds_its_matrix_only_when_asked():
+    """from_checked with CSR arrays: csr_parts without scipy, W built once and equal."""
+    p = _problem(4, 3, seed=11)
+    rec = balanced(p)
+    bp = rec.problem
+    assert bp._W is None                      # NSGS / Newton / Clarabel's small path need no scipy W
+    indptr, indices, data = bp.csr_parts
+    assert indptr is p.W.indptr and indices is p.W.indices        # same sparsity, shared
+    W = bp.W
+    assert bp.W is W and bp._W is W                               # built once
+    assert np.array_equal(W.toarray(), p.rescaled(rec.a, rec.b).W.toarray())
+    parts = bp.csr_parts                                          # now read from the matrix
+    assert parts[0] is W.indptr and parts[2] is W.data
+
+
+def test_block_storage_from_arrays_equals_block_csr():
+    """problem_blocks (from the problem's CSR arrays, kept on it) = block_csr of its matrix."""
+    from socp_cd.solvers.block_storage import block_csr, problem_blocks
+    for p in _awkward_problems()[:4]:
+        bp = balanced(p).problem
+        S = problem_blocks(bp)
+        assert problem_blocks(bp) is S
+        ref = block_csr(bp.W, bp.dim)
+        for name in ("indptr", "indices", "blocks", "diag_pos", "diag"):
+            assert np.array_equal(getattr(S, name), getattr(ref, name)), name
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_condensation_in_one_block_equals_the_chunked_product(seed):
+    """to_local's one-block path (m <= chunk) = the chunked sparse product, bit for bit,
+    with structural zeros (an uncoupled contact) and exact cancellations dropped."""
+    rng = np.random.default_rng(60 + seed)
+    n, m = 10, 9
+    A = rng.standard_normal((n, n))
+    H = rng.standard_normal((n, m))
+    H[:, 3:6] = 0.0                             # contact 1 sees no dof: zero rows and columns of W
+    if seed == 1:
+        H[:5, :] = 0.0                         # some dofs carry no contact
+    p = GlobalFrictionContactProblem(np.diag(rng.uniform(1, 3, n)) if seed == 2 else
+                                     A @ A.T + n * np.eye(n), H, rng.standard_normal(n),
+                                     rng.standard_normal(m), 0.3, 3)
+    one, chunked = p.to_local(), p.to_local(chunk=2)
+    for name in ("indptr", "indices", "data"):
+        assert np.array_equal(getattr(one.W, name), getattr(chunked.W, name)), name
+    assert np.array_equal(one.q, chunked.q)
+    assert 0.0 not in one.W.data

@@ -9,7 +9,6 @@ the scipy CSR arrays by a compiled two-pass kernel (no Python loop over contacts
 """
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -113,33 +112,30 @@ def block_csr(W, dim: int) -> BlockCSR:
         appearance in the CSR rows (unsorted, which the sweeps do not need).
     """
     Wc = W if sp.isspmatrix_csr(W) else sp.csr_matrix(W, dtype=np.float64)
-    nc = Wc.shape[0] // dim
-    out = _csr_to_bsr(Wc.indptr.astype(np.int64, copy=False), Wc.indices.astype(np.int64, copy=False),
-                      Wc.data.astype(np.float64, copy=False), dim, nc)
+    return block_csr_arrays(Wc.indptr, Wc.indices, Wc.data, dim)
+
+
+def block_csr_arrays(indptr, indices, data, dim: int) -> BlockCSR:
+    """:func:`block_csr` of a square matrix given by its CSR arrays (no scipy matrix needed)."""
+    nc = (indptr.shape[0] - 1) // dim
+    out = _csr_to_bsr(indptr.astype(np.int64, copy=False), indices.astype(np.int64, copy=False),
+                      data.astype(np.float64, copy=False), dim, nc)
     return BlockCSR(dim, nc, *out)
 
 
-_CACHE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+def _compute(problem) -> BlockCSR:
+    indptr, indices, data = problem.csr_parts
+    return block_csr_arrays(indptr, indices, data, problem.dim)
 
 
 def problem_blocks(problem) -> BlockCSR:
-    """:class:`BlockCSR` of ``problem.W``, cached per problem object.
+    """:class:`BlockCSR` of ``problem.W``, computed once per problem object.
 
-    The cache is keyed on the problem (weakly) and invalidated when its ``W``
-    attribute is replaced by another object.
+    Kept on the problem (:meth:`~socp_cd.problem.FrictionContactProblem.derived`),
+    read from its CSR arrays (:attr:`~socp_cd.problem.FrictionContactProblem.csr_parts`),
+    so a problem derived from arrays never builds a scipy matrix for NSGS.
     """
-    try:
-        hit = _CACHE.get(problem)
-    except TypeError:           # not weak-referenceable
-        hit = None
-    if hit is not None and hit[0] is problem.W:
-        return hit[1]
-    storage = block_csr(problem.W, problem.dim)
-    try:
-        _CACHE[problem] = (problem.W, storage)
-    except TypeError:
-        pass
-    return storage
+    return problem.derived("solvers.block_storage", _compute)
 
 
-__all__ = ["BlockCSR", "block_csr", "problem_blocks"]
+__all__ = ["BlockCSR", "block_csr", "block_csr_arrays", "problem_blocks"]

@@ -8,7 +8,7 @@ with the compiled twins of the NumPy references
 :func:`socp_cd.residuals.error` by ``tests/test_core.py``) and the
 compiled twin :func:`~socp_cd.solvers.kernels.cone.coulomb_violations` of
 :func:`socp_cd.residuals.coulomb_parts`, and the per-problem norms, unit
-factors and error of ``r = 0`` computed once (``problem.q_norm`` and the
+factors and error of ``r = 0`` computed once (the
 :class:`~socp_cd.solvers.scaling.Balanced` record): on a one-contact problem
 the NumPy references cost several times the solve itself.
 ``tests/test_checks.py`` holds these functions equal to the references.
@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 
+from ..errors import InvalidProblemError
 from ..residuals import failed_guard, finite_guard, guard_values
 from .kernels.cone import LAW_COULOMB, error_parts, relative_error
 from .kernels.scaling import balanced_guard_parts
@@ -36,20 +37,21 @@ def coulomb_error(problem, r, u) -> float:
     ``r`` and ``u``: finite float64 vectors of length ``problem.m``.
     """
     f2, r2, u2 = _parts(problem, r, u)
-    return float(relative_error(f2, r2, u2, problem.q_norm))
+    return float(relative_error(f2, r2, u2, balanced(problem).raw_q_norm))
 
 
 def zero_error(problem):
     """Siconos' error of ``r = 0`` (None when a global problem's ``M`` is singular).
 
-    Local problems: compiled, with the balancing (:func:`socp_cd.solvers.scaling.balanced`),
-    once per problem; global ones: the problem's cached
-    :attr:`~socp_cd.problem.GlobalFrictionContactProblem.zero_error` (``u = Hᵀ M⁻¹ f + w``
-    needs a solve with ``M``).
+    Compiled, once per problem, with the balancing
+    (:func:`socp_cd.solvers.scaling.balanced`); equal to the problem's
+    :attr:`~socp_cd.problem.FrictionContactProblem.zero_error` (for a global
+    problem ``u = Hᵀ M⁻¹ f + w`` needs a solve with ``M``).
     """
-    if problem.is_global:
-        return problem.zero_error
-    return balanced(problem).zero_error
+    try:
+        return balanced(problem).zero_error
+    except InvalidProblemError:        # a global problem whose M is singular
+        return None
 
 
 def coulomb_guard(problem, r, u) -> dict:

@@ -131,8 +131,8 @@ class DenseSystem:
     @classmethod
     def of(cls, problem) -> "DenseSystem":
         """Dense system of a local problem (``W`` in CSR)."""
-        W = problem.W
-        Wd, Ws, Wa, asym, scale, _ = dense_split(W.indptr, W.indices, W.data, problem.m)
+        indptr, indices, data = problem.csr_parts
+        Wd, Ws, Wa, asym, scale, _ = dense_split(indptr, indices, data, problem.m)
         q = np.ascontiguousarray(problem.q, dtype=np.float64)
         return cls(Wd, Ws, Wa, float(asym), float(scale), q,
                    np.ascontiguousarray(problem.mu, dtype=np.float64),

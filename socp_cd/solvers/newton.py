@@ -179,31 +179,29 @@ class _LocalSystem:
     """Newton steps of the local problem ``u = W r + q``."""
 
     def __init__(self, problem, linear_solver):
-        W = problem.W
+        indptr, indices, data = problem.csr_parts      # no scipy matrix needed on the dense path
         self.d, self.m = problem.dim, problem.m
         self.q = np.ascontiguousarray(problem.q, dtype=np.float64)
         if not self.q.flags.writeable:   # (the balanced copy's q is read-only)
             self.q = self.q.copy()       # one signature of the compiled loop
         if linear_solver == "auto":
             dense = self.m <= DENSE_ALWAYS_M or (
-                self.m <= DENSE_MAX_M
-                and (not sp.issparse(W) or W.nnz / float(self.m * self.m) >= DENSE_MIN_FILL))
+                self.m <= DENSE_MAX_M and int(indptr[-1]) / float(self.m * self.m) >= DENSE_MIN_FILL)
             linear_solver = "dense" if dense else "splu"
         self.kind = linear_solver
         #: small dense system: compiled mat-vecs and LU (and the compiled loop)
         self.compiled = self.kind == "dense" and self.m <= COMPILED_LU_MAX_M
         if self.kind == "dense":
-            if sp.issparse(W) and W.format == "csr" and self.compiled:
-                self.W = csr_to_dense(W.indptr, W.indices, W.data.astype(np.float64, copy=False),
+            if self.compiled:
+                self.W = csr_to_dense(indptr, indices, data.astype(np.float64, copy=False),
                                       self.m, self.m)       # no scipy overhead on tiny W
             else:
-                self.W = np.ascontiguousarray(W.toarray() if sp.issparse(W) else W,
-                                              dtype=np.float64)
+                self.W = np.ascontiguousarray(problem.W.toarray(), dtype=np.float64)
                 if not self.W.flags.writeable:
                     self.W = self.W.copy()
             self.J = np.empty((self.m, self.m))
         else:
-            self.W = sp.csr_matrix(W, dtype=np.float64)
+            self.W = sp.csr_matrix(problem.W, dtype=np.float64)
             nc = self.m // self.d
             self._bsr_index = (np.arange(nc, dtype=np.int32), np.arange(nc + 1, dtype=np.int32))
         self.norm_q = problem.q_norm          # cached on the problem

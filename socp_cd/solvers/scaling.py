@@ -32,7 +32,7 @@ from typing import Optional
 import numpy as np
 
 from ..problem import FrictionContactProblem
-from .kernels.scaling import balance_csr, jacobi_diagonal, unit_factors
+from .kernels.scaling import balance_csr, coulomb_zero_error, jacobi_diagonal, unit_factors
 
 
 @dataclass(frozen=True)
@@ -49,17 +49,21 @@ class Balanced:
         backends (its ``q`` read-only); None for a global problem.
     q_norm : float
         ``||q / b||`` (the units guard's normalization).
-    zero_error : float or None
-        Siconos' error of ``r = 0`` of the original problem (None: a global
-        problem, whose error of ``r = 0`` needs a solve with ``M``:
-        :attr:`~socp_cd.problem.GlobalFrictionContactProblem.zero_error`).
+    raw_q_norm : float
+        ``||q||`` of the problem as written (Siconos' normalization; ``q`` the
+        local free velocity).
+    zero_error : float
+        Siconos' error of ``r = 0`` of the original problem (``u = q``, the
+        local free velocity; compiled, equal to the problem's
+        :attr:`~socp_cd.problem.FrictionContactProblem.zero_error`).
     """
 
     a: np.ndarray
     b: np.ndarray
     problem: Optional[FrictionContactProblem]
     q_norm: float
-    zero_error: Optional[float]
+    raw_q_norm: float
+    zero_error: float
 
 
 def _compute(problem) -> Balanced:
@@ -70,17 +74,20 @@ def _compute(problem) -> Balanced:
         H = problem.H.tocsr()
         diag = jacobi_diagonal(H.indptr, H.indices, np.ascontiguousarray(H.data, dtype=np.float64),
                                inv, problem.m)
-        a, b, _, _, q_s2 = unit_factors(diag, np.ascontiguousarray(problem.q_local, dtype=np.float64),
-                                        problem.dim)
-        out = Balanced(a, b, None, float(np.sqrt(q_s2)), None)
+        q = np.ascontiguousarray(problem.q_local, dtype=np.float64)
+        mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
+        a, b, _, q2, q_s2 = unit_factors(diag, q, problem.dim)
+        q_norm = float(np.sqrt(q2))
+        out = Balanced(a, b, None, float(np.sqrt(q_s2)), q_norm,
+                       float(coulomb_zero_error(q, mu, problem.dim, q_norm)))
     else:
-        W = problem.W
-        a, b, data_s, q_s, _, q_s_norm, err0 = balance_csr(
-            W.indptr, W.indices, W.data, np.ascontiguousarray(problem.q, dtype=np.float64),
+        indptr, indices, data = problem.csr_parts
+        a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(
+            indptr, indices, data, np.ascontiguousarray(problem.q, dtype=np.float64),
             np.ascontiguousarray(problem.mu, dtype=np.float64), problem.dim)
         q_s.flags.writeable = False
         out = Balanced(a, b, problem.rescaled(a, b, W_data=data_s, q=q_s), float(q_s_norm),
-                       float(err0))
+                       float(q_norm), float(err0))
     out.a.flags.writeable = False
     out.b.flags.writeable = False
     return out

@@ -140,9 +140,14 @@ def balance_csr(indptr, indices, data, q, mu, dim):
         for k in range(indptr[row], indptr[row + 1]):
             data_s[k] = data[k] * (srt[row] * srt[indices[k]])
     q_norm = np.sqrt(q2)
-    f2, r2, u2 = error_parts(np.zeros(m), q, mu, np.zeros(mu.shape[0]), dim, LAW_COULOMB)
-    zero_error = relative_error(f2, r2, u2, q_norm)
-    return a, b, data_s, q_s, q_norm, np.sqrt(qs2), zero_error
+    return a, b, data_s, q_s, q_norm, np.sqrt(qs2), coulomb_zero_error(q, mu, dim, q_norm)
+
+
+@njit(cache=True)
+def coulomb_zero_error(q, mu, dim, q_norm):
+    """Siconos' relative error of ``r = 0`` (``u = q``, ``q_norm = ||q||``) for the Coulomb law."""
+    f2, r2, u2 = error_parts(np.zeros(q.shape[0]), q, mu, np.zeros(mu.shape[0]), dim, LAW_COULOMB)
+    return relative_error(f2, r2, u2, q_norm)
 
 
 @njit(cache=True)
