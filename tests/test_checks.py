@@ -209,3 +209,28 @@ def test_condensation_in_one_block_equals_the_chunked_product(seed):
         assert np.array_equal(getattr(one.W, name), getattr(chunked.W, name)), name
     assert np.array_equal(one.q, chunked.q)
     assert 0.0 not in one.W.data
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_compiled_velocity_is_scipys_bit_for_bit(seed):
+    """checks.velocity (compiled CSR mat-vec) = problem.velocity = W @ r + q exactly:
+    empty rows, unsorted column indices and a read-only q included."""
+    import scipy.sparse as sp
+    from socp_cd.solvers.kernels.dense import csr_matvec_add
+    rng = np.random.default_rng(80 + seed)
+    m = 3 * (1 + seed * 7)
+    A = sp.random(m, m, density=0.3, random_state=seed, format="csr") * 1e3
+    A = A.tocsr()
+    A.data[:] = rng.standard_normal(A.nnz) * 10.0 ** rng.uniform(-8, 8, A.nnz)
+    if seed == 3 and A.nnz > 1:                       # unsorted columns within rows
+        for i in range(m):
+            lo, hi = A.indptr[i], A.indptr[i + 1]
+            A.indices[lo:hi] = A.indices[lo:hi][::-1].copy()
+            A.data[lo:hi] = A.data[lo:hi][::-1].copy()
+        A.has_sorted_indices = False
+    p = FrictionContactProblem(A, rng.standard_normal(m), 0.4, 3)
+    r = rng.standard_normal(m) * 1e4
+    assert np.array_equal(checks.velocity(p, r), p.velocity(r))
+    bp = balanced(p).problem                          # CSR arrays, read-only q
+    assert np.array_equal(checks.velocity(bp, r), bp.W @ r + bp.q)
+    assert np.array_equal(csr_matvec_add(A.indptr, A.indices, A.data, r, np.zeros(m)), A @ r)

@@ -51,6 +51,7 @@ from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, law_parameters
 from . import clarabel_backend, newton, nsgs
 from .kernels.cone import siconos_error
+from .kernels.dense import csr_matvec_add
 from .result import SolverResult
 from .spec import SolverSpec
 
@@ -162,8 +163,9 @@ class _Judge:
             return np.inf
         with np.errstate(all="ignore"):
             if self.fast:
-                e = siconos_error(r, self.problem.W @ r + self.q, self.mu, self.problem.dim,
-                                  self.norm_q)
+                indptr, indices, data = self.problem.csr_parts
+                e = siconos_error(r, csr_matvec_add(indptr, indices, data, r, self.q), self.mu,
+                                  self.problem.dim, self.norm_q)
             else:
                 e = LAW_RESIDUALS[self.formulation](self.problem, r, None, **self.params)
         e = float(e)

@@ -22,8 +22,19 @@ import numpy as np
 from ..errors import InvalidProblemError
 from ..residuals import failed_guard, finite_guard, guard_values
 from .kernels.cone import LAW_COULOMB, error_parts, relative_error
+from .kernels.dense import csr_matvec_add
 from .kernels.scaling import balanced_guard_parts
 from .scaling import balanced
+
+
+def velocity(problem, r):
+    """``u`` of ``r`` (float64 vector of length ``problem.m``): for a local problem the compiled
+    twin of :meth:`~socp_cd.problem.FrictionContactProblem.velocity` (bit-identical, no scipy
+    dispatch), for a global one the problem's own."""
+    if problem.is_global:
+        return problem.velocity(r)
+    indptr, indices, data = problem.csr_parts
+    return csr_matvec_add(indptr, indices, data, r, problem.q)
 
 
 def _parts(problem, r, u):
@@ -74,4 +85,4 @@ def coulomb_guard(problem, r, u) -> dict:
     return finite_guard(out)
 
 
-__all__ = ["coulomb_error", "coulomb_guard", "zero_error"]
+__all__ = ["coulomb_error", "coulomb_guard", "velocity", "zero_error"]

@@ -24,7 +24,7 @@ from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, check_threshold, law_parameters
 from ..residuals import failed_guard, guard
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
-from .checks import coulomb_error, coulomb_guard, zero_error
+from .checks import coulomb_error, coulomb_guard, velocity, zero_error
 from .options import COMMON_OPTIONS, check_common, check_unknown
 from .result import STATUSES, SolverResult
 from .scaling import balance, balanced
@@ -116,7 +116,7 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) 
         return res
     res.r = r
     with np.errstate(all="ignore"):
-        res.u = problem.velocity(r)
+        res.u = velocity(problem, r)
         if problem.is_global and res.v is None:
             res.v = problem.global_velocity(r)
         # compiled checks need a finite u (the references reject any other u)

@@ -163,6 +163,20 @@ def csr_to_dense(indptr, indices, data, n_rows, n_cols):
 
 
 @njit(cache=True)
+def csr_matvec_add(indptr, indices, data, x, b):
+    """``A x + b`` for ``A`` in CSR form (the row sums in scipy's order: bit-identical to
+    ``A @ x + b``), without scipy's per-call dispatch."""
+    n = indptr.shape[0] - 1
+    out = np.empty(n)
+    for i in range(n):
+        s = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            s += data[k] * x[indices[k]]
+        out[i] = s + b[i]
+    return out
+
+
+@njit(cache=True)
 def dense_split(indptr, indices, data, m):
     """Dense ``W`` (from CSR arrays) and its symmetric and skew parts.
 
