@@ -162,8 +162,8 @@ def test_frictionless_asymmetric_goes_to_the_lcp():
 def test_exact_coulomb_starts_with_newton_and_orders_by_features():
     lo, hi = _local(auto.SMALL_NC + 1, 3, 8, mu=0.3), _local(auto.SMALL_NC + 1, 3, 8, mu=2.0)
     f_lo, f_hi = auto.features(lo, "coulomb"), auto.features(hi, "coulomb")
-    def main(order):        # the plain Newton stages are tested apart
-        return [m for m, _ in order if not m.startswith("newton_plain")]
+    def main(order):        # the plain Newton stages and the NSGS probe are tested apart
+        return [m for m, _ in order if not m.startswith("newton_plain") and m != "nsgs_probe"]
     assert main(auto.stage_order(lo, "coulomb", f_lo))[:3] == ["newton", "nsgs", "clarabel"]
     assert main(auto.stage_order(hi, "coulomb", f_hi))[:3] == ["newton", "clarabel", "nsgs"]
     for nc in (1, 4):                   # small: NSGS first (one contact: one local solve)
@@ -217,3 +217,51 @@ def test_cold_plain_stage_starts_from_zero_and_plain_stages_are_capped(monkeypat
     assert seen[1]["r0"] is None                            # cold: r = 0
     assert all(s["policy"] == "plain" and s["max_iter"] == auto.PLAIN_MAX_ITER for s in seen)
     assert seen[0]["time_limit"] <= auto.PLAIN_SHARE * 100.0 + 1e-9   # a small share
+
+
+def test_large_local_problems_start_with_an_nsgs_probe(monkeypatch):
+    big, small, g = _local(auto.SMALL_NC + 1, 3, 8, mu=0.3), _local(4, 3, 8), _global(1)
+    names = [m for m, _ in auto.stage_order(big, "coulomb", auto.features(big, "coulomb"))]
+    assert names[:2] == ["nsgs_probe", "newton"] and names.count("nsgs_probe") == 1
+    for p in (small, g):                  # small local problems run NSGS itself; global: Newton
+        assert "nsgs_probe" not in [m for m, _ in auto.stage_order(p, "coulomb",
+                                                                     auto.features(p, "coulomb"))]
+    monkeypatch.setattr(auto, "PROBE_SWEEPS", 0)      # 0: no probe
+    assert auto.stage_order(big, "coulomb", auto.features(big, "coulomb"))[0][0] == "newton"
+
+
+def _recording_stage(log, name, result_r):
+    """A fake stage recording ``r0``, ``max_iter`` and the options it was called with."""
+    def func(problem, formulation, *, tol, max_iter, r0, history, time_limit, verbose,
+             inner_settings, **options):
+        log.append({"name": name, "r0": None if r0 is None else r0.copy(), "max_iter": max_iter,
+                    "options": dict(options)})
+        r = result_r(problem) if callable(result_r) else result_r
+        return SolverResult(r=r, status="max_iter", iterations=1)
+    return SolverSpec(name, func, ("coulomb",), global_native=("coulomb",))
+
+
+@pytest.mark.parametrize("close", [False, True])
+def test_probe_is_capped_and_newton_starts_afresh_after_a_far_probe(monkeypatch, close):
+    p = _local(4, 3, 2)
+    a, _ = contact_scales(p)
+    ref = socp_cd.solve(p, "nsgs", tol=1e-14, max_iter=5000).r / a      # balanced units
+    probe_r = ref * (1 + 1e-8) if close else np.zeros(p.m)
+    log = []
+    monkeypatch.setitem(auto._STAGES, "nsgs_probe", (_recording_stage(log, "probe", probe_r), {}))
+    monkeypatch.setitem(auto._STAGES, "newton",
+                        (_recording_stage(log, "newton", lambda q: np.full(q.m, np.nan)), {}))
+    for max_iter, cap in ((None, auto.PROBE_SWEEPS), (5, 5), (10 ** 6, auto.PROBE_SWEEPS)):
+        log.clear()
+        res = socp_cd.solve(p, "auto", tol=1e-15, max_iter=max_iter,
+                            methods=("nsgs_probe", "newton"))
+        probe, newton_stage = log
+        assert probe["max_iter"] == cap
+        err = res.info["path"][0]["error"]
+        assert (err <= auto.WARM_MAX) == close
+        if close:      # near a solution: Newton continues from the probe, warm proximal term
+            assert np.array_equal(newton_stage["r0"], probe_r)
+            assert newton_stage["options"]["alpha0"] == auto.newton.WARM_ALPHA0
+        else:          # far: Newton from the caller's start (none), default proximal term
+            assert newton_stage["r0"] is None and "alpha0" not in newton_stage["options"]
+        assert np.allclose(res.r, a * probe_r, rtol=1e-15, atol=0)   # the best iterate is returned

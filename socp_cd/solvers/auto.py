@@ -14,7 +14,9 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
 * ``"coulomb"`` (exact law): local problems with at most :data:`SMALL_NC`
   contacts: NSGS, then the proximal semismooth Newton method
   (:mod:`socp_cd.solvers.newton`), the Clarabel De Saxcé fixed point and
-  Newton again; larger or global problems: Newton, then — ordered by friction
+  Newton again; larger local problems: an NSGS *probe* of at most
+  :data:`PROBE_SWEEPS` sweeps first (then Newton starts afresh unless the probe
+  came within :data:`WARM_MAX`); larger or global problems: Newton, then — ordered by friction
   range and dimension — NSGS and the fixed point, then Newton again from the
   best iterate when an earlier stage improved it.
 
@@ -69,9 +71,15 @@ STAGE_SHARE = 0.5
 PLAIN_STALL = 50
 #: ... and after at most this many steps (unless ``max_iter`` is given)
 PLAIN_MAX_ITER = 200
+#: local exact-Coulomb problems with more than SMALL_NC contacts start with an NSGS
+#: *probe* of at most this many sweeps (0: no probe); problems dumped from simulations
+#: are often solved by NSGS in a few sweeps, where Newton's set-up and factorizations
+#: cost 10x more (formulations/auto.md)
+PROBE_SWEEPS = 30
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
+    "nsgs_probe": (nsgs.SPEC, {}),
     "newton_plain": (newton.SPEC, {"policy": "plain", "stall_window": PLAIN_STALL}),
     "newton_plain_cold": (newton.SPEC, {"policy": "plain", "stall_window": PLAIN_STALL}),
     "nsgs": (nsgs.SPEC, {}),
@@ -93,7 +101,7 @@ _SHARES = {"newton_plain": PLAIN_SHARE, "newton_plain_cold": PLAIN_SHARE}
 
 OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'newton_plain', 'newton_plain_cold', "
-               "'nsgs', 'clarabel', 'clarabel_qp' "
+               "'nsgs', 'nsgs_probe', 'clarabel', 'clarabel_qp' "
                "(default: chosen from the problem's features)",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
 }
@@ -144,7 +152,8 @@ def stage_order(problem, formulation, feats) -> tuple:
         middle = (("clarabel", "coulomb"), ("nsgs", "coulomb"))
     else:
         middle = (("nsgs", "coulomb"), ("clarabel", "coulomb"))
-    return (("newton", "coulomb"),) + plain + middle + (("newton", "coulomb"),)
+    probe = (("nsgs_probe", "coulomb"),) if PROBE_SWEEPS > 0 and not feats["global"] else ()
+    return probe + (("newton", "coulomb"),) + plain + middle + (("newton", "coulomb"),)
 
 
 class _Judge:
@@ -213,6 +222,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     path, hist = [], ([] if history else None)
     iterations, status, message = 0, "max_iter", ""
     version, ran = 0, set()       # version: bumped whenever the best iterate changes
+    after_far_probe = False       # the previous stage was a probe that ended far from tol
     for k, (method, form) in enumerate(order):
         if (method, form, version) in ran:
             continue    # same deterministic method from the same start: nothing to gain
@@ -232,15 +242,20 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 local = problem.to_local()
             target = local
         opts = dict(stage_opts)
-        if method == "newton" and best_r is not None:
+        # a probe that missed by far hands nothing on: Newton from a far NSGS iterate with
+        # the warm proximal parameter was 2-5x slower than from the start (auto_probe.md)
+        fresh_start = after_far_probe
+        if method == "newton" and best_r is not None and not fresh_start:
             opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
         stage_max_iter = _CAPPED.get(method) if max_iter is None else max_iter
+        if method == "nsgs_probe" and PROBE_SWEEPS > 0:   # a probe: at most PROBE_SWEEPS sweeps
+            stage_max_iter = min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
         if form == "tresca":
             opts["threshold"] = options["threshold"]
         t0 = _clock()
         try:
             cold = (method in ALWAYS_COLD or (method in COLD_STAGES and not best_err <= WARM_MAX))
-            start = None if (cold and k > 0) else best_r
+            start = (None if (cold and k > 0) else r0 if fresh_start else best_r)
             res = spec.func(target, form, tol=tol, max_iter=stage_max_iter, r0=start,
                             history=history,
                             time_limit=stage_limit, verbose=verbose, inner_settings={}, **opts)
@@ -251,6 +266,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             message = f"{method}: {type(exc).__name__}: {exc}"
         dt = _clock() - t0
         err = judge(r)
+        after_far_probe = method == "nsgs_probe" and not min(err, best_err) <= WARM_MAX
         path.append({"method": method, "formulation": form, "iterations": its, "time": dt,
                      "error": err, "status": st})
         iterations += its
@@ -285,4 +301,4 @@ SPEC = SolverSpec(
 
 __all__ = ["auto_backend", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
-           "PLAIN_MAX_ITER", "PLAIN_SHARE"]
+           "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS"]

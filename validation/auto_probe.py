@@ -1,0 +1,172 @@
+"""``auto``'s NSGS probe on large local problems: how many sweeps (``auto.PROBE_SWEEPS``)?
+
+Local exact-Coulomb problems with more than ``auto.SMALL_NC`` contacts used to
+start with Newton.  Problems dumped from simulations are often solved by NSGS
+in a few sweeps, where Newton's set-up and factorizations cost ten times
+more; a short NSGS *probe* first costs little when it fails (its iterate is
+handed to Newton).  This study runs ``auto`` with each probe length on:
+
+``--split tune`` (where the value is chosen)
+    the manufactured cases of the evaluation set's tune split and the shared
+    problems with more than ``SMALL_NC`` contacts, and the simulation
+    collections built for tuning (``build_sim_collections.py --tune``:
+    other scenes than the benchmark's);
+``--split holdout`` (run once, to report)
+    the evaluation set's holdout cases of that size and the benchmark's
+    simulation collections (``validation/evalset_sim``).
+
+Every call solves a new problem object (a shallow copy of the problem as
+read), tol 1e-8, ``--time-limit`` per call, min of ``--repeats`` wall times
+(one run when a call takes over 0.5 s), JIT warmed.  No Siconos in this run:
+it is an ablation of our own portfolio; ``newton_vs_siconos.py`` is the
+benchmark against Siconos.
+
+Usage::
+
+    .venv/bin/python validation/auto_probe.py --split tune [--sweeps 0 10 30 100]
+
+Writes ``validation/results/auto_probe_<split>.{csv,md}``.
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import csv
+import math
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+import socp_cd
+from socp_cd.bench.evalset import collection_cases, manufactured_cases
+from socp_cd.bench.reports import shifted_geometric_mean
+from socp_cd.data import shared_problems_dir
+from socp_cd.solvers import auto
+
+HERE = Path(__file__).resolve().parent
+OUT = HERE / "results"
+SIMS = {"tune": [HERE / "evalset_sim_tune"], "holdout": [HERE / "evalset_sim"]}
+
+
+def items(split, max_contacts, min_contacts, sets=("shared", "eval", "sim"), sims=None):
+    data = Path(shared_problems_dir())
+    out = []
+
+    def keep(p):
+        return (not p.is_global and min_contacts < p.n_contacts <= max_contacts
+                and float(np.max(p.mu)) > 0.0)
+    if split == "tune" and "shared" in sets:        # shared/ may be looked at while choosing
+        for path in sorted(data.iterdir()):
+            if path.name != "MANIFEST.tsv":
+                p = socp_cd.read_problem(path)
+                if keep(p):
+                    out.append(("shared", path.name, p))
+    for c in (manufactured_cases(data, max_contacts=max_contacts) if "eval" in sets else ()):
+        if c.split == split and not c.is_global and c.n_contacts > min_contacts:
+            p = c.problem()
+            if keep(p):
+                out.append((c.family, c.case_id, p))
+    for root in ((sims or SIMS[split]) if "sim" in sets else ()):
+        for sub in sorted({q.parent for q in root.rglob("*.hdf5")}):
+            for c in collection_cases(sub):
+                p = c.problem()
+                if keep(p):
+                    out.append(("sim", c.case_id, p))
+    return out
+
+
+def timed(p, sweeps, tol, time_limit, repeats):
+    auto.PROBE_SWEEPS = sweeps
+    best, res = math.inf, None
+    for k in range(repeats):
+        target = copy.copy(p)
+        t0 = time.perf_counter()
+        res = socp_cd.solve(target, "auto", tol=tol, time_limit=time_limit)
+        dt = time.perf_counter() - t0
+        best = min(best, dt)
+        if dt > 0.5:
+            break
+    return best, res
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--split", choices=("tune", "holdout"), required=True)
+    ap.add_argument("--sweeps", type=int, nargs="+", default=[0, 10, 30, 100])
+    ap.add_argument("--tol", type=float, default=1e-8)
+    ap.add_argument("--time-limit", type=float, default=5.0)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--max-contacts", type=int, default=6000)
+    ap.add_argument("--sets", nargs="+", choices=("shared", "eval", "sim"),
+                    default=["shared", "eval", "sim"])
+    ap.add_argument("--sim", type=Path, nargs="*", default=None,
+                    help="simulation collection folders (default: the split's, see above)")
+    ap.add_argument("--tag", default="", help="suffix of the output files")
+    args = ap.parse_args(argv)
+    default = auto.PROBE_SWEEPS
+    its = items(args.split, args.max_contacts, auto.SMALL_NC, args.sets, args.sim)
+    print(f"{len(its)} problems", flush=True)
+    warm = socp_cd.read_problem(Path(shared_problems_dir()) / "FrictionContact3D_1c.dat")
+    for s in args.sweeps:
+        timed(warm, s, 1e-4, None, 1)
+    rows = []
+    try:
+        for fam, cid, p in its:
+            for s in args.sweeps:
+                dt, res = timed(p, s, args.tol, args.time_limit, args.repeats)
+                err = float(socp_cd.error(p, res.r))
+                path = ";".join(f"{x['method']}:{x['error']:.1e}:{x['time']:.3f}"
+                                for x in res.info.get("path", []))
+                rows.append(dict(family=fam, case=cid, dim=p.dim, nc=p.n_contacts, sweeps=s,
+                                 error=err, solved=bool(err <= args.tol and res.converged),
+                                 time=dt, path=path))
+            print(cid, p.n_contacts, " ".join(f"{r['sweeps']}:{r['error']:.0e}/{r['time']:.3f}s"
+                                              for r in rows if r["case"] == cid), flush=True)
+    finally:
+        auto.PROBE_SWEEPS = default
+    OUT.mkdir(exist_ok=True)
+    with open(OUT / f"auto_probe_{args.split}{args.tag}.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    write_report(rows, args)
+    return 0
+
+
+def write_report(rows, args):
+    groups = defaultdict(list)
+    for r in rows:
+        groups[("sim" if r["family"] == "sim" else "eval+shared", r["dim"], r["sweeps"])].append(r)
+    lines = [f"# auto's NSGS probe on local problems of more than {auto.SMALL_NC} contacts, "
+             f"split `{args.split}` (tol {args.tol:g})", "",
+             f"Generated by `validation/auto_probe.py --split {args.split}`: `auto` with at most "
+             "*sweeps* NSGS sweeps before Newton (0: no probe, Newton first); a new problem object "
+             f"per call, time limit {args.time_limit:g} s, min of {args.repeats} runs (one when a "
+             "call takes over 0.5 s); shared 2-core machine, no Siconos in the run.", "",
+             "| set | dim | probe sweeps | cases | solved | sgm time (10 ms shift, s) | "
+             "median time (s) | time ratio to no probe: median / max |",
+             "|---|---|---|---|---|---|---|---|"]
+    base = {(r["case"]): r["time"] for r in rows if r["sweeps"] == 0}
+    for (fam, dim, s), rs in sorted(groups.items()):
+        ratios = [r["time"] / base[r["case"]] for r in rs if r["case"] in base]
+        solved = sum(r["solved"] for r in rs)
+        rat = (f"{np.median(ratios):.2f} / {max(ratios):.2f}" if ratios else "–")
+        lines.append(f"| {fam} | {dim} | {s} | {len(rs)} | {solved} | "
+                     f"{shifted_geometric_mean([r['time'] for r in rs], 0.01):.4f} | "
+                     f"{np.median([r['time'] for r in rs]):.4f} | {rat} |")
+    lost = [(r["case"], r["sweeps"], r["error"]) for r in rows if not r["solved"]
+            and any(q["solved"] for q in rows if q["case"] == r["case"] and q["sweeps"] == 0)]
+    won = [(r["case"], r["sweeps"], r["error"]) for r in rows if r["solved"]
+           and not any(q["solved"] for q in rows if q["case"] == r["case"] and q["sweeps"] == 0)]
+    lines += ["", f"Solved without a probe, missed with one: {len(lost)}"]
+    lines += [f"- {c} ({s} sweeps): {e:.1e}" for c, s, e in lost]
+    lines += ["", f"Missed without a probe, solved with one: {len(won)}"]
+    lines += [f"- {c} ({s} sweeps): {e:.1e}" for c, s, e in won]
+    (OUT / f"auto_probe_{args.split}{args.tag}.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
