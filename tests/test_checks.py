@@ -234,3 +234,33 @@ def test_compiled_velocity_is_scipys_bit_for_bit(seed):
     bp = balanced(p).problem                          # CSR arrays, read-only q
     assert np.array_equal(checks.velocity(bp, r), bp.W @ r + bp.q)
     assert np.array_equal(csr_matvec_add(A.indptr, A.indices, A.data, r, np.zeros(m)), A @ r)
+
+
+def _claiming_solver(deltas, calls):
+    """A solver that claims convergence and returns the balanced problem's solution
+    perturbed by ``deltas[k]`` on its k-th call (recording the tolerances it is given)."""
+    def func(problem, formulation, *, tol, max_iter=None, r0=None, **kw):
+        ref = socp_cd.solve(problem, "nsgs", tol=1e-14, max_iter=20000).r
+        calls.append(tol)
+        r = ref * (1.0 + deltas[len(calls) - 1])
+        return socp_cd.SolverResult(r=r, status="converged", iterations=1)
+    return func
+
+
+@pytest.mark.parametrize("second, kept", [(1e-13, "retry"), (1e-3, "first"), (1e-6, "retry")])
+def test_retry_after_a_refuted_claim_keeps_the_better_answer(second, kept):
+    """A refuted claim of convergence is retried once with a tighter tol; the retry is kept
+    when it converges, or when it fails by less than the first answer (its larger measure)."""
+    p = _problem(4, 3, seed=21)
+    calls = []
+    res = socp_cd.solve(p, _claiming_solver([1e-4, second], calls), tol=1e-8)
+    assert len(calls) == 2 and calls[1] < calls[0] == 1e-8
+    rec = res.info["retry"]
+    assert rec["kept"] == kept and res.iterations == 2
+    worse = max(res.error, res.info["guard"]["value"])
+    if kept == "retry":
+        assert res.error == rec["retry_error"] < rec["first_error"]
+        assert res.converged == (second == 1e-13)
+    else:
+        assert res.error == rec["first_error"] < rec["retry_error"] and not res.converged
+    assert worse <= max(rec["first_error"], rec["first_guard"])

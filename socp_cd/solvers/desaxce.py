@@ -41,8 +41,9 @@ Accelerations (each optional, measured by ``validation/desaxce_ablation.py``)
   ``polish_switch`` (retried after each 10x gain, and from the best iterate
   at the end); its iterations are counted in ``info["polish_iterations"]``,
   the polished point kept only if its error is lower.  ``options`` holds
-  ``max_iter``, ``law`` and ``cache`` (a dict kept across the calls of one
-  solve, so the polish forms its system once).
+  ``max_iter``, ``law``, ``cache`` (a dict kept across the calls of one
+  solve, so the polish forms its system once) and ``time_limit`` (seconds
+  left of the outer loop's ``time_limit``, None without one).
 
 Small problems (``m <= DENSE_MAX``)
 -----------------------------------
@@ -283,12 +284,14 @@ class FixedPoint:
             target = min(target, itol * 1e-2)
         return max(self.tmin, min(itol, target))
 
-    def polish_from(self, r_start, budget):
-        """Polish from ``r_start``; returns ``(r, err)`` of the polished point or None."""
+    def polish_from(self, r_start, budget, time_left=None):
+        """Polish from ``r_start`` (within ``time_left`` seconds when given); returns
+        ``(r, err)`` of the polished point or None."""
         if self.problem.is_global and self._local is None:
             self._local = self.problem.to_local()   # the polish works on W (formed once)
         target = self._local if self._local is not None else self.problem
-        options = {"max_iter": budget, "law": self.opts["law"], "cache": self._polish_cache}
+        options = {"max_iter": budget, "law": self.opts["law"], "cache": self._polish_cache,
+                   "time_limit": None if time_left is None else max(time_left, 0.0)}
         r_pol, pinfo = self.polish(target, r_start, self.tol, options)
         if pinfo.get("available") is False:
             return None
@@ -296,6 +299,11 @@ class FixedPoint:
         self.info["polish_calls"] += 1
         r_pol = np.asarray(r_pol, dtype=np.float64)
         return r_pol, self.ws.error(r_pol)
+
+    def time_left(self, t_start):
+        """Seconds left of the ``time_limit`` option (None without one)."""
+        limit = self.opts["time_limit"]
+        return None if limit is None else limit - (_time.perf_counter() - t_start)
 
     @staticmethod
     def keep_better(out, r_best, e_best, hist):
@@ -349,7 +357,8 @@ class FixedPoint:
                 break
             if self.polish is not None and err <= min(self.switch, self.retry_factor * polish_at):
                 polish_at = err
-                best_r, best_err = self.keep_better(self.polish_from(r, o["polish_max_iter"]),
+                best_r, best_err = self.keep_better(self.polish_from(r, o["polish_max_iter"],
+                                                                     self.time_left(t_start)),
                                                     best_r, best_err, hist)
                 if best_err <= tol:
                     status, message = "converged", "converged after polish"
@@ -383,7 +392,9 @@ class FixedPoint:
             # hard-friction problems, e.g. mu = 10, the loop stalls near 1e-3 and
             # Newton needs ~100 steps)
             budget = (FINAL_POLISH_FACTOR if ws.dense else 3) * o["polish_max_iter"]
-            best_r, best_err = self.keep_better(self.polish_from(best_r, budget), best_r, best_err,
+            best_r, best_err = self.keep_better(self.polish_from(best_r, budget,
+                                                                 self.time_left(t_start)),
+                                                best_r, best_err,
                                                 hist)
             if best_err <= tol:
                 status, message = "converged", "converged after polish"

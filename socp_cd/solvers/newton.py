@@ -798,7 +798,7 @@ def newton_polish(problem, r, tol, options):
     a dict kept by the caller across calls (holds the Newton system of
     ``problem``, formed once).  Returns the best iterate (never worse than
     ``r``) and ``{"iterations", "error"}`` (Siconos' error of the returned
-    ``r``).
+    ``r``); ``options.get("time_limit")`` (seconds) bounds its Newton loop.
     """
     if options.get("law", "coulomb") != "coulomb":
         return associated_polish(problem, r, tol, options)
@@ -814,7 +814,7 @@ def newton_polish(problem, r, tol, options):
         _, r, its, _, info = prox_newton(
             system, mu, r, tol=POLISH_MARGIN * float(tol), max_iter=int(options["max_iter"]),
             alpha0=WARM_ALPHA0, alpha_min=1e-10, inner_max_iter=10, stall_window=50,
-            time_limit=None, history=False)
+            time_limit=options.get("time_limit"), history=False)
     err = float(info["internal_error"])
     # Alart–Curnier iterates may sit slightly outside K: keep P_K(r) when no worse
     r_in = project_cone_stacked(r, mu, problem.dim, np.empty_like(r))

@@ -186,9 +186,10 @@ def _retry(first, problem, spec, target, scaling, formulation, tol, options, tim
     (``guard["balanced_siconos"]``) and ours (errors near a solution are
     proportional), the run warm-started from its ``r`` unless that ``r`` is too
     large for ``u = W r + q`` to mean anything (then from ``r = 0``).  The retry is
-    kept when it converged; otherwise the first answer (the backend's at the
-    requested ``tol``) stays.  Either way ``iterations`` counts both runs
-    and ``info["retry"]`` records them.
+    kept when it converged, or when it did not but its worse measure (the
+    larger of the law's residual and the guard) is below the first answer's;
+    otherwise the first answer (the backend's at the requested ``tol``) stays.
+    Either way ``iterations`` counts both runs and ``info["retry"]`` records them.
     """
     checked = first.info["guard"]
     # the backend measures the balanced residual with Siconos' normalization; ask it for
@@ -206,7 +207,9 @@ def _retry(first, problem, spec, target, scaling, formulation, tol, options, tim
     record = {"tol": tighter, "first_error": first.error, "first_guard": checked["value"],
               "first_iterations": first.iterations, "retry_error": res.error,
               "retry_iterations": res.iterations}
-    if res.converged:
+    def worse(x):
+        return max(x.error, x.info["guard"]["value"])
+    if res.converged or worse(res) < worse(first):
         res.iterations += first.iterations
         res.info["retry"] = dict(record, kept="retry")
         return res
