@@ -296,7 +296,8 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
     relative to the velocity scale, and ``u`` computable to ``tol`` from
     ``r``).  When the backend claims convergence and ``solve`` refuses it,
     the backend is run once more with a tolerance tightened by the gap; the
-    retry is kept only if it converges (``info["retry"]``).
+    retry is kept when it converges or fails by less than the first answer
+    (the larger of its residual and guard; ``info["retry"]``).
     ``result.trivial`` says whether ``r = 0`` already met ``tol``.
 
     Raises
