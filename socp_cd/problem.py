@@ -96,6 +96,17 @@ def _as_sparse(A, name: str, source: str | None) -> sp.csr_matrix:
     return A
 
 
+def csr_of_nonzeros(D) -> sp.csr_matrix:
+    """The nonzero entries of a dense 2-D float array as a CSR matrix (sorted columns),
+    without scipy's dense-input conversion."""
+    D = np.asarray(D, dtype=np.float64)
+    n, k = D.shape
+    rows, cols = np.nonzero(D)                  # row-major: already in CSR order
+    indptr = np.zeros(n + 1, dtype=np.int32)
+    np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
+    return sp.csr_matrix((D[rows, cols], cols.astype(np.int32), indptr), shape=(n, k))
+
+
 def _as_vector(x, name: str, n: int, source: str | None) -> np.ndarray:
     """Convert *x* to a finite float64 vector of length *n*."""
     _reject_complex(x, name, source)
@@ -644,12 +655,7 @@ class GlobalFrictionContactProblem(_ProblemBase):
         H = self.H.tocsc()
         HT = H.T.tocsr()
         if self.m <= chunk:                  # one block: a dense product, its nonzeros kept
-            Wd = np.asarray(HT @ self.solve_M(H.toarray()))
-            rows, cols = np.nonzero(Wd)      # row-major: CSR order, sorted columns
-            indptr = np.zeros(self.m + 1, dtype=np.int32)
-            np.cumsum(np.bincount(rows, minlength=self.m), out=indptr[1:])
-            W = sp.csr_matrix((Wd[rows, cols], cols.astype(np.int32), indptr),
-                              shape=(self.m, self.m))
+            W = csr_of_nonzeros(np.asarray(HT @ self.solve_M(H.toarray())))
         else:
             blocks = []
             for start in range(0, self.m, chunk):

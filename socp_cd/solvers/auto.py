@@ -244,8 +244,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         opts = dict(stage_opts)
         # a probe that missed by far hands nothing on: Newton from a far NSGS iterate with
         # the warm proximal parameter was 2-5x slower than from the start (auto_probe.md)
-        fresh_start = after_far_probe
-        if method == "newton" and best_r is not None and not fresh_start:
+        if method == "newton" and best_r is not None and not after_far_probe:
             opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
         stage_max_iter = _CAPPED.get(method) if max_iter is None else max_iter
         if method == "nsgs_probe" and PROBE_SWEEPS > 0:   # a probe: at most PROBE_SWEEPS sweeps
@@ -255,7 +254,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         t0 = _clock()
         try:
             cold = (method in ALWAYS_COLD or (method in COLD_STAGES and not best_err <= WARM_MAX))
-            start = (None if (cold and k > 0) else r0 if fresh_start else best_r)
+            start = (None if (cold and k > 0) else r0 if after_far_probe else best_r)
             res = spec.func(target, form, tol=tol, max_iter=stage_max_iter, r0=start,
                             history=history,
                             time_limit=stage_limit, verbose=verbose, inner_settings={}, **opts)

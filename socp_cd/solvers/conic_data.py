@@ -42,6 +42,7 @@ from functools import lru_cache
 import numpy as np
 import scipy.sparse as sp
 
+from ..problem import csr_of_nonzeros
 
 
 #: cone kinds of the neutral ``(kind, size)`` cones: zero cone ``{0}^size``, nonnegative
@@ -372,11 +373,7 @@ def dense_to_csr(D) -> sp.csr_matrix:
     if n <= DENSE_P_MAX:
         indices, indptr = _dense_csr_pattern(n, k)
         return sp.csr_matrix((D.reshape(-1).copy(), indices.copy(), indptr.copy()), shape=(n, k))
-    nz = D != 0.0
-    rows, cols = np.nonzero(nz)                 # row-major: already in CSR order
-    indptr = np.zeros(n + 1, dtype=np.int32)
-    np.cumsum(nz.sum(axis=1), out=indptr[1:])
-    return sp.csr_matrix((D[rows, cols], cols.astype(np.int32), indptr), shape=(n, k))
+    return csr_of_nonzeros(D)
 
 
 def upper_csc_arrays(S):
