@@ -26,7 +26,7 @@ import numpy as np
 from .cones import (fenchel_young_gap, in_cone_violation, natural_map,
                     normal_velocity_violation)
 
-_EPS = np.finfo(float).eps
+_EPS = float(np.finfo(float).eps)      # a Python float (guard_values works in Python floats)
 
 
 def checked_pair(problem, r, u=None):
@@ -278,14 +278,15 @@ def guard_values(measured, r_norm, u_norm, q_norm) -> dict:
     ``"velocity_scale"`` (``V``) is returned too, for :func:`coulomb_parts`;
     :func:`finite_guard` drops it.
     """
-    with np.errstate(all="ignore"):
-        vel = max(q_norm, u_norm)
-        vel = vel if vel > _EPS else 1.0
-        siconos = max(q_norm, r_norm, u_norm)
-        siconos = siconos if siconos > _EPS else 1.0
-        # the law's residuals divide by Siconos' normalization: rescale to the velocity one
-        out = {"error": measured * (siconos / vel), "balanced_siconos": measured,
-               "rounding": _EPS * r_norm / vel}
+    # Python floats: an overflow ends as inf, silently (no NumPy error state to manage)
+    measured, r_norm, u_norm, q_norm = float(measured), float(r_norm), float(u_norm), float(q_norm)
+    vel = max(q_norm, u_norm)
+    vel = vel if vel > _EPS else 1.0
+    siconos = max(q_norm, r_norm, u_norm)
+    siconos = siconos if siconos > _EPS else 1.0
+    # the law's residuals divide by Siconos' normalization: rescale to the velocity one
+    out = {"error": measured * (siconos / vel), "balanced_siconos": measured,
+           "rounding": _EPS * r_norm / vel}
     out["value"] = max(out["error"], out["rounding"])
     out["velocity_scale"] = vel
     return out

@@ -264,3 +264,17 @@ def test_retry_after_a_refuted_claim_keeps_the_better_answer(second, kept):
     else:
         assert res.error == rec["first_error"] < rec["retry_error"] and not res.converged
     assert worse <= max(rec["first_error"], rec["first_guard"])
+
+
+def test_factor_kernels_equal_numpy():
+    from socp_cd.solvers.kernels.scaling import factor_summary, times_factors
+    for dim, nc in ((2, 5), (3, 9)):
+        p = _problem(nc, dim, seed=dim)
+        rec = balanced(p)
+        a, b = rec.a, rec.b
+        d = b[::dim] / a[::dim]
+        assert factor_summary(a, b, dim) == (np.sqrt(a[0] * b[0]), d.min(), d.max())
+        r = np.random.default_rng(dim).standard_normal(p.m)
+        np.testing.assert_array_equal(times_factors(r, a), r * a)
+    huge = np.full(3, 1e300)
+    assert np.isinf(times_factors(huge, huge)).all()    # overflow: inf, no warning raised

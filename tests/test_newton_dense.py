@@ -179,3 +179,33 @@ def test_block_rho_kernel_equals_numpy_reference():
         np.testing.assert_allclose(rho, rho_n, rtol=1e-14)
         assert rho[0] == pytest.approx(1e8 / ref, rel=1e-14)
         assert nt._system_rho(system, "block")[0] is nt._system_rho(system, "block")[1]
+
+
+def test_projected_error_kernel_equals_the_three_calls():
+    from socp_cd.solvers.kernels.newton_dense import projected_error
+    for dim in (2, 3):
+        p = manufactured(6, dim, 0.7, contact_scale=1e3, seed=10 + dim)
+        system = nt._LocalSystem(p, "dense")
+        rng = np.random.default_rng(dim)
+        mu = np.ascontiguousarray(p.mu, dtype=np.float64)
+        for r in (np.zeros(p.m), rng.standard_normal(p.m), 1e6 * rng.standard_normal(p.m)):
+            ref_r = project_cone_stacked(r, mu, dim, np.empty_like(r))
+            ref = nt.siconos_error(ref_r, system.start(ref_r), mu, dim, system.norm_q)
+            out = np.empty_like(r)
+            assert projected_error(system.W, system.q, system.norm_q, mu, dim, r, out) == ref
+            np.testing.assert_array_equal(out, ref_r)
+
+
+def test_polish_given_the_dense_arrays_equals_the_polish_that_forms_them():
+    """The De Saxcé loop hands its dense W and q to the polish (cache["dense"])."""
+    for name in ("FrictionContact3D_1c.dat", "Rover1039.dat", "NESpheres_10_1.dat"):
+        p = _shared(name)
+        r0 = socp_cd.solve(p, "clarabel", tol=1e-8, polish=None, max_iter=1).r
+        W = np.ascontiguousarray(p.W.toarray())
+        q = np.array(p.q, dtype=np.float64)
+        cache = {"dense": (W, q)}
+        a = nt.newton_polish(p, r0, 1e-8, {"max_iter": 15, "cache": cache})
+        b = nt.newton_polish(p, r0, 1e-8, {"max_iter": 15})
+        assert cache["newton_system"].W is W           # used as given, not copied
+        np.testing.assert_array_equal(a[0], b[0])
+        assert a[1] == b[1]

@@ -79,9 +79,8 @@ def coulomb_guard(problem, r, u) -> dict:
     q_norm = rec.q_norm
     out = guard_values(float(relative_error(f2, r2, u2, q_norm)), math.sqrt(r2), math.sqrt(u2),
                        q_norm)
-    vel = out["velocity_scale"]
-    with np.errstate(all="ignore"):    # as coulomb_parts (the NumPy reference)
-        out.update(cone=cone / vel, normal_velocity=normal / vel, complementarity=gap / vel ** 2)
+    vel = out["velocity_scale"]    # Python floats (vel > 0): an overflow ends as inf, silently
+    out.update(cone=cone / vel, normal_velocity=normal / vel, complementarity=gap / (vel * vel))
     return finite_guard(out)
 
 

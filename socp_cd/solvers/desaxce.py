@@ -40,10 +40,14 @@ Accelerations (each optional, measured by ``validation/desaxce_ablation.py``)
   warm-started from the outer iterate) once the outer error is below
   ``polish_switch`` (retried after each 10x gain, and from the best iterate
   at the end); its iterations are counted in ``info["polish_iterations"]``,
-  the polished point kept only if its error is lower.  ``options`` holds
+  the polished point kept only if its error is lower (``info["error"]``,
+  when the polish reports it, is taken as Siconos' Coulomb error of the
+  returned ``r``; otherwise the loop computes it).  ``options`` holds
   ``max_iter``, ``law``, ``cache`` (a dict kept across the calls of one
-  solve, so the polish forms its system once) and ``time_limit`` (seconds
-  left of the outer loop's ``time_limit``, None without one).
+  solve, so the polish forms its system once; on the dense path it starts as
+  ``{"dense": (W, q)}``, the arrays formed here) and ``time_limit`` (seconds
+  left of the outer loop's ``time_limit``, None without one).  The
+  dispatcher recomputes the error of the answer in any case.
 
 Small problems (``m <= DENSE_MAX``)
 -----------------------------------
@@ -135,6 +139,8 @@ class DenseSystem:
         indptr, indices, data = problem.csr_parts
         Wd, Ws, Wa, asym, scale, _ = dense_split(indptr, indices, data, problem.m)
         q = np.ascontiguousarray(problem.q, dtype=np.float64)
+        if not q.flags.writeable:     # (the balanced copy's q) one signature of the kernels
+            q = q.copy()
         return cls(Wd, Ws, Wa, float(asym), float(scale), q,
                    np.ascontiguousarray(problem.mu, dtype=np.float64),
                    float(np.sqrt(np.dot(q, q))), problem.dim)
@@ -259,7 +265,8 @@ class FixedPoint:
             raise UnsupportedError(f"polish {pol!r}: the backend passes the polish as a callable "
                                    "(socp_cd.solvers.newton.resolve_polish)")
         self.polish = pol
-        self._polish_cache = {}
+        # the polish's Newton system reuses the dense W and q formed here
+        self._polish_cache = {"dense": (self.ws.system.W, self.ws.system.q)} if self.ws.dense else {}
         self.accel = Anderson(opts["memory"]) if opts["accel"] == "anderson" else None
         self.info = {"polish_iterations": 0, "polish_calls": 0}
         self._local = None
@@ -298,7 +305,10 @@ class FixedPoint:
         self.info["polish_iterations"] += int(pinfo.get("iterations", 0))
         self.info["polish_calls"] += 1
         r_pol = np.asarray(r_pol, dtype=np.float64)
-        return r_pol, self.ws.error(r_pol)
+        err = pinfo.get("error")
+        if err is None or not self.friction:   # (a polish reports Siconos' Coulomb error)
+            err = self.ws.error(r_pol)
+        return r_pol, float(err)
 
     def time_left(self, t_start):
         """Seconds left of the ``time_limit`` option (None without one)."""

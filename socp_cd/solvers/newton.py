@@ -178,9 +178,20 @@ class _SingularStep(Exception):
 class _LocalSystem:
     """Newton steps of the local problem ``u = W r + q``."""
 
-    def __init__(self, problem, linear_solver):
-        indptr, indices, data = problem.csr_parts      # no scipy matrix needed on the dense path
+    def __init__(self, problem, linear_solver, dense=None):
+        """``dense``: ``(W, q)`` of ``problem`` already formed (float64, C-contiguous,
+        writeable; used as they are) by a caller that has them, e.g. the De Saxcé
+        loop handing its iterate to :func:`newton_polish`."""
         self.d, self.m = problem.dim, problem.m
+        if dense is not None and self.m <= COMPILED_LU_MAX_M:
+            self.W, self.q = dense
+            self.kind, self.compiled = "dense", True
+            self.J = np.empty((self.m, self.m))
+            self.norm_q = problem.q_norm
+            self.factorizations = 0
+            self.rho_cache = {}
+            return
+        indptr, indices, data = problem.csr_parts      # no scipy matrix needed on the dense path
         self.q = np.ascontiguousarray(problem.q, dtype=np.float64)
         if not self.q.flags.writeable:   # (the balanced copy's q is read-only)
             self.q = self.q.copy()       # one signature of the compiled loop
@@ -796,7 +807,8 @@ def newton_polish(problem, r, tol, options):
     associated law is not modelled by the Alart–Curnier equation: delegated to
     :func:`socp_cd.solvers.polish.associated_polish`), ``options.get("cache")``
     a dict kept by the caller across calls (holds the Newton system of
-    ``problem``, formed once).  Returns the best iterate (never worse than
+    ``problem``, formed once; a caller that has ``W`` and ``q`` as dense arrays
+    may put them there as ``cache["dense"] = (W, q)``, see :class:`_LocalSystem`).  Returns the best iterate (never worse than
     ``r``) and ``{"iterations", "error"}`` (Siconos' error of the returned
     ``r``); ``options.get("time_limit")`` (seconds) bounds its Newton loop.
     """
@@ -805,10 +817,12 @@ def newton_polish(problem, r, tol, options):
     cache = options.get("cache")
     system = None if cache is None else cache.get("newton_system")
     if system is None:
-        system = _LocalSystem(problem, "auto")
+        system = _LocalSystem(problem, "auto", None if cache is None else cache.get("dense"))
         if cache is not None:
             cache["newton_system"] = system
     mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
+    if not mu.flags.writeable:      # one compiled signature (numba types read-only arrays apart)
+        mu = mu.copy()
     r = np.array(r, dtype=np.float64).reshape(-1)
     with _one_blas_thread(system):
         _, r, its, _, info = prox_newton(
@@ -817,8 +831,12 @@ def newton_polish(problem, r, tol, options):
             time_limit=options.get("time_limit"), history=False)
     err = float(info["internal_error"])
     # Alart–Curnier iterates may sit slightly outside K: keep P_K(r) when no worse
-    r_in = project_cone_stacked(r, mu, problem.dim, np.empty_like(r))
-    e_in = siconos_error(r_in, system.start(r_in), mu, problem.dim, system.norm_q)
+    r_in = np.empty_like(r)
+    if system.compiled:      # the three kernels below in one compiled call
+        e_in = nd.projected_error(system.W, system.q, system.norm_q, mu, problem.dim, r, r_in)
+    else:
+        project_cone_stacked(r, mu, problem.dim, r_in)
+        e_in = siconos_error(r_in, system.start(r_in), mu, problem.dim, system.norm_q)
     if e_in <= err:
         r, err = r_in, float(e_in)
     return r, {"iterations": int(its), "error": err}

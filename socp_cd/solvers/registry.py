@@ -115,16 +115,23 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) 
         res.message = res.message or "backend returned non-finite or mis-sized impulses"
         return res
     res.r = r
-    with np.errstate(all="ignore"):
-        res.u = velocity(problem, r)
-        if problem.is_global and res.v is None:
-            res.v = problem.global_velocity(r)
-        # compiled checks need a finite u (the references reject any other u)
-        compiled = bool(np.isfinite(res.u).all())
-        # the law's residual and Siconos' Coulomb error, each computed once (one when equal)
-        judged = {name: (coulomb_error(problem, r, res.u) if compiled and name == "coulomb" else
-                         law_residual(problem, name, r, res.u, **params))
-                  for name in {formulation, "coulomb"}}
+    if problem.is_global:
+        with np.errstate(all="ignore"):
+            res.u = velocity(problem, r)
+            if res.v is None:
+                res.v = problem.global_velocity(r)
+    else:
+        res.u = velocity(problem, r)        # compiled: an overflow ends as inf, silently
+    # compiled checks need a finite u (the references reject any other u)
+    compiled = bool(np.isfinite(res.u).all())
+    if compiled and formulation == "coulomb":   # compiled throughout: no NumPy error state
+        judged = {"coulomb": coulomb_error(problem, r, res.u)}
+    else:
+        with np.errstate(all="ignore"):
+            # the law's residual and Siconos' Coulomb error, each computed once
+            judged = {name: (coulomb_error(problem, r, res.u) if compiled and name == "coulomb"
+                             else law_residual(problem, name, r, res.u, **params))
+                      for name in {formulation, "coulomb"}}
     res.coulomb_error, law = judged["coulomb"], judged[formulation]
     if not np.isfinite(res.coulomb_error):
         res.coulomb_error = float("inf")

@@ -32,7 +32,8 @@ from typing import Optional
 import numpy as np
 
 from ..problem import FrictionContactProblem
-from .kernels.scaling import balance_csr, coulomb_zero_error, jacobi_diagonal, unit_factors
+from .kernels.scaling import (balance_csr, coulomb_zero_error, factor_summary, jacobi_diagonal,
+                              times_factors, unit_factors)
 
 
 @dataclass(frozen=True)
@@ -126,8 +127,7 @@ class Scaling:
         r = np.asarray(r, dtype=np.float64).reshape(-1)
         if r.shape != self.a.shape:
             return r
-        with np.errstate(all="ignore"):
-            return r * self.a
+        return times_factors(r, self.a)
 
     def threshold_to_scaled(self, g):
         """A per-contact bound on ``||r_T||`` (Tresca threshold) in balanced units."""
@@ -135,9 +135,9 @@ class Scaling:
 
     def describe(self) -> dict:
         """Short record for ``result.info["scaling"]``."""
-        d = self.b[::self.dim] / self.a[::self.dim]          # = d_i (mean diagonal of W_ii)
-        sigma = float(np.sqrt(self.a[0] * self.b[0]))
-        return {"velocity_scale": sigma, "diag_min": float(d.min()), "diag_max": float(d.max())}
+        # d_i = b_i / a_i (mean diagonal of W_ii); one compiled pass
+        sigma, d_min, d_max = factor_summary(self.a, self.b, self.dim)
+        return {"velocity_scale": sigma, "diag_min": d_min, "diag_max": d_max}
 
 
 def balance(problem: FrictionContactProblem) -> Scaling:

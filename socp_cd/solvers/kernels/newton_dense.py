@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .cone import siconos_error
+from .cone import project_cone_stacked, siconos_error
 from .dense import lu_solve, matvec, matvec_into
 from .newton_ac import ac_blocks, dense_jacobian
 
@@ -220,3 +220,17 @@ __all__ = ["prox_newton_dense", "new_state", "RUNNING", "CONVERGED", "STALLED",
            "NUMERICAL_ERROR", "FSTATE", "ISTATE", "F_ALPHA", "F_ALPHA_MAX_USED", "F_ERR",
            "F_BEST_ERR", "I_STARTED", "I_STATUS", "I_IT", "I_BEST_IT", "I_NEWTON",
            "I_BACKTRACK", "I_LS_FAIL", "I_SINGULAR", "I_REJECTED", "I_FACTORIZATIONS"]
+
+
+@njit(cache=True)
+def projected_error(W, q, norm_q, mu, d, r, out):
+    """``P_K(r)`` into ``out`` and Siconos' error of it (``u = W out + q``), one call.
+
+    The polish's last check (:func:`socp_cd.solvers.newton.newton_polish`):
+    Alart–Curnier iterates may sit slightly outside ``K``.  The same kernels,
+    in the same order, as the three separate calls of the sparse path.
+    """
+    project_cone_stacked(r, mu, d, out)
+    u = np.empty(out.shape[0])
+    matvec_into(W, out, q, u)
+    return siconos_error(out, u, mu, d, norm_q)

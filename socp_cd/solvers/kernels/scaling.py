@@ -177,3 +177,26 @@ def balanced_guard_parts(r, u, a, b, mu, dim):
 
 
 __all__ = ["balance_csr", "balanced_guard_parts", "jacobi_diagonal", "unit_factors"]
+
+
+@njit(cache=True)
+def times_factors(r, a):
+    """``r * a`` (a new array; an overflow ends as inf, no NumPy error state involved)."""
+    out = np.empty(r.shape[0])
+    for k in range(r.shape[0]):
+        out[k] = r[k] * a[k]
+    return out
+
+
+@njit(cache=True)
+def factor_summary(a, b, dim):
+    """``(sqrt(a_0 b_0), min_i d_i, max_i d_i)`` with ``d_i = b_i / a_i`` at each contact's
+    first component (:meth:`socp_cd.solvers.scaling.Scaling.describe`)."""
+    if a.shape[0] == 0:
+        return np.nan, np.nan, np.nan
+    lo, hi = np.inf, -np.inf
+    for k in range(0, a.shape[0], dim):
+        d = b[k] / a[k]
+        lo = min(lo, d)
+        hi = max(hi, d)
+    return np.sqrt(a[0] * b[0]), lo, hi
