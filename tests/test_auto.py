@@ -265,3 +265,19 @@ def test_probe_is_capped_and_newton_starts_afresh_after_a_far_probe(monkeypatch,
         else:          # far: Newton from the caller's start (none), default proximal term
             assert newton_stage["r0"] is None and "alpha0" not in newton_stage["options"]
         assert np.allclose(res.r, a * probe_r, rtol=1e-15, atol=0)   # the best iterate is returned
+
+
+def test_large_2d_local_problems_run_the_fixed_point_before_newton():
+    # formulations/auto.md: 2D local problems of more than LARGE_2D_NC contacts (granular
+    # deposits): probe, Clarabel fixed point, then the Newton stages; smaller 2D, 3D of any
+    # size and global 2D keep Newton right after the probe
+    p2, p3 = _local(4, 2, 8, mu=0.3), _local(4, 3, 8, mu=0.3)
+    def order(p, nc, glob=False):
+        feats = dict(auto.features(p, "coulomb"), n_contacts=nc, **{"global": glob})
+        return [m for m, _ in auto.stage_order(p, "coulomb", feats)]
+    big = order(p2, auto.LARGE_2D_NC + 1)
+    assert big[:4] == ["nsgs_probe", "clarabel", "newton", "newton_plain"]
+    assert big.count("clarabel") == 1 and big[-1] == "newton"
+    for names in (order(p2, auto.LARGE_2D_NC), order(p3, 10 * auto.LARGE_2D_NC)):
+        assert names[:2] == ["nsgs_probe", "newton"]
+    assert order(p2, 10 * auto.LARGE_2D_NC, glob=True)[0] == "newton"

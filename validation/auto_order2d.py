@@ -1,0 +1,128 @@
+"""``auto``'s stage order on large 2D local problems: Newton first, or the Clarabel fixed point?
+
+In the Siconos benchmark (``newton_vs_siconos.py``, 1 s per call) ``auto``
+solved fewer of the held-out 2D deposit steps than ``clarabel`` alone: after
+the NSGS probe its Newton stage took half the budget and stalled, and the
+fixed point came fourth with what was left.  This study runs each candidate
+order on ``--split tune`` (where the rule ``auto.LARGE_2D_NC`` was chosen:
+the evaluation set's 2D tune cases and the shared 2D problems with more than
+``auto.SMALL_NC`` contacts, and the tuning simulations of
+``build_sim_collections.py --tune``) or ``--split holdout`` (run once, to
+report: the evaluation set's 2D holdout cases of that size and the
+benchmark's simulation collections):
+
+``newton_first``
+    the NSGS probe, Newton, the plain Newton stages, the fixed point, NSGS,
+    Newton (``auto``'s order before the rule);
+``clarabel_first``
+    the NSGS probe, then the Clarabel fixed point, then the Newton stages
+    and NSGS;
+``auto``
+    :func:`socp_cd.solvers.auto.stage_order` as it stands (with the rule:
+    ``clarabel_first`` above ``LARGE_2D_NC`` contacts, ``newton_first`` below);
+``clarabel``
+    ``solver="clarabel"`` alone (the reference the benchmark compared with);
+
+at each ``--time-limits`` value.  A new problem object per call, tol 1e-8,
+min of ``--repeats`` runs (one when a call takes over 0.5 s).  No Siconos in
+the run: an ablation of our own portfolio.
+
+Usage::
+
+    .venv/bin/python validation/auto_order2d.py --split tune [--time-limits 1 5]
+
+Writes ``validation/results/auto_order2d_<split>.{csv,md}``.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+import socp_cd
+from socp_cd.bench.reports import shifted_geometric_mean
+from socp_cd.data import shared_problems_dir
+from socp_cd.solvers import auto
+
+from auto_probe import items, min_wall_time
+
+OUT = Path(__file__).resolve().parent / "results"
+CLARABEL_FIRST = ("nsgs_probe", "clarabel", "newton", "newton_plain", "newton_plain_cold",
+                  "nsgs", "newton")
+NEWTON_FIRST = ("nsgs_probe", "newton", "newton_plain", "newton_plain_cold", "clarabel",
+                "nsgs", "newton")
+VARIANTS = {"newton_first": ("auto", {"methods": NEWTON_FIRST}),
+            "clarabel_first": ("auto", {"methods": CLARABEL_FIRST}),
+            "auto": ("auto", {}),
+            "clarabel": ("clarabel", {})}
+
+
+def timed(p, variant, tol, time_limit, repeats):
+    solver, opts = VARIANTS[variant]
+    return min_wall_time(p, lambda t: socp_cd.solve(t, solver, tol=tol, time_limit=time_limit,
+                                                    **opts), repeats)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--split", choices=("tune", "holdout"), default="tune")
+    ap.add_argument("--time-limits", type=float, nargs="+", default=[1.0, 5.0])
+    ap.add_argument("--tol", type=float, default=1e-8)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--max-contacts", type=int, default=6000)
+    args = ap.parse_args(argv)
+    its = [it for it in items(args.split, args.max_contacts, auto.SMALL_NC) if it[2].dim == 2]
+    print(f"{len(its)} problems", flush=True)
+    warm = socp_cd.read_problem(Path(shared_problems_dir()) / "FC2D_SliderCrankLagrangian00000.dat")
+    for v in VARIANTS:
+        timed(warm, v, 1e-4, None, 1)
+    rows = []
+    for fam, cid, p in its:
+        for tl in args.time_limits:
+            for v in VARIANTS:
+                dt, res = timed(p, v, args.tol, tl, args.repeats)
+                err = float(socp_cd.error(p, res.r))
+                rows.append(dict(family=fam, case=cid, nc=p.n_contacts, time_limit=tl, variant=v,
+                                 error=err, solved=bool(err <= args.tol and res.converged),
+                                 time=dt, path=";".join(f"{x['method']}:{x['error']:.1e}:{x['time']:.3f}"
+                                                        for x in res.info.get("path", []))))
+        print(cid, p.n_contacts, " ".join(f"{r['time_limit']:g}/{r['variant']}:{r['error']:.0e}/{r['time']:.2f}s"
+                                          for r in rows if r["case"] == cid), flush=True)
+    OUT.mkdir(exist_ok=True)
+    with open(OUT / f"auto_order2d_{args.split}.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    groups = defaultdict(list)
+    for r in rows:
+        groups[("sim" if r["family"] == "sim" else "eval+shared", r["time_limit"], r["variant"])].append(r)
+    lines = ["# auto's stage order on 2D local problems of more than "
+             f"{auto.SMALL_NC} contacts, split `{args.split}` (tol {args.tol:g})", "",
+             f"Generated by `validation/auto_order2d.py --split {args.split}` (variants: see its "
+             f"docstring; `auto` switches to the fixed point first above {auto.LARGE_2D_NC} "
+             "contacts): a new problem object per call, min of "
+             f"{args.repeats} runs (one when a call takes over 0.5 s); shared 2-core machine, no "
+             "Siconos in the run. Failures are charged the time limit in the shifted geometric "
+             "mean (10 ms shift).", "",
+             "| set | time limit (s) | variant | cases | solved | sgm time (s) | median time (s) |",
+             "|---|---|---|---|---|---|---|"]
+    for (fam, tl, v), rs in sorted(groups.items()):
+        ts = [r["time"] if r["solved"] else tl for r in rs]
+        lines.append(f"| {fam} | {tl:g} | {v} | {len(rs)} | {sum(r['solved'] for r in rs)} | "
+                     f"{shifted_geometric_mean(ts, 0.01):.4f} | {np.median(ts):.4f} |")
+    for tl in args.time_limits:
+        for a, b in (("newton_first", "clarabel_first"), ("newton_first", "auto")):
+            sa = {r["case"] for r in rows if r["variant"] == a and r["time_limit"] == tl and r["solved"]}
+            sb = {r["case"] for r in rows if r["variant"] == b and r["time_limit"] == tl and r["solved"]}
+            lines += ["", f"Time limit {tl:g} s: solved by {a} only: {sorted(sa - sb) or 'none'}; "
+                          f"by {b} only: {sorted(sb - sa) or 'none'}"]
+    (OUT / f"auto_order2d_{args.split}.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
