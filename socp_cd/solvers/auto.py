@@ -160,7 +160,8 @@ def stage_order(problem, formulation, feats) -> tuple:
     probe = (("nsgs_probe", "coulomb"),) if PROBE_SWEEPS > 0 and not feats["global"] else ()
     if feats["dim"] == 2 and feats["n_contacts"] > LARGE_2D_NC and not feats["global"]:
         # large 2D local problems (granular deposits): Newton stalls on them for most of the
-        # budget, the fixed point solves them (tune: 16 -> 17 of 20 at 5 s, sgm x0.29)
+        # budget, the fixed point solves them (tuning deposit: 9 -> 15 of 20 at 1 s; 17 = 17
+        # at 5 s, sgm 2.7 -> 0.74 s)
         return (probe + (("clarabel", "coulomb"), ("newton", "coulomb")) + plain
                 + (("nsgs", "coulomb"), ("newton", "coulomb")))
     return probe + (("newton", "coulomb"),) + plain + middle + (("newton", "coulomb"),)

@@ -808,9 +808,10 @@ def newton_polish(problem, r, tol, options):
     :func:`socp_cd.solvers.polish.associated_polish`), ``options.get("cache")``
     a dict kept by the caller across calls (holds the Newton system of
     ``problem``, formed once; a caller that has ``W`` and ``q`` as dense arrays
-    may put them there as ``cache["dense"] = (W, q)``, see :class:`_LocalSystem`).  Returns the best iterate (never worse than
-    ``r``) and ``{"iterations", "error"}`` (Siconos' error of the returned
-    ``r``); ``options.get("time_limit")`` (seconds) bounds its Newton loop.
+    may put them there as ``cache["dense"] = (W, q)``, see :class:`_LocalSystem`).
+    Returns the best iterate (never worse than ``r``) and ``{"iterations",
+    "error"}`` (Siconos' error of the returned ``r``);
+    ``options.get("time_limit")`` (seconds) bounds its Newton loop.
     """
     if options.get("law", "coulomb") != "coulomb":
         return associated_polish(problem, r, tol, options)

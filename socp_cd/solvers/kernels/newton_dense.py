@@ -216,12 +216,6 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
     fstate[F_BEST_ERR] = best_err
 
 
-__all__ = ["prox_newton_dense", "new_state", "RUNNING", "CONVERGED", "STALLED",
-           "NUMERICAL_ERROR", "FSTATE", "ISTATE", "F_ALPHA", "F_ALPHA_MAX_USED", "F_ERR",
-           "F_BEST_ERR", "I_STARTED", "I_STATUS", "I_IT", "I_BEST_IT", "I_NEWTON",
-           "I_BACKTRACK", "I_LS_FAIL", "I_SINGULAR", "I_REJECTED", "I_FACTORIZATIONS"]
-
-
 @njit(cache=True)
 def projected_error(W, q, norm_q, mu, d, r, out):
     """``P_K(r)`` into ``out`` and Siconos' error of it (``u = W out + q``), one call.
@@ -234,3 +228,10 @@ def projected_error(W, q, norm_q, mu, d, r, out):
     u = np.empty(out.shape[0])
     matvec_into(W, out, q, u)
     return siconos_error(out, u, mu, d, norm_q)
+
+
+__all__ = ["prox_newton_dense", "new_state", "RUNNING", "CONVERGED", "STALLED",
+           "NUMERICAL_ERROR", "FSTATE", "ISTATE", "F_ALPHA", "F_ALPHA_MAX_USED", "F_ERR",
+           "F_BEST_ERR", "I_STARTED", "I_STATUS", "I_IT", "I_BEST_IT", "I_NEWTON",
+           "I_BACKTRACK", "I_LS_FAIL", "I_SINGULAR", "I_REJECTED", "I_FACTORIZATIONS",
+           "projected_error"]

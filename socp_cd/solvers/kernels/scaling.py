@@ -176,9 +176,6 @@ def balanced_guard_parts(r, u, a, b, mu, dim):
     return True, f2, r2, u2, cone, normal, gap
 
 
-__all__ = ["balance_csr", "balanced_guard_parts", "jacobi_diagonal", "unit_factors"]
-
-
 @njit(cache=True)
 def times_factors(r, a):
     """``r * a`` (a new array; an overflow ends as inf, no NumPy error state involved)."""
@@ -200,3 +197,7 @@ def factor_summary(a, b, dim):
         lo = min(lo, d)
         hi = max(hi, d)
     return np.sqrt(a[0] * b[0]), lo, hi
+
+
+__all__ = ["balance_csr", "balanced_guard_parts", "jacobi_diagonal", "unit_factors",
+           "times_factors", "factor_summary"]
