@@ -281,3 +281,29 @@ def test_large_2d_local_problems_run_the_fixed_point_before_newton():
     for names in (order(p2, auto.LARGE_2D_NC), order(p3, 10 * auto.LARGE_2D_NC)):
         assert names[:2] == ["nsgs_probe", "newton"]
     assert order(p2, 10 * auto.LARGE_2D_NC, glob=True)[0] == "newton"
+
+
+@pytest.mark.parametrize("improves", [False, True])
+def test_far_probe_rule_carries_over_a_fixed_point_stage_that_did_not_improve(monkeypatch,
+                                                                                improves):
+    # large 2D order: probe -> clarabel -> newton.  A far probe followed by a fixed point
+    # that did not improve: Newton starts afresh (caller's start, default proximal term),
+    # as right after the probe; a fixed point that improved hands its iterate on, warm
+    p = _local(4, 3, 2)
+    a, _ = contact_scales(p)
+    ref = socp_cd.solve(p, "nsgs", tol=1e-14, max_iter=5000).r / a      # balanced units
+    log = []
+    monkeypatch.setitem(auto._STAGES, "nsgs_probe",
+                        (_recording_stage(log, "probe", np.zeros(p.m)), {}))
+    fp_r = ref * (1 + 1e-8) if improves else np.full(p.m, np.nan)
+    monkeypatch.setitem(auto._STAGES, "clarabel", (_recording_stage(log, "clarabel", fp_r), {}))
+    monkeypatch.setitem(auto._STAGES, "newton",
+                        (_recording_stage(log, "newton", lambda q: np.full(q.m, np.nan)), {}))
+    res = socp_cd.solve(p, "auto", tol=1e-15, methods=("nsgs_probe", "clarabel", "newton"))
+    assert res.info["path"][0]["error"] > auto.WARM_MAX           # the probe ended far
+    newton_stage = log[-1]
+    if improves:
+        assert np.array_equal(newton_stage["r0"], fp_r)
+        assert newton_stage["options"]["alpha0"] == auto.newton.WARM_ALPHA0
+    else:
+        assert newton_stage["r0"] is None and "alpha0" not in newton_stage["options"]

@@ -245,6 +245,22 @@ def test_desaxce_generic_signature():
     assert np.allclose(res.r, [1.0, -0.5, 0.0], atol=1e-10)
 
 
+def test_a_polish_reporting_a_nan_error_is_not_trusted():
+    # the loop takes a polish's reported Coulomb error, but recomputes a non-finite one
+    # (a NaN taken as is would win every comparison's "not >=" and freeze the best iterate)
+    p = one_contact((-1.0, 2.0, 0.0))
+    calls = []
+
+    def polish(problem, r, tol, options):
+        calls.append(1)
+        return np.zeros(problem.m), {"iterations": 1, "error": float("nan")}
+    res = desaxce_fixed_point(p, ExactInner, tol=1e-12, max_iter=200, polish=polish,
+                              history=True)
+    assert calls and res.status == "converged"
+    assert np.all(np.isfinite(res.history)) and np.isfinite(res.error)
+    assert np.allclose(res.r, [1.0, -0.5, 0.0], atol=1e-10)
+
+
 # ---------------------------------------------------------------- statuses
 def test_max_iter_one_outer_iteration():
     p = one_contact((-1.0, 2.0, 0.0))

@@ -276,7 +276,12 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             message = f"{method}: {type(exc).__name__}: {exc}"
         dt = _clock() - t0
         err = judge(r)
-        after_far_probe = method == "nsgs_probe" and not min(err, best_err) <= WARM_MAX
+        if method == "nsgs_probe":
+            after_far_probe = not min(err, best_err) <= WARM_MAX
+        elif not (method in COLD_STAGES and not err < best_err):
+            # (a cold stage that did not improve on a far probe, e.g. the fixed point before
+            # Newton on large 2D problems, hands the far-probe rule on to the next stage)
+            after_far_probe = False
         path.append({"method": method, "formulation": form, "iterations": its, "time": dt,
                      "error": err, "status": st})
         iterations += its

@@ -61,6 +61,7 @@ loop stops unconverged, the last polish from the best iterate gets
 """
 from __future__ import annotations
 
+import math
 import time as _time
 from dataclasses import dataclass
 
@@ -306,7 +307,8 @@ class FixedPoint:
         self.info["polish_calls"] += 1
         r_pol = np.asarray(r_pol, dtype=np.float64)
         err = pinfo.get("error")
-        if err is None or not self.friction:   # (a polish reports Siconos' Coulomb error)
+        # a polish reports Siconos' Coulomb error; a missing or non-finite one is recomputed
+        if err is None or not math.isfinite(err) or not self.friction:
             err = self.ws.error(r_pol)
         return r_pol, float(err)
 
@@ -319,7 +321,7 @@ class FixedPoint:
     def keep_better(out, r_best, e_best, hist):
         """The polished point ``out = (r, err)`` when it beats the best iterate (then recorded
         in ``hist``), else the best iterate."""
-        if out is None or out[1] >= e_best:
+        if out is None or not out[1] < e_best:       # (a NaN error never wins)
             return r_best, e_best
         if hist is not None:
             hist.append(out[1])
