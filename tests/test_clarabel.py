@@ -261,6 +261,21 @@ def test_a_polish_reporting_a_nan_error_is_not_trusted():
     assert np.allclose(res.r, [1.0, -0.5, 0.0], atol=1e-10)
 
 
+def test_keep_better_never_takes_a_nan_and_always_beats_a_nan_best():
+    from socp_cd.solvers.desaxce import FixedPoint
+    a, b = np.zeros(3), np.ones(3)
+    nan = float("nan")
+    assert FixedPoint.keep_better((b, nan), a, 0.5, None)[1] == 0.5        # NaN never wins
+    assert FixedPoint.keep_better((b, 0.1), a, nan, None)[1] == 0.1        # beats a NaN best
+    assert FixedPoint.keep_better((b, 0.7), a, 0.5, None)[0] is a          # worse: kept out
+    hist = []
+    assert FixedPoint.keep_better((b, 0.1), a, 0.5, hist)[0] is b and hist == [0.1]
+    # an overflowing start (error NaN) then a polish that meets tol: converged, as before
+    p = one_contact((-1.0, 2.0, 0.0))
+    res = solve(p, "clarabel", "coulomb", tol=1e-8, r0=np.full(3, 1e300), max_iter=3)
+    assert res.converged and res.iterations == 1
+
+
 # ---------------------------------------------------------------- statuses
 def test_max_iter_one_outer_iteration():
     p = one_contact((-1.0, 2.0, 0.0))

@@ -321,7 +321,8 @@ class FixedPoint:
     def keep_better(out, r_best, e_best, hist):
         """The polished point ``out = (r, err)`` when it beats the best iterate (then recorded
         in ``hist``), else the best iterate."""
-        if out is None or not out[1] < e_best:       # (a NaN error never wins)
+        # a NaN error never wins; any other beats a NaN best (an overflowing r0)
+        if out is None or math.isnan(out[1]) or out[1] >= e_best:
             return r_best, e_best
         if hist is not None:
             hist.append(out[1])
