@@ -278,7 +278,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         err = judge(r)
         if method == "nsgs_probe":
             after_far_probe = not min(err, best_err) <= WARM_MAX
-        elif not (method in COLD_STAGES and not err < best_err):
+        elif method not in COLD_STAGES or err < best_err:
             # (a cold stage that did not improve on a far probe, e.g. the fixed point before
             # Newton on large 2D problems, hands the far-probe rule on to the next stage)
             after_far_probe = False

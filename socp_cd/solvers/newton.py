@@ -180,30 +180,28 @@ class _LocalSystem:
 
     def __init__(self, problem, linear_solver, dense=None):
         """``dense``: ``(W, q)`` of ``problem`` already formed (float64, C-contiguous,
-        writeable; used as they are) by a caller that has them, e.g. the De Saxcé
-        loop handing its iterate to :func:`newton_polish`."""
-        self.d, self.m = problem.dim, problem.m
-        if dense is not None and self.m <= COMPILED_LU_MAX_M:
-            self.W, self.q = dense
-            self.kind, self.compiled = "dense", True
-            self.J = np.empty((self.m, self.m))
-            self.norm_q = problem.q_norm
-            self.factorizations = 0
-            self.rho_cache = {}
-            return
+        writeable; used as they are on the compiled dense path) by a caller that has
+        them, e.g. the De Saxcé loop handing its iterate to :func:`newton_polish`."""
         indptr, indices, data = problem.csr_parts      # no scipy matrix needed on the dense path
-        self.q = np.ascontiguousarray(problem.q, dtype=np.float64)
-        if not self.q.flags.writeable:   # (the balanced copy's q is read-only)
-            self.q = self.q.copy()       # one signature of the compiled loop
+        self.d, self.m = problem.dim, problem.m
         if linear_solver == "auto":
-            dense = self.m <= DENSE_ALWAYS_M or (
+            dense_kind = self.m <= DENSE_ALWAYS_M or (
                 self.m <= DENSE_MAX_M and int(indptr[-1]) / float(self.m * self.m) >= DENSE_MIN_FILL)
-            linear_solver = "dense" if dense else "splu"
+            linear_solver = "dense" if dense_kind else "splu"
         self.kind = linear_solver
         #: small dense system: compiled mat-vecs and LU (and the compiled loop)
         self.compiled = self.kind == "dense" and self.m <= COMPILED_LU_MAX_M
+        given = dense if self.compiled else None
+        if given is not None:
+            self.q = given[1]
+        else:
+            self.q = np.ascontiguousarray(problem.q, dtype=np.float64)
+            if not self.q.flags.writeable:   # (the balanced copy's q is read-only)
+                self.q = self.q.copy()       # one signature of the compiled loop
         if self.kind == "dense":
-            if self.compiled:
+            if given is not None:
+                self.W = given[0]
+            elif self.compiled:
                 self.W = csr_to_dense(indptr, indices, data.astype(np.float64, copy=False),
                                       self.m, self.m)       # no scipy overhead on tiny W
             else:
