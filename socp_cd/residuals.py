@@ -308,7 +308,8 @@ def coulomb_parts(rs, us, problem, norm) -> dict:
         return {
             "cone": float(np.max(in_cone_violation(rs, problem.mu, problem.dim))) / norm,
             "normal_velocity": float(np.max(normal_velocity_violation(us, problem.dim))) / norm,
-            "complementarity": float(np.sum(np.abs(gap))) / norm ** 2,
+            # norm * norm: a Python float overflows to inf (norm ** 2 raises OverflowError)
+            "complementarity": float(np.sum(np.abs(gap))) / (norm * norm),
         }
 
 

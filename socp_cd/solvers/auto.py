@@ -53,7 +53,7 @@ import numpy as np
 
 from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, law_parameters
-from . import clarabel_backend, newton, nsgs
+from . import clarabel_backend, newton, nsgs, nsgs_route
 from .kernels.cone import siconos_error
 from .kernels.dense import csr_matvec_add
 from .result import SolverResult
@@ -208,6 +208,45 @@ def check(problem, options, inner_settings) -> None:
                                                  f"got {list(methods)!r}")
 
 
+def route(problem, *, tol, max_iter, r0, time_limit):
+    """The compiled route of a plain ``auto`` call (``SolverSpec.route``).
+
+    On a local exact-Coulomb problem with friction and at most
+    :data:`SMALL_NC` contacts the chain starts with NSGS; that stage and the
+    dispatcher's checks of its answer run in one compiled call
+    (:func:`socp_cd.solvers.nsgs.compiled_run`).  Returns the result
+    :func:`auto_backend` would give when that stage meets ``tol``; otherwise
+    the same with ``info["resume"]`` (the stage, for the rest of the chain:
+    the dispatcher calls :func:`auto_backend` with ``resume=``).  None when
+    the route does not apply, or when the stage does not improve on ``r0``
+    (the general path then keeps ``r0`` as its best iterate).
+    """
+    if problem.n_contacts > SMALL_NC:
+        return None
+    t0 = _clock()
+    out = nsgs.compiled_run(problem, tol, max_iter, r0, time_limit, True)
+    if out is None:
+        return None
+    x, R = out.stats, nsgs_route
+    stage_error = x[R.INTERNAL_ERROR]      # the stage judge's measure (to rounding)
+    if not stage_error < x[R.START_ERROR]:
+        return None
+    sweeps = int(x[R.SWEEPS])
+    stage = {"method": "nsgs", "formulation": "coulomb", "iterations": sweeps,
+             "time": _clock() - t0, "error": stage_error, "status": out.status}
+    met = stage_error <= tol
+    feats = {"dim": problem.dim, "n_contacts": problem.n_contacts, "global": False,
+             "mu_max": x[R.MU_MAX], "frictionless": False, "structurally_rank_deficient": None}
+    info = {"path": [stage], "features": feats, "best_stage": 0, "guard": out.guard,
+            "scaling": out.scaling, "route": "compiled"}
+    if not met:
+        info["resume"] = {"r": out.vectors[0], "stage": stage}
+    return SolverResult(r=out.vectors[1], u=out.vectors[2],
+                        status="converged" if met else "stalled", error=x[R.ERROR],
+                        coulomb_error=x[R.ERROR], iterations=sweeps, info=info,
+                        message="nsgs met tol" if met else "", trivial=x[R.ZERO_ERROR] <= tol)
+
+
 def _explicit_order(methods, formulation):
     order = []
     for m in methods:
@@ -217,8 +256,16 @@ def _explicit_order(methods, formulation):
 
 
 def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
-                 time_limit=None, verbose=False, inner_settings=None, **options) -> SolverResult:
-    """Portfolio backend for :func:`socp_cd.solve` (see the module docstring)."""
+                 time_limit=None, verbose=False, inner_settings=None, resume=None,
+                 **options) -> SolverResult:
+    """Portfolio backend for :func:`socp_cd.solve` (see the module docstring).
+
+    ``resume`` (set by the dispatcher only, from :func:`route`'s
+    ``info["resume"]``): the first stage of the order, already run by the
+    compiled route — ``{"r": its iterate on this (balanced) problem,
+    "stage": its path record}``; the chain goes on from the second stage as
+    if it had run that stage itself.
+    """
     t_start = _clock()
     params = law_parameters(formulation, options)
     feats = features(problem, formulation)
@@ -238,44 +285,52 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         if (method, form, version) in ran:
             continue    # same deterministic method from the same start: nothing to gain
         ran.add((method, form, version))
-        stage_limit = None
-        if time_limit is not None:
-            left = time_limit - (_clock() - t_start)
-            if left <= 0.0:
-                status, message = "time_limit", f"time budget {time_limit:g} s spent"
-                break
-            share = _SHARES.get(method, STAGE_SHARE)
-            stage_limit = left if k == len(order) - 1 else max(share * left, 1e-6)
-        spec, stage_opts = _STAGES[method]
         target = problem
-        if problem.is_global and form not in spec.global_native:
-            if local is None:
-                local = problem.to_local()
-            target = local
-        opts = dict(stage_opts)
-        # a probe that missed by far hands nothing on: Newton from a far NSGS iterate with
-        # the warm proximal parameter was 2-5x slower than from the start (auto_probe.md)
-        if method == "newton" and best_r is not None and not after_far_probe:
-            opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
-        stage_max_iter = _CAPPED.get(method) if max_iter is None else max_iter
-        if method == "nsgs_probe" and PROBE_SWEEPS > 0:   # a probe: at most PROBE_SWEEPS sweeps
-            stage_max_iter = min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
-        if form == "tresca":
-            opts["threshold"] = options["threshold"]
-        t0 = _clock()
-        try:
-            cold = (method in ALWAYS_COLD or (method in COLD_STAGES and not best_err <= WARM_MAX))
-            start = (None if (cold and k > 0) else r0 if after_far_probe else best_r)
-            res = spec.func(target, form, tol=tol, max_iter=stage_max_iter, r0=start,
-                            history=history,
-                            time_limit=stage_limit, verbose=verbose, inner_settings={}, **opts)
-            r = np.asarray(res.r, dtype=np.float64).reshape(-1)
-            st, its = res.status, int(res.iterations)
-        except Exception as exc:  # noqa: BLE001 - one failing stage hands over to the next
-            r, st, its, res = None, "numerical_error", 0, None
-            message = f"{method}: {type(exc).__name__}: {exc}"
-        dt = _clock() - t0
-        err = judge(r)
+        if k == 0 and resume is not None and (method, form) == ("nsgs", "coulomb"):
+            # done by the compiled route (the dispatcher's resume): its iterate and record
+            stage = resume["stage"]
+            r, res = np.asarray(resume["r"], dtype=np.float64), None
+            st, its, dt = stage["status"], int(stage["iterations"]), float(stage["time"])
+            err = judge(r)
+        else:
+            stage_limit = None
+            if time_limit is not None:
+                left = time_limit - (_clock() - t_start)
+                if left <= 0.0:
+                    status, message = "time_limit", f"time budget {time_limit:g} s spent"
+                    break
+                share = _SHARES.get(method, STAGE_SHARE)
+                stage_limit = left if k == len(order) - 1 else max(share * left, 1e-6)
+            spec, stage_opts = _STAGES[method]
+            if problem.is_global and form not in spec.global_native:
+                if local is None:
+                    local = problem.to_local()
+                target = local
+            opts = dict(stage_opts)
+            # a probe that missed by far hands nothing on: Newton from a far NSGS iterate with
+            # the warm proximal parameter was 2-5x slower than from the start (auto_probe.md)
+            if method == "newton" and best_r is not None and not after_far_probe:
+                opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
+            stage_max_iter = _CAPPED.get(method) if max_iter is None else max_iter
+            if method == "nsgs_probe" and PROBE_SWEEPS > 0:  # a probe: at most PROBE_SWEEPS sweeps
+                stage_max_iter = min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
+            if form == "tresca":
+                opts["threshold"] = options["threshold"]
+            t0 = _clock()
+            try:
+                cold = (method in ALWAYS_COLD
+                        or (method in COLD_STAGES and not best_err <= WARM_MAX))
+                start = (None if (cold and k > 0) else r0 if after_far_probe else best_r)
+                res = spec.func(target, form, tol=tol, max_iter=stage_max_iter, r0=start,
+                                history=history, time_limit=stage_limit, verbose=verbose,
+                                inner_settings={}, **opts)
+                r = np.asarray(res.r, dtype=np.float64).reshape(-1)
+                st, its = res.status, int(res.iterations)
+            except Exception as exc:  # noqa: BLE001 - one failing stage hands over to the next
+                r, st, its, res = None, "numerical_error", 0, None
+                message = f"{method}: {type(exc).__name__}: {exc}"
+            dt = _clock() - t0
+            err = judge(r)
         if method == "nsgs_probe":
             after_far_probe = not min(err, best_err) <= WARM_MAX
         elif method not in COLD_STAGES or err < best_err:
@@ -312,8 +367,8 @@ SPEC = SolverSpec(
     description="portfolio: models only what the law needs, chains newton / nsgs / clarabel "
                 "from cheap problem features, warm-starting each stage from the best iterate",
     default_max_iter=newton.DEFAULT_MAX_ITER, options=OPTIONS,
-    inner_settings="not applicable (rejected)", check=check)
+    inner_settings="not applicable (rejected)", check=check, route=route)
 
-__all__ = ["auto_backend", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
+__all__ = ["auto_backend", "route", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
            "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC"]

@@ -54,8 +54,11 @@ class BlockCSR:
 
 
 @njit(cache=True)
-def _csr_to_bsr(indptr, indices, data, dim, nc):
-    """Two passes over the CSR entries; a marker per block column, no sort."""
+def csr_to_bsr(indptr, indices, data, dim, nc):
+    """The arrays of :class:`BlockCSR` (``indptr, indices, blocks, diag_pos, diag``) from CSR.
+
+    Two passes over the CSR entries; a marker per block column, no sort.
+    """
     marker = np.full(nc, -1, dtype=np.int64)
     bptr = np.zeros(nc + 1, dtype=np.int64)
     for I in range(nc):                       # pass 1: count blocks per block row
@@ -118,7 +121,7 @@ def block_csr(W, dim: int) -> BlockCSR:
 def block_csr_arrays(indptr, indices, data, dim: int) -> BlockCSR:
     """:func:`block_csr` of a square matrix given by its CSR arrays (no scipy matrix needed)."""
     nc = (indptr.shape[0] - 1) // dim
-    out = _csr_to_bsr(indptr.astype(np.int64, copy=False), indices.astype(np.int64, copy=False),
+    out = csr_to_bsr(indptr.astype(np.int64, copy=False), indices.astype(np.int64, copy=False),
                       data.astype(np.float64, copy=False), dim, nc)
     return BlockCSR(dim, nc, *out)
 
@@ -138,4 +141,4 @@ def problem_blocks(problem) -> BlockCSR:
     return problem.derived("solvers.block_storage", _compute)
 
 
-__all__ = ["BlockCSR", "block_csr", "block_csr_arrays", "problem_blocks"]
+__all__ = ["BlockCSR", "block_csr", "block_csr_arrays", "csr_to_bsr", "problem_blocks"]

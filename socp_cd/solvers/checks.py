@@ -6,8 +6,10 @@ with the compiled twins of the NumPy references
 (:func:`~socp_cd.solvers.kernels.cone.error_parts` /
 :func:`~socp_cd.solvers.kernels.cone.relative_error`, held equal to
 :func:`socp_cd.residuals.error` by ``tests/test_core.py``) and the
-compiled twin :func:`~socp_cd.solvers.kernels.cone.coulomb_violations` of
-:func:`socp_cd.residuals.coulomb_parts`, and the per-problem norms, unit
+compiled twins :func:`~socp_cd.solvers.kernels.cone.coulomb_violations` of
+:func:`socp_cd.residuals.coulomb_parts` and
+:func:`~socp_cd.solvers.kernels.scaling.balanced_guard` of the guard's
+formulas (:func:`socp_cd.residuals.guard_values`), and the per-problem norms, unit
 factors and error of ``r = 0`` computed once (the
 :class:`~socp_cd.solvers.scaling.Balanced` record): on a one-contact problem
 the NumPy references cost several times the solve itself.
@@ -15,15 +17,13 @@ the NumPy references cost several times the solve itself.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..errors import InvalidProblemError
-from ..residuals import failed_guard, finite_guard, guard_values
+from ..residuals import failed_guard
 from .kernels.cone import LAW_COULOMB, error_parts, relative_error
 from .kernels.dense import csr_matvec_add
-from .kernels.scaling import balanced_guard_parts
+from .kernels.scaling import GUARD_KEYS, balanced_guard
 from .scaling import balanced
 
 
@@ -69,19 +69,21 @@ def coulomb_guard(problem, r, u) -> dict:
     """:func:`socp_cd.residuals.guard` for the Coulomb law, in the problem's own balanced units.
 
     ``r`` and ``u``: finite float64 vectors of length ``problem.m``; the
-    scales are those of :func:`socp_cd.solvers.scaling.balanced`.
+    scales are those of :func:`socp_cd.solvers.scaling.balanced`; one
+    compiled call (:func:`~socp_cd.solvers.kernels.scaling.balanced_guard`).
     """
     rec = balanced(problem)
-    finite, f2, r2, u2, cone, normal, gap = balanced_guard_parts(
-        r, u, rec.a, rec.b, np.ascontiguousarray(problem.mu, dtype=np.float64), problem.dim)
+    finite, out = balanced_guard(r, u, rec.a, rec.b,
+                                 np.ascontiguousarray(problem.mu, dtype=np.float64), problem.dim,
+                                 rec.q_norm)
+    return guard_record(finite, out)
+
+
+def guard_record(finite, out) -> dict:
+    """The guard's record from :func:`~socp_cd.solvers.kernels.scaling.balanced_guard`'s output."""
     if not finite:
         return failed_guard()
-    q_norm = rec.q_norm
-    out = guard_values(float(relative_error(f2, r2, u2, q_norm)), math.sqrt(r2), math.sqrt(u2),
-                       q_norm)
-    vel = out["velocity_scale"]    # Python floats (vel > 0): an overflow ends as inf, silently
-    out.update(cone=cone / vel, normal_velocity=normal / vel, complementarity=gap / (vel * vel))
-    return finite_guard(out)
+    return dict(zip(GUARD_KEYS, out.tolist()))
 
 
-__all__ = ["coulomb_error", "coulomb_guard", "velocity", "zero_error"]
+__all__ = ["coulomb_error", "coulomb_guard", "guard_record", "velocity", "zero_error"]

@@ -47,10 +47,11 @@ import time
 import numpy as np
 
 from ..errors import UnsupportedError
+from . import nsgs_route
 from .block_storage import problem_blocks
 from .local_solvers import (KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION, LAW_ASSOCIATED,
                             LAW_COULOMB, LAW_TRESCA)
-from .nsgs_kernels import (STATUS_MAX_ITER, STATUS_NAMES, STATUS_NUMERICAL, BlockW, Law,
+from .nsgs_kernels import (STATUS_MAX_ITER, STATUS_NAMES, BlockW, Law,
                            LocalSolver, Sweeps, full_error, local_parameters, nsgs_loop)
 from .options import check_choice, check_int, check_real, check_unknown
 from .result import SolverResult
@@ -88,6 +89,7 @@ def _option(options, name, default):
 
 
 _DEFAULT_SETTINGS: dict = {}
+_ROUTE_SETTINGS: dict = {}     # dim -> the defaults as the compiled route takes them
 
 
 def _settings(problem, options, inner_settings):
@@ -111,7 +113,7 @@ def _checked_settings(d, options):
     ordering = check_choice("ordering", _option(options, "ordering", "natural"),
                             ("natural", "shuffled"))
     return dict(
-        ls_name=ls_name, omega=omega, ordering=ordering,
+        ls_name=ls_name, kind=int(_KINDS[ls_name]), omega=omega, ordering=ordering,
         seed=check_int("seed", _option(options, "seed", 0), minimum=0),
         error_every=check_int("error_every", _option(options, "error_every", 10), minimum=0),
         stall_window=check_int("stall_window", _option(options, "stall_window", 5000), minimum=0),
@@ -120,6 +122,19 @@ def _checked_settings(d, options):
                                minimum=1),
         proj_maxit=check_int("projection_max_iter", _option(options, "projection_max_iter", 100),
                              minimum=1))
+
+
+def _message(status_name, light, err, stall_window, time_limit, done) -> str:
+    """``result.message`` for an NSGS outcome."""
+    if status_name == "numerical_error":
+        return "non-finite value in a local solve; r is the last finite iterate"
+    if status_name == "time_limit":
+        return f"time_limit {time_limit:g} s reached after {done} sweeps"
+    if status_name == "stalled" and light == 0.0:
+        return f"a sweep left r unchanged but the error is {err:.3e} > tol"
+    if status_name == "stalled":
+        return f"no progress of the error over {stall_window} sweeps (error {err:.3e})"
+    return ""
 
 
 def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
@@ -182,20 +197,65 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     info.update(full_error_evaluations=int(n_full), local_failures=int(n_fail),
                 light_error=float(light), internal_error=float(err))
     status_name = "time_limit" if status == -1 else STATUS_NAMES[status]
-    message = ""
-    if status == STATUS_NUMERICAL:
-        message = "non-finite value in a local solve; r is the last finite iterate"
-    elif status_name == "time_limit":
-        message = f"time_limit {time_limit:g} s reached after {done} sweeps"
-    elif status_name == "stalled" and light == 0.0:
-        message = f"a sweep left r unchanged but the error is {err:.3e} > tol"
-    elif status_name == "stalled":
-        message = f"no progress of the error over {st['stall_window']} sweeps (error {err:.3e})"
+    message = _message(status_name, light, err, st["stall_window"], time_limit, done)
     if verbose:
         print(f"nsgs: {status_name} after {done} sweeps, error {err:.3e} "
               f"({info['loop_time']:.3g} s)")
     return SolverResult(r=r, status=status_name, iterations=int(done),
                         history=hist_all if history else None, info=info, message=message)
+
+
+def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False):
+    """NSGS with its default settings through the compiled route (:mod:`~socp_cd.solvers.nsgs_route`).
+
+    ``max_iter`` sweeps (None: :data:`DEFAULT_MAX_ITER`) from ``r0`` (caller's
+    units) on the balanced problem, in the backend's time-limit blocks when
+    ``time_limit`` is given, with the dispatcher's checks of the answer.
+
+    Returns
+    -------
+    RouteOutcome or None
+        None when the route does not apply or declines
+        (:func:`~socp_cd.solvers.nsgs_route.run`).
+    """
+    d = problem.dim
+    if d not in _ROUTE_SETTINGS:
+        st = _settings(problem, {}, {})
+        _ROUTE_SETTINGS[d] = tuple(st[k] for k in nsgs_route.ROUTE_SETTINGS)
+    return nsgs_route.run(problem, _ROUTE_SETTINGS[d], tol,
+                          DEFAULT_MAX_ITER if max_iter is None else int(max_iter), r0, time_limit,
+                          need_friction)
+
+
+def route(problem, *, tol, max_iter, r0, time_limit):
+    """The compiled route of a plain NSGS call (``SolverSpec.route``).
+
+    For a local exact-Coulomb problem of at most
+    :data:`~socp_cd.solvers.nsgs_route.MAX_CONTACTS` contacts called with the
+    default settings: the result that :func:`nsgs_backend` on the balanced
+    problem and the dispatcher's checks would give, with ``u``, ``error``,
+    ``coulomb_error``, ``trivial`` and ``info["guard"]`` filled from the
+    checks (``info["route"] = "compiled"``; ``setup_time`` is 0, the set-up
+    runs inside the compiled call); None when the route does not apply.
+    """
+    t0, cpu0 = time.perf_counter(), time.process_time()
+    out = compiled_run(problem, tol, max_iter, r0, time_limit)
+    if out is None:
+        return None
+    st = _settings(problem, {}, {})
+    x, R = out.stats, nsgs_route
+    sweeps = int(x[R.SWEEPS])
+    info = {"local_solver": st["ls_name"], "omega": st["omega"], "ordering": st["ordering"],
+            "error_every": st["error_every"], "setup_time": 0.0,
+            "loop_time": time.perf_counter() - t0, "cpu_time": time.process_time() - cpu0,
+            "full_error_evaluations": int(x[R.N_FULL]), "local_failures": int(x[R.N_FAIL]),
+            "light_error": x[R.LIGHT], "internal_error": x[R.INTERNAL_ERROR],
+            "guard": out.guard, "scaling": out.scaling, "route": "compiled"}
+    message = _message(out.status, x[R.LIGHT], x[R.INTERNAL_ERROR], st["stall_window"], None,
+                       sweeps)
+    return SolverResult(r=out.vectors[1], u=out.vectors[2], status=out.status, error=x[R.ERROR],
+                        coulomb_error=x[R.ERROR], iterations=sweeps, info=info,
+                        message=message, trivial=x[R.ZERO_ERROR] <= tol)
 
 
 SPEC = SolverSpec(
@@ -204,7 +264,8 @@ SPEC = SolverSpec(
                 "Alart–Curnier Newton 3D local solvers",
     default_max_iter=DEFAULT_MAX_ITER, options=OPTIONS,
     inner_settings="the local solver's settings: " + ", ".join(LOCAL_SETTINGS),
-    check=lambda problem, options, inner_settings: _settings(problem, options, inner_settings))
+    check=lambda problem, options, inner_settings: _settings(problem, options, inner_settings),
+    route=route)
 
 
 def warmup() -> float:
@@ -219,4 +280,4 @@ def warmup() -> float:
     return time.perf_counter() - t0
 
 
-__all__ = ["SPEC", "OPTIONS", "nsgs_backend", "local_parameters", "warmup", "full_error", "DEFAULT_MAX_ITER"]
+__all__ = ["SPEC", "OPTIONS", "nsgs_backend", "route", "compiled_run", "local_parameters", "warmup", "full_error", "DEFAULT_MAX_ITER"]

@@ -146,6 +146,16 @@ def _finalize(problem, res: SolverResult, formulation: str, tol: float, params) 
         rec = balanced(problem)
         checked = guard(problem, r, res.u, (rec.a, rec.b), law=LAW_RESIDUALS[formulation],
                         **law_parameters(formulation, params))
+    return _verdict(res, law, checked, tol)
+
+
+def _verdict(res: SolverResult, law: float, checked: dict, tol: float) -> SolverResult:
+    """Set ``converged`` and an honest ``status`` from the recomputed residual and guard.
+
+    ``converged`` needs the law's residual ``law <= tol`` and the units guard
+    ``checked["value"] <= tol``; a backend's claim that these refute becomes
+    ``"stalled"`` with the reason in ``message``.
+    """
     res.info["guard"] = checked
     res.converged = bool(law <= tol and checked["value"] <= tol)
     if res.converged:
@@ -223,6 +233,32 @@ def _retry(first, problem, spec, target, scaling, formulation, tol, options, tim
     first.info["retry"] = dict(record, kept="first")
     first.iterations += res.iterations
     return first
+
+
+def _routed(res, name, tol, time_limit, t0):
+    """Judge a compiled route's result (``SolverSpec.route``).
+
+    Returns ``(result, None)`` when the result stands, ``(None, resume)``
+    when the general path must run: from the start (``resume`` None) when
+    the checks refute a claimed convergence (the general path's retry
+    handles that), or from where the route stopped (its ``info["resume"]``)
+    when it did not converge.  The route filled ``u``, the residuals and the
+    guard with the dispatcher's own kernels; the verdict is
+    :func:`_verdict`'s, as on the general path.
+    """
+    claimed = res.status
+    resume = res.info.pop("resume", None)
+    res.solver, res.formulation, res.tol = name, "coulomb", tol
+    _verdict(res, res.error, res.info["guard"], tol)
+    if not res.converged:
+        if claimed == "converged":
+            return None, None
+        if resume is not None:
+            return None, resume
+    res.time = _time.perf_counter() - t0
+    if not res.converged and time_limit is not None and res.time > time_limit:
+        res.status = "time_limit"
+    return res, None
 
 
 def _check_problem(problem):
@@ -341,14 +377,29 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
         r0 = problem.check_reaction(r0, "r0")
     if formulation == "tresca":
         options["threshold"] = check_threshold(problem, options.get("threshold"))
+    resume, routed, t0 = None, False, _time.perf_counter()
+    if (spec.route is not None and formulation == "coulomb" and not problem.is_global
+            and not (options or history or verbose or inner_settings) and crosscheck is None):
+        res = spec.route(problem, tol=tol, max_iter=max_iter, r0=r0, time_limit=time_limit)
+        if res is not None:
+            routed = True       # its time counts
+            res, resume = _routed(res, name, tol, time_limit, t0)
+            if res is not None:
+                return res
     target = problem
     if problem.is_global and formulation not in spec.global_native:
         target = problem.local        # condensed once per problem
-    t0 = _time.perf_counter()
+    if not routed:
+        t0 = _time.perf_counter()
     scaling = None if target.is_global else balance(target)
     run = dict(max_iter=max_iter, history=history, verbose=verbose,
                inner_settings=inner_settings, options=options)
-    res = _run_backend(spec, target, scaling, formulation, tol, r0, time_limit, **run)
+    if resume is None:
+        res = _run_backend(spec, target, scaling, formulation, tol, r0, time_limit, **run)
+    else:       # the route did the first part of the work: the backend goes on from there
+        left = None if time_limit is None else time_limit - (_time.perf_counter() - t0)
+        res = _run_backend(spec, target, scaling, formulation, tol, r0, left,
+                           **dict(run, options=dict(options, resume=resume)))
     claimed = res.status
     res.solver, res.formulation = name, formulation
     res = _finalize(problem, res, formulation, tol, options)

@@ -37,6 +37,20 @@ class SolverSpec:
         ``check(problem, options, inner_settings)`` raising on a bad option
         value; :func:`socp_cd.solve` calls it before any work (e.g. before
         condensing a global problem).
+    route : callable, optional
+        A compiled route for *plain* calls (a local problem, the exact Coulomb
+        law, no solver options, ``inner_settings``, ``history``, ``verbose``
+        or ``crosscheck``): ``route(problem, *, tol, max_iter, r0,
+        time_limit) -> SolverResult or None``, the whole call in compiled
+        code for problems whose Python overhead would dominate (e.g.
+        :func:`socp_cd.solvers.nsgs.route`).  Its result carries what the
+        dispatcher's checks would compute (``u``, ``error``,
+        ``coulomb_error``, ``trivial``, ``info["guard"]``, by the same
+        kernels); :func:`socp_cd.solve` then decides ``converged`` as for
+        any backend.  None: the route does not apply, take the general
+        path.  ``info["resume"]``, when present, is passed to ``func`` as
+        ``resume=`` if the dispatcher does not accept the result (the route
+        did the first part of the work; see :mod:`socp_cd.solvers.auto`).
     """
 
     name: str
@@ -49,6 +63,7 @@ class SolverSpec:
     options: dict = field(default_factory=dict)
     inner_settings: str = "not used"
     check: Callable | None = None
+    route: Callable | None = None
 
 
 __all__ = ["SolverSpec"]

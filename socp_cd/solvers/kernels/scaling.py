@@ -176,6 +176,54 @@ def balanced_guard_parts(r, u, a, b, mu, dim):
     return True, f2, r2, u2, cone, normal, gap
 
 
+#: entries of :func:`balanced_guard`'s array, in order (the keys of the guard's record)
+GUARD_KEYS = ("error", "balanced_siconos", "rounding", "value", "cone", "normal_velocity",
+              "complementarity")
+_EPS = np.finfo(np.float64).eps
+
+
+@njit(cache=True)
+def balanced_guard(r, u, a, b, mu, dim, q_norm):
+    """The Coulomb units guard of ``(r, u)``: :func:`balanced_guard_parts` and the guard's formulas.
+
+    The compiled twin of :func:`socp_cd.residuals.guard_values` (with
+    :func:`~socp_cd.residuals.finite_guard` and the Coulomb parts relative to
+    the velocity scale), Python's ``max`` semantics included; ``q_norm`` is
+    ``||q~||``.
+
+    Returns
+    -------
+    finite : bool
+        Whether the balanced pair is finite (when not, the guard fails and
+        ``out`` is all ``inf``).
+    out : ndarray (7,)
+        The entries named by :data:`GUARD_KEYS` (non-finite ones as ``inf``).
+    """
+    out = np.full(7, np.inf)
+    finite, f2, r2, u2, cone, normal, gap = balanced_guard_parts(r, u, a, b, mu, dim)
+    if not finite:
+        return False, out
+    measured = relative_error(f2, r2, u2, q_norm)
+    r_norm = np.sqrt(r2)
+    u_norm = np.sqrt(u2)
+    vel = u_norm if u_norm > q_norm else q_norm           # max(q_norm, u_norm)
+    vel = vel if vel > _EPS else 1.0
+    sic = q_norm
+    if r_norm > sic:
+        sic = r_norm
+    if u_norm > sic:
+        sic = u_norm
+    sic = sic if sic > _EPS else 1.0
+    error = measured * (sic / vel)
+    rounding = _EPS * r_norm / vel
+    value = rounding if rounding > error else error       # max(error, rounding)
+    vals = (error, measured, rounding, value, cone / vel, normal / vel, gap / (vel * vel))
+    for k in range(7):
+        if np.isfinite(vals[k]):
+            out[k] = vals[k]
+    return True, out
+
+
 @njit(cache=True)
 def times_factors(r, a):
     """``r * a`` (a new array; an overflow ends as inf, no NumPy error state involved)."""
@@ -199,5 +247,5 @@ def factor_summary(a, b, dim):
     return np.sqrt(a[0] * b[0]), lo, hi
 
 
-__all__ = ["balance_csr", "balanced_guard_parts", "jacobi_diagonal", "unit_factors",
+__all__ = ["balance_csr", "balanced_guard", "GUARD_KEYS", "balanced_guard_parts", "jacobi_diagonal", "unit_factors",
            "times_factors", "factor_summary"]

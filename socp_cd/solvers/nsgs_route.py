@@ -1,0 +1,239 @@
+"""The compiled route: a whole plain NSGS call on a small local Coulomb problem in one kernel.
+
+On a problem of a few contacts the mathematics of a :func:`socp_cd.solve`
+call with NSGS — balance the units, build the block storage, sweep, map ``r``
+back, recompute ``u = W r + q``, Siconos' error and the units guard — costs
+a few microseconds; the Python around it (the dispatcher's checks, the
+backend's set-up, the named tuples handed to the sweep kernel, each
+compiled call's argument unboxing) costs 100 µs and more.  Siconos' NSGS
+takes 4–12 µs per one-contact call.  :func:`nsgs_checked` runs the same
+compiled pieces the general path runs, in the same order and on the same
+arrays, in one compiled call:
+
+1. :func:`~socp_cd.solvers.kernels.scaling.balance_csr` (the balanced
+   problem ``W~ = S W S``, ``q~ = q / b`` of :mod:`socp_cd.solvers.scaling`);
+2. :func:`~socp_cd.solvers.block_storage.csr_to_bsr` and
+   :func:`~socp_cd.solvers.nsgs_kernels.local_parameters` (NSGS's set-up);
+3. :func:`~socp_cd.solvers.nsgs_kernels.nsgs_loop` from ``r0 / a`` (in the
+   blocks of sweeps the NSGS backend uses when a time limit is given);
+4. ``r = a r~`` (:func:`~socp_cd.solvers.kernels.scaling.times_factors`'s
+   product), ``u = W r + q`` on the data as written, Siconos' error and
+   the parts of the units guard
+   (:func:`~socp_cd.solvers.kernels.cone.error_parts`,
+   :func:`~socp_cd.solvers.kernels.scaling.balanced_guard`: the
+   dispatcher's own checks, :mod:`socp_cd.solvers.checks`).
+
+So the answer is the general path's, bit for bit (``tests/test_route.py``
+holds the two equal); the verdict (``converged``) stays the dispatcher's.
+Backends offer the route through ``SolverSpec.route``
+(:mod:`socp_cd.solvers.nsgs`, :mod:`socp_cd.solvers.auto`).
+"""
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .block_storage import csr_to_bsr
+from .kernels.cone import LAW_COULOMB, error_parts, relative_error, siconos_error
+from .kernels.dense import csr_matvec_add
+from .kernels.scaling import GUARD_KEYS, balance_csr, balanced_guard, factor_summary
+from .nsgs_kernels import (STATUS_MAX_ITER, STATUS_NAMES, BlockW, Law, LocalSolver, Sweeps,
+                           local_parameters, nsgs_loop)
+
+#: the route runs on local problems with at most this many contacts (larger ones: the
+#: general path, whose fixed costs are then small beside the sweeps)
+MAX_CONTACTS = 100
+#: ... and, when a time limit is given, only when it is at least this many seconds and the
+#: sweeps are capped by :data:`MAX_TIMED_SWEEPS` (the kernel cannot read a clock: its work,
+#: at most MAX_TIMED_SWEEPS sweeps over MAX_CONTACTS contacts, must fit well inside the
+#: limit; such a run takes under 0.1 s)
+MIN_TIME_LIMIT = 0.5
+MAX_TIMED_SWEEPS = 1000
+#: first block of sweeps when a time limit is given (the NSGS backend's TIME_CHECK_SWEEPS)
+TIME_CHECK_SWEEPS = 10
+
+#: kernel outcome codes besides the sweep statuses of :mod:`~socp_cd.solvers.nsgs_kernels`
+DECLINED_FRICTIONLESS = -2   # every mu = 0 and friction was required
+DECLINED_ILL_POSED = -3      # a contact with W_NN <= 0 (the general path reports it)
+DECLINED_NOT_FINITE = -4     # r or u not finite (the general path reports it)
+
+
+def applies(n_contacts, sweeps, time_limit) -> bool:
+    """Whether the route may run a problem of ``n_contacts`` for at most ``sweeps`` sweeps."""
+    if n_contacts > MAX_CONTACTS or n_contacts == 0:
+        return False
+    return time_limit is None or (time_limit >= MIN_TIME_LIMIT and sweeps <= MAX_TIMED_SWEEPS)
+
+
+#: the NSGS settings :func:`run` takes, in order (the keys of the NSGS backend's settings)
+ROUTE_SETTINGS = ("kind", "loc_tol", "newton_maxit", "proj_maxit", "omega", "error_every",
+                  "stall_window")
+#: entries of :func:`nsgs_checked`'s ``stats`` array, in order (then the guard's,
+#: :data:`~socp_cd.solvers.kernels.scaling.GUARD_KEYS`)
+STATS = ("sweeps", "internal_error", "n_full", "n_fail", "light", "error", "zero_error",
+         "start_error", "mu_max", "velocity_scale", "diag_min", "diag_max", "guard_finite")
+(SWEEPS, INTERNAL_ERROR, N_FULL, N_FAIL, LIGHT, ERROR, ZERO_ERROR, START_ERROR, MU_MAX,
+ VELOCITY_SCALE, DIAG_MIN, DIAG_MAX, GUARD_FINITE) = range(len(STATS))
+_N_STATS = len(STATS)
+
+
+@njit(cache=True)
+def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blocked, first_block,
+                 kind, loc_tol, newton_max_iter, projection_max_iter, omega, error_every,
+                 stall_window, need_friction):
+    """Balance, NSGS sweeps from ``r0``, map back, and the dispatcher's checks, in one call.
+
+    Parameters
+    ----------
+    indptr, indices, data, q, mu, dim
+        The local problem as written (``W`` in CSR form, duplicates summed).
+    r0, warm
+        Start (caller's units); used when ``warm``.
+    tol, max_iter, omega, error_every, stall_window
+        NSGS's sweep settings (:data:`~socp_cd.solvers.nsgs_kernels.Sweeps`,
+        natural ordering).
+    blocked, first_block
+        Run the sweeps in blocks of ``first_block``, twice that, ... sweeps, as
+        the NSGS backend does when a time limit is given (each block restarts
+        the light-error and stall bookkeeping).
+    kind, loc_tol, newton_max_iter, projection_max_iter
+        The one-contact solver (:data:`~socp_cd.solvers.nsgs_kernels.LocalSolver`).
+    need_friction
+        Decline (code :data:`DECLINED_FRICTIONLESS`) before any work when every
+        ``mu`` is 0.
+
+    Returns
+    -------
+    code : int
+        The sweeps' status, or a ``DECLINED_*`` code (then nothing else is meaningful).
+    vectors : ndarray (3, m)
+        Rows: the balanced iterate ``r~``, ``r = a r~`` and ``u = W r + q`` (the
+        data as written).  One array: each array a compiled call returns costs
+        its boxing.
+    stats : ndarray
+        The entries named by :data:`STATS`, then the units guard's
+        (:func:`~socp_cd.solvers.kernels.scaling.balanced_guard` of ``(r, u)``):
+        NSGS's counts and last errors (``internal_error``: Siconos' error of the
+        balanced pair, what ``solver="auto"``'s stage judge measures, to
+        rounding); ``error`` Siconos' error of ``(r, u)``; ``zero_error`` that
+        of ``r = 0``; ``start_error`` that of the balanced start (``inf`` when
+        not ``warm``); ``mu_max``; the three numbers of
+        :func:`~socp_cd.solvers.kernels.scaling.factor_summary`;
+        ``guard_finite`` (1 or 0).
+    """
+    nc = mu.shape[0]
+    m = q.shape[0]
+    stats = np.zeros(_N_STATS + len(GUARD_KEYS))
+    vectors = np.zeros((3, m))
+    mu_max = 0.0
+    for i in range(nc):
+        mu_max = max(mu_max, mu[i])
+    stats[MU_MAX] = mu_max
+    if need_friction and mu_max == 0.0:
+        return DECLINED_FRICTIONLESS, vectors, stats
+    a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, dim)
+    bptr, bcol, blocks, _, diag = csr_to_bsr(indptr, indices, data_s, dim, nc)
+    rhoN, rhoT, rhoP, bad = local_parameters(diag, blocks)
+    if bad.any():
+        return DECLINED_ILL_POSED, vectors, stats
+    r_s = vectors[0]
+    start_error = np.inf
+    if warm:
+        for j in range(m):
+            r_s[j] = r0[j] / a[j]
+        start_error = siconos_error(r_s, csr_matvec_add(indptr, indices, data_s, r_s, q_s), mu,
+                                    dim, q_s_norm)
+    W = BlockW(bptr, bcol, blocks, diag)
+    law = Law(mu, np.zeros(nc), LAW_COULOMB)
+    local = LocalSolver(kind, rhoN, rhoT, rhoP, loc_tol, newton_max_iter, projection_max_iter)
+    hist = np.full(1, np.nan)
+    done = 0
+    block = min(max_iter, first_block) if blocked else max_iter
+    while True:
+        sweeps = Sweeps(tol, block, omega, False, done, error_every, stall_window, False)
+        status, its, err, n_full, n_fail, light, hist = nsgs_loop(dim, W, q_s, law, local, sweeps,
+                                                                  r_s, hist)
+        done += its
+        if status != STATUS_MAX_ITER or done >= max_iter or not blocked:
+            break
+        block = min(2 * block, max_iter - done)
+    r, u = vectors[1], vectors[2]
+    for j in range(m):
+        r[j] = r_s[j] * a[j]                          # = times_factors(r_s, a)
+    u[:] = csr_matvec_add(indptr, indices, data, r, q)
+    for j in range(m):
+        if not (np.isfinite(r[j]) and np.isfinite(u[j])):
+            return DECLINED_NOT_FINITE, vectors, stats
+    f2, r2, u2 = error_parts(r, u, mu, np.zeros(nc), dim, LAW_COULOMB)
+    g_finite, guard = balanced_guard(r, u, a, b, mu, dim, q_s_norm)
+    sigma, d_min, d_max = factor_summary(a, b, dim)
+    stats[SWEEPS] = done
+    stats[INTERNAL_ERROR] = err
+    stats[N_FULL] = n_full
+    stats[N_FAIL] = n_fail
+    stats[LIGHT] = light
+    stats[ERROR] = relative_error(f2, r2, u2, q_norm)
+    stats[ZERO_ERROR] = err0
+    stats[START_ERROR] = start_error
+    stats[VELOCITY_SCALE] = sigma
+    stats[DIAG_MIN] = d_min
+    stats[DIAG_MAX] = d_max
+    stats[GUARD_FINITE] = 1.0 if g_finite else 0.0
+    stats[_N_STATS:] = guard
+    return status, vectors, stats
+
+
+#: What :func:`run` gives a backend's route.  ``status``: the sweeps' own status
+#: (:data:`~socp_cd.solvers.nsgs_kernels.STATUS_NAMES`); ``vectors``: rows ``r~`` (the
+#: balanced iterate), ``r`` and ``u = W r + q`` in the caller's units; ``stats``: the list
+#: of the entries of :data:`STATS` (index constants ``SWEEPS``, ``ERROR``, ...: ``ERROR``
+#: is the dispatcher's recomputed Siconos error, ``INTERNAL_ERROR`` what ``auto``'s stage
+#: judge measures); ``guard``: the units guard's record (:func:`socp_cd.residuals.guard`);
+#: ``scaling``: ``result.info["scaling"]`` (:meth:`~socp_cd.solvers.scaling.Scaling.describe`).
+RouteOutcome = namedtuple("RouteOutcome", "status vectors stats guard scaling")
+
+
+def run(problem, settings, tol, max_iter, r0, time_limit, need_friction):
+    """Run :func:`nsgs_checked` on a local problem: a :data:`RouteOutcome`, or None.
+
+    ``settings``: the NSGS backend's checked settings as the tuple
+    :data:`ROUTE_SETTINGS` names (its defaults: the route runs plain calls
+    only); ``max_iter`` sweeps, in the backend's time-limit
+    blocks when ``time_limit`` is given.  None when the route does not apply
+    (:func:`applies`) or declines: a problem whose every ``mu`` is 0 when
+    ``need_friction``, one with an ill-posed contact, an answer that is not
+    finite, whose error overflows or whose guard cannot be evaluated (the
+    general path reports those).
+    """
+    indptr, indices, data = problem.csr_parts
+    q = problem.q
+    nc = q.shape[0] // problem.dim
+    if nc > MAX_CONTACTS or nc == 0 or not (time_limit is None or (
+            time_limit >= MIN_TIME_LIMIT and max_iter <= MAX_TIMED_SWEEPS)):
+        return None                        # = not applies(nc, max_iter, time_limit)
+    warm = r0 is not None
+    kind, loc_tol, newton_maxit, proj_maxit, omega, error_every, stall_window = settings
+    code, vectors, stats = nsgs_checked(
+        indptr, indices, data, q, problem.mu, problem.dim, r0 if warm else q, warm, tol, max_iter,
+        time_limit is not None, TIME_CHECK_SWEEPS, kind, loc_tol, newton_maxit, proj_maxit, omega,
+        error_every, stall_window, need_friction)
+    if code < 0:
+        return None
+    x = stats.tolist()
+    if not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
+        return None
+    g = _N_STATS       # the guard's record, keys in GUARD_KEYS' order (a literal: the fastest)
+    guard = {"error": x[g], "balanced_siconos": x[g + 1], "rounding": x[g + 2],
+             "value": x[g + 3], "cone": x[g + 4], "normal_velocity": x[g + 5],
+             "complementarity": x[g + 6]}
+    return RouteOutcome(STATUS_NAMES[code], vectors, x, guard,
+                        {"velocity_scale": x[VELOCITY_SCALE], "diag_min": x[DIAG_MIN],
+                         "diag_max": x[DIAG_MAX]})
+
+
+__all__ = ["nsgs_checked", "run", "applies", "RouteOutcome", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
+           "MIN_TIME_LIMIT", "MAX_TIMED_SWEEPS", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
+           "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX"]
