@@ -246,6 +246,48 @@ def test_real_problems_converge(name):
     assert res.converged and socp_cd.error(p, res.r) <= 1e-8, res
 
 
+@pytest.mark.parametrize("name", ["FC2D_SliderCrankLagrangian00000.dat",
+                                  "FrictionContactProblem00071.dat",
+                                  "LMGC_100_PR_PerioBox-i00361-60-03000.hdf5"])
+def test_nsgs_stops_where_the_dispatcher_accepts(name):
+    """On these, ||r~|| dominates Siconos' normalization: NSGS used to stop within tol by
+    Siconos' measure, the units guard refused, and the dispatcher ran NSGS again."""
+    path = _data_dir() / name
+    if not path.exists():
+        pytest.skip(f"shared data absent: {path}")
+    p = socp_cd.read_problem(path)
+    res = solve(p, "nsgs", tol=1e-8)
+    assert res.converged and "retry" not in res.info, res
+    assert res.info["guard"]["value"] <= 1e-8 and socp_cd.error(p, res.r) <= 1e-8
+
+
+def test_stopping_measure_is_the_guard_error_of_the_balanced_problem():
+    from socp_cd import residuals
+    from socp_cd.solvers.block_storage import block_csr
+    from socp_cd.solvers.nsgs_kernels import full_errors
+    from socp_cd.solvers.scaling import balanced
+    for seed, (dim, law) in enumerate([(2, 0), (3, 0), (3, 1)]):
+        p = _random_problem(6, dim, seed, mu=0.4)
+        bal = balanced(p).problem
+        B = block_csr(bal.W, dim)
+        rng = np.random.default_rng(seed)
+        for scale in (1e-6, 1.0, 1e4):            # ||r~|| below and above ||q~||, ||u~||
+            r = scale * rng.standard_normal(p.m)
+            u = np.empty(p.m)
+            err, stop = full_errors(dim, p.n_contacts, B.indptr, B.indices, B.blocks, bal.q, r,
+                                    bal.mu, np.zeros(p.n_contacts), law,
+                                    float(np.linalg.norm(bal.q)), u)
+            assert np.allclose(u, bal.velocity(r), rtol=1e-12, atol=1e-12 * np.abs(u).max())
+            ref = (residuals.error if law == 0 else socp_cd.laws.LAW_RESIDUALS["associated"])
+            measured = ref(bal, r, u)
+            assert err == pytest.approx(measured, rel=1e-12)
+            # guard_values' "error" of the balanced pair (unit factors 1 on the balanced problem)
+            g = residuals.guard_values(measured, np.linalg.norm(r), np.linalg.norm(u),
+                                       np.linalg.norm(bal.q))
+            assert stop == pytest.approx(g["error"], rel=1e-12)
+            assert stop >= err * (1 - 1e-14)
+
+
 def test_block_storage_reproduces_W():
     import scipy.sparse as sp
     from socp_cd.solvers.block_storage import block_csr

@@ -12,7 +12,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from .kernels.cone import law_error
+from .kernels.cone import EPS, error_parts, law_error, relative_error
 from .local_solvers import local_solve
 
 STATUS_CONVERGED = 0
@@ -66,6 +66,28 @@ def full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u):
     return law_error(r, u, mu, g, d, law, norm_q)
 
 
+@njit(cache=True)
+def full_errors(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u):
+    """:func:`full_error` and the stopping measure: the same residual over ``max(||q||, ||u||)``.
+
+    The second is the dispatcher's units guard's measure
+    (:func:`socp_cd.residuals.guard_values`: ``error``) on the (balanced)
+    problem the sweeps see: ``||F|| / V`` with the velocity scale
+    ``V = max(||q||, ||u||)`` (1 below eps).  Siconos' normalization also
+    divides by ``||r||``; where ``||r||`` dominates, an ``r`` within ``tol``
+    by Siconos' measure fails the guard, and the dispatcher would run NSGS
+    once more.  Stopping on this measure stops where the dispatcher accepts.
+    """
+    block_matvec(d, nc, indptr, indices, blocks, r, q, u)
+    f2, r2, u2 = error_parts(r, u, mu, g, d, law)
+    vel = np.sqrt(u2)
+    if norm_q > vel:
+        vel = norm_q
+    if not vel > EPS:
+        vel = 1.0
+    return relative_error(f2, r2, u2, norm_q), np.sqrt(f2) / vel
+
+
 #: The block-sparse ``W`` (:mod:`socp_cd.solvers.block_storage`): block-row pointers,
 #: block-column indices, the ``(nnzb, d, d)`` blocks and the ``(nc, d, d)`` diagonal blocks.
 BlockW = namedtuple("BlockW", "indptr indices blocks diag")
@@ -91,7 +113,10 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
     the light error drops below the light tolerance (initially ``tol``; on a
     false alarm it is tightened to ``light * tol / full``), every
     ``error_every`` sweeps (``0``: never), at the last sweep, and at every
-    sweep when ``record``.  Convergence is declared on the full error only.
+    sweep when ``record``.  Convergence is declared on the full error only:
+    Siconos' relative error and the same residual relative to the velocity
+    scale (:func:`full_errors`, the dispatcher's units-guard measure) must
+    both be ``<= tol``; ``error`` is Siconos'.
 
     Returns
     -------
@@ -166,7 +191,7 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
         if error_every > 0 and it % error_every == 0:
             full_now = True
         if full_now:
-            err = full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u)
+            err, stop = full_errors(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u)
             n_full += 1
             if record:
                 if it > hist.shape[0]:
@@ -176,13 +201,14 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
                 hist[it - 1] = err
             if not np.isfinite(err):
                 return STATUS_NUMERICAL, it, err, n_full, n_fail, light, hist
-            if err <= tol:
+            worst = stop if stop > err else err      # (stop >= err unless ||q||, ||u|| < eps)
+            if worst <= tol:
                 return STATUS_CONVERGED, it, err, n_full, n_fail, light, hist
             if light <= light_tol:
                 if light == 0.0:
                     # the sweep is a fixed point but not a solution
                     return STATUS_STALLED, it, err, n_full, n_fail, light, hist
-                light_tol = light * tol / err
+                light_tol = light * tol / worst
             if err < 0.99 * best:
                 best = err
                 best_iter = it
