@@ -38,7 +38,7 @@ def _cases():
         for nc, seed in ((1, 0), (1, 1), (3, 2), (7, 3), (20, 4)):
             out.append((f"random-{dim}d-{nc}c-{seed}", _random(nc, dim, seed,
                                                                mu=0.1 + 0.4 * seed)))
-        for nc, seed, structure in ((4, 5, "tree"), (12, 6, "redundant")):
+        for nc, seed, structure in ((4, 5, "tree"), (12, 6, "redundant"), (140, 7, "tree")):
             p = manufactured(nc, dim, mu=0.6, structure=structure, mass_ratio=1e6,
                              contact_scale=1e4, seed=seed)
             out.append((f"manufactured-{structure}-{dim}d-{nc}c", p))
@@ -82,7 +82,8 @@ def test_nsgs_route_equals_general_path(monkeypatch, name, p, time_limit):
 
 @pytest.mark.parametrize("name,p", CASES, ids=[c[0] for c in CASES])
 def test_auto_route_equals_general_path_and_resumes(monkeypatch, name, p):
-    # max_iter=5 leaves most NSGS stages short of tol: the route hands them on (resume)
+    # max_iter=5 leaves most NSGS stages short of tol: the route hands them on (resume);
+    # on more than auto.SMALL_NC contacts the routed stage is the NSGS probe
     for kw in (dict(), dict(max_iter=5), dict(time_limit=5.0, max_iter=5),
                dict(r0=np.random.default_rng(2).random(p.m))):
         a = socp_cd.solve(p, **kw)
@@ -105,11 +106,16 @@ def test_route_runs_for_plain_calls_only():
     assert socp_cd.solve(p, "nsgs", time_limit=1.0).info.get("route") == "compiled"
     for kw in (dict(solver="nsgs", omega=1.0), dict(history=True),
                dict(solver="nsgs", inner_settings={"local_tol": 1e-12}),
-               dict(time_limit=0.01), dict(solver="nsgs", max_iter=5000, time_limit=10.0),
+               dict(time_limit=0.01),
                dict(formulation="associated"), dict(crosscheck="nsgs")):
         assert "route" not in socp_cd.solve(p, **kw).info, kw
-    big = _random(nsgs_route.MAX_CONTACTS + 1, 2, seed=8, spread=0.5)
-    assert "route" not in socp_cd.solve(big, "nsgs", max_iter=3).info
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(nsgs_route, "MAX_CONTACTS", 2)
+        assert "route" not in socp_cd.solve(p, "nsgs").info
+    # under a time limit, the sweeps' work must fit (nsgs: 1000 sweeps of 150 dense contacts)
+    big = _random(150, 2, seed=8, spread=0.5)
+    assert "route" not in socp_cd.solve(big, "nsgs", max_iter=1000, time_limit=5.0).info
+    assert socp_cd.solve(big, "nsgs", max_iter=3).info.get("route") == "compiled"
     # auto on a frictionless problem models Signorini's QP first: no NSGS stage to route
     frictionless = _random(3, 3, seed=9, mu=0.0)
     res = socp_cd.solve(frictionless)

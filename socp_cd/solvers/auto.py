@@ -211,20 +211,26 @@ def check(problem, options, inner_settings) -> None:
 def route(problem, *, tol, max_iter, r0, time_limit):
     """The compiled route of a plain ``auto`` call (``SolverSpec.route``).
 
-    On a local exact-Coulomb problem with friction and at most
-    :data:`SMALL_NC` contacts the chain starts with NSGS; that stage and the
-    dispatcher's checks of its answer run in one compiled call
-    (:func:`socp_cd.solvers.nsgs.compiled_run`).  Returns the result
+    On a local exact-Coulomb problem with friction the chain starts with NSGS
+    (at most :data:`SMALL_NC` contacts) or the NSGS probe (more); that stage
+    and the dispatcher's checks of its answer run in one compiled call
+    (:func:`socp_cd.solvers.nsgs.compiled_run`, within its bounds).  Returns the result
     :func:`auto_backend` would give when that stage meets ``tol``; otherwise
     the same with ``info["resume"]`` (the stage, for the rest of the chain:
     the dispatcher calls :func:`auto_backend` with ``resume=``).  None when
     the route does not apply, or when the stage does not improve on ``r0``
     (the general path then keeps ``r0`` as its best iterate).
     """
-    if problem.n_contacts > SMALL_NC:
+    # the chain's first stage on a local problem with friction (stage_order): NSGS, or on
+    # more than SMALL_NC contacts the NSGS probe of at most PROBE_SWEEPS sweeps
+    if problem.n_contacts <= SMALL_NC:
+        method, cap = "nsgs", max_iter
+    elif PROBE_SWEEPS > 0:
+        method, cap = "nsgs_probe", min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
+    else:
         return None
     t0 = _clock()
-    out = nsgs.compiled_run(problem, tol, max_iter, r0, time_limit, True)
+    out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True)
     if out is None:
         return None
     x, R = out.stats, nsgs_route
@@ -232,7 +238,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     if not stage_error < x[R.START_ERROR]:
         return None
     sweeps = int(x[R.SWEEPS])
-    stage = {"method": "nsgs", "formulation": "coulomb", "iterations": sweeps,
+    stage = {"method": method, "formulation": "coulomb", "iterations": sweeps,
              "time": _clock() - t0, "error": stage_error, "status": out.status}
     met = stage_error <= tol
     feats = {"dim": problem.dim, "n_contacts": problem.n_contacts, "global": False,
@@ -286,7 +292,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             continue    # same deterministic method from the same start: nothing to gain
         ran.add((method, form, version))
         target = problem
-        if k == 0 and resume is not None and (method, form) == ("nsgs", "coulomb"):
+        if k == 0 and resume is not None and (method, form) == (resume["stage"]["method"],
+                                                                "coulomb"):
             # done by the compiled route (the dispatcher's resume): its iterate and record
             stage = resume["stage"]
             r, res = np.asarray(resume["r"], dtype=np.float64), None

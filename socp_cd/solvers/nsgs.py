@@ -78,7 +78,7 @@ OPTIONS = {
 #: keys of ``inner_settings`` (the local solver's settings, nested)
 LOCAL_SETTINGS = ("local_solver", "local_tol", "newton_max_iter", "projection_max_iter")
 #: first block of sweeps when a time limit is checked between blocks
-TIME_CHECK_SWEEPS = 10
+TIME_CHECK_SWEEPS = nsgs_route.TIME_CHECK_SWEEPS
 #: initial length of the history buffer (doubled as sweeps go on)
 HISTORY_CHUNK = 64
 
@@ -230,9 +230,8 @@ def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False):
 def route(problem, *, tol, max_iter, r0, time_limit):
     """The compiled route of a plain NSGS call (``SolverSpec.route``).
 
-    For a local exact-Coulomb problem of at most
-    :data:`~socp_cd.solvers.nsgs_route.MAX_CONTACTS` contacts called with the
-    default settings: the result that :func:`nsgs_backend` on the balanced
+    For a local exact-Coulomb problem called with the default settings (and
+    within :func:`~socp_cd.solvers.nsgs_route.applies`' bounds): the result that :func:`nsgs_backend` on the balanced
     problem and the dispatcher's checks would give, with ``u``, ``error``,
     ``coulomb_error``, ``trivial`` and ``info["guard"]`` filled from the
     checks (``info["route"] = "compiled"``; ``setup_time`` is 0, the set-up

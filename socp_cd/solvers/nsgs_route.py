@@ -43,16 +43,17 @@ from .kernels.scaling import GUARD_KEYS, balance_csr, balanced_guard, factor_sum
 from .nsgs_kernels import (STATUS_MAX_ITER, STATUS_NAMES, BlockW, Law, LocalSolver, Sweeps,
                            local_parameters, nsgs_loop)
 
-#: the route runs on local problems with at most this many contacts (larger ones: the
-#: general path, whose fixed costs are then small beside the sweeps)
-MAX_CONTACTS = 100
-#: ... and, when a time limit is given, only when it is at least this many seconds and the
-#: sweeps are capped by :data:`MAX_TIMED_SWEEPS` (the kernel cannot read a clock: its work,
-#: at most MAX_TIMED_SWEEPS sweeps over MAX_CONTACTS contacts, must fit well inside the
-#: limit; such a run takes under 0.1 s)
+#: the route runs on local problems with at most this many contacts (it builds the balanced
+#: copy and the block storage in every call, where the general path keeps them on the
+#: problem object; beyond this size the sweeps dominate either way)
+MAX_CONTACTS = 20000
+#: ... and, when a time limit is given, only when it is at least this many seconds and
+#: the sweeps' work, ``sweeps * nnz(W)``, is at most MAX_TIMED_WORK: the kernel cannot read
+#: a clock, so that work must fit well inside the limit (5e7 entry visits take ~0.1 s)
 MIN_TIME_LIMIT = 0.5
-MAX_TIMED_SWEEPS = 1000
-#: first block of sweeps when a time limit is given (the NSGS backend's TIME_CHECK_SWEEPS)
+MAX_TIMED_WORK = 5e7
+#: first block of sweeps when a time limit is given (also the NSGS backend's, which checks
+#: the clock between blocks)
 TIME_CHECK_SWEEPS = 10
 
 #: kernel outcome codes besides the sweep statuses of :mod:`~socp_cd.solvers.nsgs_kernels`
@@ -61,11 +62,13 @@ DECLINED_ILL_POSED = -3      # a contact with W_NN <= 0 (the general path report
 DECLINED_NOT_FINITE = -4     # r or u not finite (the general path reports it)
 
 
-def applies(n_contacts, sweeps, time_limit) -> bool:
-    """Whether the route may run a problem of ``n_contacts`` for at most ``sweeps`` sweeps."""
+def applies(n_contacts, nnz, sweeps, time_limit) -> bool:
+    """Whether the route may run ``sweeps`` sweeps on a problem of ``n_contacts`` contacts and
+    ``nnz`` stored entries of ``W`` within ``time_limit`` (None: no limit)."""
     if n_contacts > MAX_CONTACTS or n_contacts == 0:
         return False
-    return time_limit is None or (time_limit >= MIN_TIME_LIMIT and sweeps <= MAX_TIMED_SWEEPS)
+    return time_limit is None or (time_limit >= MIN_TIME_LIMIT
+                                  and sweeps * nnz <= MAX_TIMED_WORK)
 
 
 #: the NSGS settings :func:`run` takes, in order (the keys of the NSGS backend's settings)
@@ -210,10 +213,8 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction):
     """
     indptr, indices, data = problem.csr_parts
     q = problem.q
-    nc = q.shape[0] // problem.dim
-    if nc > MAX_CONTACTS or nc == 0 or not (time_limit is None or (
-            time_limit >= MIN_TIME_LIMIT and max_iter <= MAX_TIMED_SWEEPS)):
-        return None                        # = not applies(nc, max_iter, time_limit)
+    if not applies(q.shape[0] // problem.dim, int(indptr[-1]), max_iter, time_limit):
+        return None
     warm = r0 is not None
     kind, loc_tol, newton_maxit, proj_maxit, omega, error_every, stall_window = settings
     code, vectors, stats = nsgs_checked(
@@ -235,5 +236,5 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction):
 
 
 __all__ = ["nsgs_checked", "run", "applies", "RouteOutcome", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
-           "MIN_TIME_LIMIT", "MAX_TIMED_SWEEPS", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
+           "MIN_TIME_LIMIT", "MAX_TIMED_WORK", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
            "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX"]
