@@ -4,14 +4,16 @@ Discrete frictional contact problems (one Moreau–Jean time step each) are
 loaded or built as :class:`FrictionContactProblem` (local, ``u = W r + q``) or
 :class:`GlobalFrictionContactProblem` (``M v = H r + f``, ``u = H^T v + w``),
 solved by :func:`solve` (NSGS, Clarabel SOCP fixed point, cvxpy, proxsuite),
-and judged by :func:`error`, Siconos' relative error.
+and judged by :func:`error`, Siconos' relative error, and :func:`guard`, the same
+residual in balanced units over the velocity scale (``solve`` accepts an answer
+when both are within ``tol``).
 """
 from .cones import (ContactStatus, bipotential, classify_contacts, desaxce_velocity,
                     fenchel_young_gap, natural_map, project_cone, project_dual_cone)
 from .errors import (InvalidProblemError, ProblemFormatError, SocpCdError, SolverError,
                      UnsupportedError)
 from .problem import FrictionContactProblem, GlobalFrictionContactProblem, Solution
-from .residuals import absolute_error, complementarity, contact_errors, error, feasibility
+from .residuals import absolute_error, complementarity, contact_errors, error, feasibility, guard
 from .solvers import SolverResult, solve, solvers
 
 __version__ = "0.1.0"
@@ -32,7 +34,7 @@ def write_fclib(problem, path, solution=None, **kwargs):
 __all__ = [
     "FrictionContactProblem", "GlobalFrictionContactProblem", "Solution",
     "read_problem", "write_fclib", "solve", "solvers", "SolverResult",
-    "error", "absolute_error", "contact_errors", "feasibility", "complementarity",
+    "error", "guard", "absolute_error", "contact_errors", "feasibility", "complementarity",
     "project_cone", "project_dual_cone", "desaxce_velocity", "natural_map",
     "fenchel_young_gap", "bipotential", "classify_contacts", "ContactStatus",
     "SocpCdError", "InvalidProblemError", "ProblemFormatError", "UnsupportedError", "SolverError",

@@ -278,3 +278,15 @@ def test_factor_kernels_equal_numpy():
         np.testing.assert_array_equal(times_factors(r, a), r * a)
     huge = np.full(3, 1e300)
     assert np.isinf(times_factors(huge, huge)).all()    # overflow: inf, no warning raised
+
+
+@pytest.mark.parametrize("solver", ["auto", "nsgs", "newton"])
+def test_public_guard_is_what_solve_judged(solver):
+    # socp_cd.guard (public, used by validation/newton_vs_siconos.py to judge Siconos' answers)
+    # gives the value solve() accepted or refused, for routed and general-path calls alike
+    for dim, nc, seed in ((3, 1, 1), (2, 4, 2), (3, 7, 3)):
+        p = _problem(nc, dim, seed)
+        res = socp_cd.solve(p, solver, tol=1e-9)
+        value = socp_cd.guard(p, res.r)["value"]
+        assert value == pytest.approx(res.info["guard"]["value"], rel=1e-9, abs=1e-15)
+        assert res.converged == (res.error <= 1e-9 and value <= 1e-9)

@@ -173,3 +173,75 @@ def test_balanced_guard_kernel_equals_reference():
     finite, out = balanced_guard(np.array([1e300, 0.0]), np.ones(2), np.full(2, 1e-300),
                                  np.ones(2), np.array([0.5]), 2, 1.0)
     assert not finite and np.isinf(out).all()
+
+
+def test_small_sweeps_cap_route_equals_general_path(monkeypatch):
+    # auto.SMALL_SWEEPS (the study knob of validation/auto_small_sweeps.py): the first NSGS
+    # stage of a small problem stops at the cap on both paths, and NSGS runs again, uncapped,
+    # as the chain's last stage
+    from socp_cd.solvers import auto
+    p = manufactured(12, 3, mu=0.6, structure="redundant", mass_ratio=1e6, contact_scale=1e4,
+                     seed=6)
+    monkeypatch.setattr(auto, "SMALL_SWEEPS", 3)
+    order = [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
+    assert order[0] == "nsgs" and order[-1] == "nsgs" and order.count("nsgs") == 2
+    a = socp_cd.solve(p, tol=1e-14)
+    b = _general(monkeypatch, p, tol=1e-14)
+    _same(a, b)
+    first = a.info["path"][0]
+    assert first["method"] == "nsgs" and first["iterations"] == 3
+    assert [s["method"] for s in a.info["path"]] == [s["method"] for s in b.info["path"]]
+    monkeypatch.setattr(auto, "SMALL_SWEEPS", None)      # the default: no cap, no second NSGS
+    order = [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
+    assert order.count("nsgs") == 1
+    assert socp_cd.solve(p, tol=1e-14, max_iter=40).info["path"][0]["iterations"] <= 40
+
+
+def test_small_stall_window_reaches_the_first_nsgs_stage_on_both_paths(monkeypatch):
+    # auto.SMALL_STALL (a study knob of validation/auto_small_sweeps.py): the first NSGS stage
+    # of a small problem runs with that stall window on the route and on the general path;
+    # the appended last NSGS stage runs with NSGS's defaults
+    import dataclasses
+    from socp_cd.solvers import auto, nsgs
+    p = manufactured(12, 3, mu=0.6, structure="redundant", mass_ratio=1e6, contact_scale=1e4,
+                     seed=6)
+    seen, calls = [], []
+    original = nsgs.compiled_run
+
+    def spy(*args):
+        seen.append(args[6] if len(args) > 6 else None)
+        return original(*args)
+
+    def recording(problem, formulation, **kw):
+        calls.append(kw.get("stall_window"))
+        return nsgs.nsgs_backend(problem, formulation, **kw)
+    monkeypatch.setattr(nsgs, "compiled_run", spy)
+    monkeypatch.setitem(auto._STAGES, "nsgs",
+                        (dataclasses.replace(nsgs.SPEC, func=recording), {}))
+    monkeypatch.setattr(auto, "SMALL_STALL", 7)
+    order = [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
+    assert order[0] == "nsgs" and order[-1] == "nsgs"
+    a = socp_cd.solve(p, tol=1e-17)
+    assert seen == [7] and "route" not in a.info        # routed first stage, then resumed
+    assert calls == [None]                               # the last NSGS stage: defaults
+    calls.clear()
+    b = _general(monkeypatch, p, tol=1e-17)
+    assert calls == [7, None]
+    _same(a, b)
+    assert [(s["method"], s["iterations"]) for s in a.info["path"]] == \
+           [(s["method"], s["iterations"]) for s in b.info["path"]]
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_compiled_run_stall_window_is_the_option(dim):
+    # nsgs.compiled_run(..., stall_window=w) stops where solve(p, "nsgs", stall_window=w) does
+    from socp_cd.solvers import nsgs
+    p = dict(CASES)[f"manufactured-tree-{dim}d-140c"]
+    stops = set()
+    for w in (1, 30):
+        ref = socp_cd.solve(p, "nsgs", tol=1e-17, stall_window=w)
+        out = nsgs.compiled_run(p, 1e-17, None, None, None, True, w)
+        assert (out.status, int(out.stats[nsgs_route.SWEEPS])) == (ref.status, ref.iterations)
+        assert np.array_equal(out.vectors[1], ref.r)
+        stops.add(ref.status)
+    assert stops == {"stalled", "max_iter"}         # the window changed where NSGS stopped

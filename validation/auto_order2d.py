@@ -36,7 +36,6 @@ Writes ``validation/results/auto_order2d_<split>.{csv,md}``.
 from __future__ import annotations
 
 import argparse
-import csv
 from collections import defaultdict
 from pathlib import Path
 
@@ -47,7 +46,7 @@ from socp_cd.bench.reports import shifted_geometric_mean
 from socp_cd.data import shared_problems_dir
 from socp_cd.solvers import auto
 
-from auto_probe import items, min_wall_time
+from auto_probe import items, min_wall_time, record, write_csv
 
 OUT = Path(__file__).resolve().parent / "results"
 CLARABEL_FIRST = ("nsgs_probe", "clarabel", "newton", "newton_plain", "newton_plain_cold",
@@ -84,18 +83,11 @@ def main(argv=None) -> int:
         for tl in args.time_limits:
             for v in VARIANTS:
                 dt, res = timed(p, v, args.tol, tl, args.repeats)
-                err = float(socp_cd.error(p, res.r))
-                rows.append(dict(family=fam, case=cid, nc=p.n_contacts, time_limit=tl, variant=v,
-                                 error=err, solved=bool(err <= args.tol and res.converged),
-                                 time=dt, path=";".join(f"{x['method']}:{x['error']:.1e}:{x['time']:.3f}"
-                                                        for x in res.info.get("path", []))))
+                rows.append(record(fam, cid, p, args.tol, dt, res, time_limit=tl, variant=v))
         print(cid, p.n_contacts, " ".join(f"{r['time_limit']:g}/{r['variant']}:{r['error']:.0e}/{r['time']:.2f}s"
                                           for r in rows if r["case"] == cid), flush=True)
     OUT.mkdir(exist_ok=True)
-    with open(OUT / f"auto_order2d_{args.split}.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(rows, OUT / f"auto_order2d_{args.split}.csv")
     groups = defaultdict(list)
     for r in rows:
         groups[("sim" if r["family"] == "sim" else "eval+shared", r["time_limit"], r["variant"])].append(r)

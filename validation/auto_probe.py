@@ -93,10 +93,57 @@ def min_wall_time(p, solve, repeats):
     return best, res
 
 
-def timed(p, sweeps, tol, time_limit, repeats):
-    auto.PROBE_SWEEPS = sweeps
+def record(fam, cid, p, tol, dt, res, **keys) -> dict:
+    """One CSV row of an ``auto`` ablation: the case, ``keys`` (the variant), the recomputed
+    error, solved (error and ``res.converged``), the time and ``auto``'s path."""
+    err = float(socp_cd.error(p, res.r))
+    path = ";".join(f"{x['method']}:{x['iterations']}:{x['error']:.1e}:{x['time']:.4f}"
+                    for x in res.info.get("path", []))
+    return dict(family=fam, case=cid, dim=p.dim, nc=p.n_contacts, **keys, error=err,
+                solved=bool(err <= tol and res.converged), time=dt, path=path)
+
+
+def write_csv(rows, path) -> None:
+    """``rows`` (dicts with the same keys) as a CSV file."""
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
+def timed_auto(setting, value, p, tol, time_limit, repeats):
+    """:func:`min_wall_time` of ``auto`` with its module constant ``setting`` set to ``value``
+    (the caller restores it)."""
+    setattr(auto, setting, value)
     return min_wall_time(p, lambda t: socp_cd.solve(t, "auto", tol=tol, time_limit=time_limit),
                          repeats)
+
+
+def sweep_study(its, setting, values, tol, time_limit, repeats_for, csv_path, to_setting=None):
+    """Rows of ``auto`` on every item of ``its`` with ``auto.<setting>`` at each of ``values``.
+
+    ``to_setting(value)`` is what the constant is set to (default: the value itself);
+    ``repeats_for(problem)`` the runs timed.  JIT warmed on a one-contact problem first; the
+    constant is restored; the rows (:func:`record`, key ``sweeps``) go to ``csv_path``.
+    """
+    convert = to_setting or (lambda v: v)
+    default = getattr(auto, setting)
+    warm = socp_cd.read_problem(Path(shared_problems_dir()) / "FrictionContact3D_1c.dat")
+    rows = []
+    try:
+        for v in values:
+            timed_auto(setting, convert(v), warm, 1e-4, None, 1)
+        for fam, cid, p in its:
+            for v in values:
+                dt, res = timed_auto(setting, convert(v), p, tol, time_limit, repeats_for(p))
+                rows.append(record(fam, cid, p, tol, dt, res, sweeps=v))
+            print(cid, p.n_contacts, " ".join(f"{r['sweeps']}:{r['error']:.0e}/{r['time']:.4f}s"
+                                              for r in rows if r["case"] == cid), flush=True)
+    finally:
+        setattr(auto, setting, default)
+    OUT.mkdir(exist_ok=True)
+    write_csv(rows, csv_path)
+    return rows
 
 
 def main(argv=None) -> int:
@@ -113,32 +160,10 @@ def main(argv=None) -> int:
                     help="simulation collection folders (default: the split's, see above)")
     ap.add_argument("--tag", default="", help="suffix of the output files")
     args = ap.parse_args(argv)
-    default = auto.PROBE_SWEEPS
     its = items(args.split, args.max_contacts, auto.SMALL_NC, args.sets, args.sim)
     print(f"{len(its)} problems", flush=True)
-    warm = socp_cd.read_problem(Path(shared_problems_dir()) / "FrictionContact3D_1c.dat")
-    for s in args.sweeps:
-        timed(warm, s, 1e-4, None, 1)
-    rows = []
-    try:
-        for fam, cid, p in its:
-            for s in args.sweeps:
-                dt, res = timed(p, s, args.tol, args.time_limit, args.repeats)
-                err = float(socp_cd.error(p, res.r))
-                path = ";".join(f"{x['method']}:{x['error']:.1e}:{x['time']:.3f}"
-                                for x in res.info.get("path", []))
-                rows.append(dict(family=fam, case=cid, dim=p.dim, nc=p.n_contacts, sweeps=s,
-                                 error=err, solved=bool(err <= args.tol and res.converged),
-                                 time=dt, path=path))
-            print(cid, p.n_contacts, " ".join(f"{r['sweeps']}:{r['error']:.0e}/{r['time']:.3f}s"
-                                              for r in rows if r["case"] == cid), flush=True)
-    finally:
-        auto.PROBE_SWEEPS = default
-    OUT.mkdir(exist_ok=True)
-    with open(OUT / f"auto_probe_{args.split}{args.tag}.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    rows = sweep_study(its, "PROBE_SWEEPS", args.sweeps, args.tol, args.time_limit,
+                       lambda p: args.repeats, OUT / f"auto_probe_{args.split}{args.tag}.csv")
     write_report(rows, args)
     return 0
 

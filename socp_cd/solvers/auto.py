@@ -81,6 +81,13 @@ PLAIN_MAX_ITER = 200
 #: are often solved by NSGS in a few sweeps, where Newton's set-up and factorizations
 #: cost 10x more (formulations/auto.md)
 PROBE_SWEEPS = 30
+#: local exact-Coulomb problems with at most SMALL_NC contacts start with NSGS capped at
+#: this many sweeps (None: NSGS's own default, 1000); NSGS runs again, uncapped, from the
+#: best iterate as the chain's last stage (formulations/auto.md, "The first NSGS stage")
+SMALL_SWEEPS = None
+#: ... and with this stall window (NSGS's option: sweeps without a 1 % drop of the error
+#: before it stops; None: NSGS's default, 5000, more than its 1000 sweeps)
+SMALL_STALL = None
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
@@ -151,8 +158,9 @@ def stage_order(problem, formulation, feats) -> tuple:
     if feats["n_contacts"] <= SMALL_NC and not feats["global"]:
         # small local problems: NSGS first (one contact: one call of its local solver);
         # it costs a fraction of Newton's set-up and factorizations (formulations/auto.md)
+        last = ((("nsgs", "coulomb"),) if (SMALL_SWEEPS, SMALL_STALL) != (None, None) else ())
         return ((("nsgs", "coulomb"), ("newton", "coulomb")) + plain
-                + (("clarabel", "coulomb"), ("newton", "coulomb")))
+                + (("clarabel", "coulomb"), ("newton", "coulomb")) + last)
     if feats["mu_max"] >= HIGH_MU or feats["dim"] == 2:
         middle = (("clarabel", "coulomb"), ("nsgs", "coulomb"))
     else:
@@ -208,6 +216,13 @@ def check(problem, options, inner_settings) -> None:
                                                  f"got {list(methods)!r}")
 
 
+def _small_cap(max_iter):
+    """Sweeps of the first NSGS stage on a small local problem (:data:`SMALL_SWEEPS`)."""
+    if SMALL_SWEEPS is None:
+        return max_iter
+    return SMALL_SWEEPS if max_iter is None else min(SMALL_SWEEPS, max_iter)
+
+
 def route(problem, *, tol, max_iter, r0, time_limit):
     """The compiled route of a plain ``auto`` call (``SolverSpec.route``).
 
@@ -224,13 +239,14 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     # the chain's first stage on a local problem with friction (stage_order): NSGS, or on
     # more than SMALL_NC contacts the NSGS probe of at most PROBE_SWEEPS sweeps
     if problem.n_contacts <= SMALL_NC:
-        method, cap = "nsgs", max_iter
+        method, cap = "nsgs", _small_cap(max_iter)
     elif PROBE_SWEEPS > 0:
         method, cap = "nsgs_probe", min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
     else:
         return None
     t0 = _clock()
-    out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True)
+    out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True,
+                            SMALL_STALL if method == "nsgs" else None)
     if out is None:
         return None
     x, R = out.stats, nsgs_route
@@ -321,6 +337,12 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             stage_max_iter = _CAPPED.get(method) if max_iter is None else max_iter
             if method == "nsgs_probe" and PROBE_SWEEPS > 0:  # a probe: at most PROBE_SWEEPS sweeps
                 stage_max_iter = min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
+            elif (method == "nsgs" and k == 0 and methods is None and formulation == "coulomb"
+                  and not feats["frictionless"] and not feats["global"]
+                  and feats["n_contacts"] <= SMALL_NC):
+                stage_max_iter = _small_cap(max_iter)   # the first stage of a small problem
+                if SMALL_STALL is not None:
+                    opts["stall_window"] = SMALL_STALL
             if form == "tresca":
                 opts["threshold"] = options["threshold"]
             t0 = _clock()

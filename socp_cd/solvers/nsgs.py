@@ -205,12 +205,14 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                         history=hist_all if history else None, info=info, message=message)
 
 
-def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False):
+def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False, stall_window=None):
     """NSGS with its default settings through the compiled route (:mod:`~socp_cd.solvers.nsgs_route`).
 
     ``max_iter`` sweeps (None: :data:`DEFAULT_MAX_ITER`) from ``r0`` (caller's
     units) on the balanced problem, in the backend's time-limit blocks when
-    ``time_limit`` is given, with the dispatcher's checks of the answer.
+    ``time_limit`` is given, with the dispatcher's checks of the answer;
+    ``stall_window`` replaces the default one (the option of the same name)
+    when given.
 
     Returns
     -------
@@ -222,7 +224,10 @@ def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False):
     if d not in _ROUTE_SETTINGS:
         st = _settings(problem, {}, {})
         _ROUTE_SETTINGS[d] = tuple(st[k] for k in nsgs_route.ROUTE_SETTINGS)
-    return nsgs_route.run(problem, _ROUTE_SETTINGS[d], tol,
+    settings = _ROUTE_SETTINGS[d]
+    if stall_window is not None:
+        settings = settings[:-1] + (int(stall_window),)
+    return nsgs_route.run(problem, settings, tol,
                           DEFAULT_MAX_ITER if max_iter is None else int(max_iter), r0, time_limit,
                           need_friction)
 
