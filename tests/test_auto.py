@@ -307,3 +307,51 @@ def test_far_probe_rule_carries_over_a_fixed_point_stage_that_did_not_improve(mo
         assert newton_stage["options"]["alpha0"] == auto.newton.WARM_ALPHA0
     else:
         assert newton_stage["r0"] is None and "alpha0" not in newton_stage["options"]
+
+
+def test_a_stage_the_units_guard_refuses_does_not_end_the_chain(monkeypatch):
+    # a global 1-contact problem with W, q times 1e-6 (evaluation-set family "real-scaled"):
+    # Newton meets tol by Siconos' error (3.6e-12) with a guard of 2.3e-6; auto used to stop
+    # there and return an answer solve() refused; now the chain goes on to an accepted one
+    from pathlib import Path
+    from socp_cd.bench.evalset import manufacture, rescaled, MIXES
+    from socp_cd.data import shared_problems_dir
+    base = socp_cd.read_problem(Path(shared_problems_dir()) / "GFC3D_Example00.dat")
+    p = rescaled(manufacture(base, 0.5, MIXES["mixed"], 0), 1e-6, "Wq")
+    first = socp_cd.solve(p, "newton", tol=1e-8)
+    assert first.error <= 1e-8 and first.info["guard"]["value"] > 1e-8 and not first.converged
+    res = socp_cd.solve(p, tol=1e-8)
+    assert res.converged and res.info["guard"]["value"] <= 1e-8
+    assert len(res.info["path"]) >= 2 and res.info["path"][0]["method"] == "newton"
+    # the stage that met Siconos' tol but not the guard did not end the chain
+    assert res.info["path"][0]["error"] <= 1e-8
+
+
+def test_stages_after_a_guard_refusal_aim_lower(monkeypatch):
+    # after a stage within tol by Siconos' error but not by the guard, the next stages get the
+    # dispatcher's retry tolerance (options.tightened_tolerance) as their target
+    import dataclasses
+    from pathlib import Path
+    from socp_cd.bench.evalset import manufacture, rescaled, MIXES
+    from socp_cd.data import shared_problems_dir
+    from socp_cd.solvers import newton
+    from socp_cd.solvers.options import tightened_tolerance
+    base = socp_cd.read_problem(Path(shared_problems_dir()) / "GFC3D_Example00.dat")
+    p = rescaled(manufacture(base, 0.5, MIXES["mixed"], 0), 1e-6, "Wq")
+    seen = []
+
+    def recording(problem, formulation, **kw):
+        res = newton.newton_backend(problem, formulation, **kw)
+        seen.append((kw["tol"], np.array(res.r)))
+        return res
+    spec = dataclasses.replace(newton.SPEC, func=recording)
+    for name in ("newton", "newton_plain"):
+        monkeypatch.setitem(auto._STAGES, name, (spec, auto._STAGES[name][1]))
+    res = socp_cd.solve(p, tol=1e-8)
+    path = res.info["path"]
+    assert [s["method"] for s in path[:2]] == ["newton", "newton_plain"] and res.converged
+    (tol0, r0), (tol1, _) = seen[:2]
+    err0 = path[0]["error"]
+    g0 = auto._Judge(p, "coulomb", {}, 1e-8).guard_value(r0)
+    assert tol0 == 1e-8 and err0 <= 1e-8 < g0
+    assert tol1 == tightened_tolerance(1e-8, err0, max(err0, g0)) < 1e-8

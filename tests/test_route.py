@@ -194,7 +194,35 @@ def test_small_sweeps_cap_route_equals_general_path(monkeypatch):
     monkeypatch.setattr(auto, "SMALL_SWEEPS", None)      # the default: no cap, no second NSGS
     order = [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
     assert order.count("nsgs") == 1
-    assert socp_cd.solve(p, tol=1e-14, max_iter=40).info["path"][0]["iterations"] <= 40
+    assert socp_cd.solve(p, tol=1e-14, max_iter=40).info["path"][0]["iterations"] == 40
+    monkeypatch.setattr(auto, "SMALL_SWEEPS", 3)         # the caller's smaller max_iter wins
+    for kw in (dict(), dict(time_limit=5.0)):
+        assert socp_cd.solve(p, tol=1e-14, max_iter=2, **kw).info["path"][0]["iterations"] == 2
+        assert _general(monkeypatch, p, tol=1e-14, max_iter=2,
+                        **kw).info["path"][0]["iterations"] == 2
+
+
+@pytest.mark.parametrize("knob,value", [("SMALL_SWEEPS", 0), ("SMALL_SWEEPS", 2.5),
+                                        ("SMALL_STALL", -1), ("SMALL_STALL", True)])
+def test_small_stage_knobs_are_checked(monkeypatch, knob, value):
+    from socp_cd.solvers import auto
+    p = manufactured(12, 3, mu=0.6, structure="redundant", mass_ratio=1e6, contact_scale=1e4,
+                     seed=6)
+    monkeypatch.setattr(auto, knob, value)
+    with pytest.raises(ValueError, match=knob):
+        socp_cd.solve(p, tol=1e-14)
+
+
+def test_last_nsgs_stage_runs_after_a_first_stage_that_did_not_improve_r0(monkeypatch):
+    # the capped first NSGS stage and the appended NSGS with its defaults are different runs:
+    # the second is not skipped as "the same method from the same start" (review, session 8)
+    from socp_cd.solvers import auto
+    p = manufactured(6, 2, mu=0.6, structure="redundant", mass_ratio=1e6, contact_scale=1e4,
+                     seed=10)
+    r0 = socp_cd.solve(p, "nsgs", max_iter=50, tol=1e-18).r
+    monkeypatch.setattr(auto, "SMALL_SWEEPS", 1)
+    methods = [s["method"] for s in socp_cd.solve(p, tol=1e-18, r0=r0).info["path"]]
+    assert methods[0] == "nsgs" and methods[-1] == "nsgs"
 
 
 def test_small_stall_window_reaches_the_first_nsgs_stage_on_both_paths(monkeypatch):

@@ -137,8 +137,11 @@ def guard_value(p, r) -> float:
     """The units guard's value of ``r`` (:func:`socp_cd.guard`; ``inf`` when not finite)."""
     if r is None:
         return math.inf
-    with np.errstate(all="ignore"):       # runaway answers (r ~ 1e13 and beyond) overflow
-        v = float(socp_cd.guard(p, np.asarray(r, dtype=np.float64))["value"])
+    try:
+        with np.errstate(all="ignore"):       # runaway answers (r ~ 1e13 and beyond) overflow
+            v = float(socp_cd.guard(p, np.asarray(r, dtype=np.float64))["value"])
+    except (socp_cd.SocpCdError, ValueError):  # r not finite, or of the wrong shape
+        return math.inf
     return v if math.isfinite(v) else math.inf
 
 
@@ -302,7 +305,12 @@ def write(rows, args, have_sic) -> None:
              "errors recomputed by `socp_cd.error`). Sets: `shared` = the real problems; `eval` = exact "
              "solutions manufactured on their operators (tune / holdout split by a hash of the case id; "
              "no parameter was chosen on holdout cases); `sim` = problems dumped from our simulations.", ""]
+    if getattr(args, "from_csv", None) is not None:
+        lines[-2] += (f" Rewritten from `{Path(args.from_csv).name}` with `--from-csv`: the time "
+                      "limit and repeats above are the arguments of that command, which should "
+                      "repeat the run's.")
     summary = {"tol": tol, "kinds": {}}
+    has_guard = any(isinstance(r.get("guard"), float) and not math.isnan(r["guard"]) for r in rows)
     for kind in ("local3", "local2", "global3"):
         kr = [r for r in main_rows if r["kind"] == kind]
         if not kr:
@@ -332,7 +340,8 @@ def write(rows, args, have_sic) -> None:
             refuted = sum(1 for r in rs if r["claimed"] and not solved(r, tol))
             n_guard = sum(solved(r, tol) and guarded(r, tol) for r in rs)
             lines.append(f"| {s} | " + " | ".join(cells)
-                         + f" | {n_all}/{len(probs)} | {n_guard} | {sgm:.4f} | {refuted} |")
+                         + f" | {n_all}/{len(probs)} | {n_guard if has_guard else '–'} | {sgm:.4f} "
+                         f"| {refuted} |")
             ksum[s] = dict(solved=n_all, solved_guard_too=n_guard, problems=len(probs), sgm=sgm,
                            refuted=refuted)
         lines += ["", "*Solved*: Siconos' error (recomputed) within tol, the criterion of every column "
@@ -357,13 +366,16 @@ def write(rows, args, have_sic) -> None:
             lines += ["", "Dolan–Moré ρ(τ) of each of ours against all Siconos solvers of this kind:", ""]
             lines += rho_table(table, solvers, ksum, "rho")
             # the same at the accuracy solve() certifies: an answer counts only if the guard accepts it
-            gtable = defaultdict(dict)
-            for r in kr:
-                gtable[(r["set"], r["split"], r["problem"])][r["solver"]] = (
-                    r["time"] if solved(r, tol) and guarded(r, tol) else math.inf)
-            lines += ["", "The same, counting an answer (ours or Siconos') only when the units guard "
-                      "accepts it too:", ""]
-            lines += rho_table(gtable, solvers, ksum, "rho_guard_too")
+            if has_guard:
+                gtable = defaultdict(dict)
+                for r in kr:
+                    gtable[(r["set"], r["split"], r["problem"])][r["solver"]] = (
+                        r["time"] if solved(r, tol) and guarded(r, tol) else math.inf)
+                lines += ["", "The same, counting an answer (ours or Siconos') only when the units "
+                          "guard accepts it too:", ""]
+                lines += rho_table(gtable, solvers, ksum, "rho_guard_too")
+            else:       # a CSV of a run made before the guard was recorded
+                lines += ["", "(No units-guard values in this CSV: the run predates them.)"]
         lines.append("")
         summary["kinds"][kind] = ksum
         if kind == "local3":

@@ -24,8 +24,12 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
 
 The chain stops at the first stage whose error, recomputed from its ``r``
 (compiled kernel :func:`~socp_cd.solvers.kernels.cone.siconos_error` for the
-local Coulomb law, the NumPy law residual otherwise), meets ``tol``; the
-dispatcher then recomputes it once more independently.  The returned ``r`` is
+local Coulomb law, the NumPy law residual otherwise), meets ``tol`` and whose
+units guard (:func:`socp_cd.residuals.guard`, the dispatcher's second test)
+does too; after a stage that met the first and not the second, the later
+stages aim at the dispatcher's retry tolerance
+(:func:`~socp_cd.solvers.options.tightened_tolerance`).  The dispatcher
+recomputes both once more independently.  The returned ``r`` is
 the best iterate of all stages (never worse than any stage).
 
 Options
@@ -53,9 +57,12 @@ import numpy as np
 
 from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, law_parameters
+from ..residuals import guard
 from . import clarabel_backend, newton, nsgs, nsgs_route
 from .kernels.cone import siconos_error
 from .kernels.dense import csr_matvec_add
+from .kernels.scaling import GUARD_KEYS, balanced_guard
+from .options import tightened_tolerance
 from .result import SolverResult
 from .spec import SolverSpec
 
@@ -175,16 +182,40 @@ def stage_order(problem, formulation, feats) -> tuple:
     return probe + (("newton", "coulomb"),) + plain + middle + (("newton", "coulomb"),)
 
 
-class _Judge:
-    """Stage error of an ``r`` for the law asked for (compiled kernel on local Coulomb problems)."""
+_GUARD_VALUE = GUARD_KEYS.index("value")
 
-    def __init__(self, problem, formulation, params):
-        self.problem, self.formulation, self.params = problem, formulation, params
+
+class _Judge:
+    """Stage error of an ``r`` for the law asked for (compiled kernel on local Coulomb problems),
+    and whether the dispatcher's units guard accepts it too (:meth:`accepts`)."""
+
+    def __init__(self, problem, formulation, params, tol):
+        self.problem, self.formulation, self.params, self.tol = problem, formulation, params, tol
         self.fast = formulation == "coulomb" and not problem.is_global
         if self.fast:
             self.q = problem.q
             self.mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
             self.norm_q = float(np.sqrt(np.dot(self.q, self.q)))
+
+    def guard_value(self, r) -> float:
+        """The units guard's value of ``r`` (:func:`socp_cd.residuals.guard`, the dispatcher's
+        second test of an answer; ``inf`` when it cannot be evaluated).
+
+        A local problem reaches ``auto`` in balanced units (the dispatcher's): its guard is
+        the compiled one with unit factors 1.  Without this test a stage whose Siconos
+        error met ``tol`` ended the chain with an answer the dispatcher then refused (a
+        global 1-contact problem, ``W, q`` times 1e-6: error 3.6e-12, guard 2.3e-6).
+        """
+        if self.fast:
+            indptr, indices, data = self.problem.csr_parts
+            ones = np.ones(self.problem.m)
+            finite, out = balanced_guard(r, csr_matvec_add(indptr, indices, data, r, self.q),
+                                         ones, ones, self.mu, self.problem.dim, self.norm_q)
+            return float(out[_GUARD_VALUE]) if finite else np.inf
+        with np.errstate(all="ignore"):
+            value = float(guard(self.problem, r, law=LAW_RESIDUALS[self.formulation],
+                                **self.params)["value"])
+        return value if np.isfinite(value) else np.inf
 
     def __call__(self, r) -> float:
         if r is None or r.shape != (self.problem.m,) or not np.all(np.isfinite(r)):
@@ -216,11 +247,22 @@ def check(problem, options, inner_settings) -> None:
                                                  f"got {list(methods)!r}")
 
 
+def _small_knobs():
+    """``(SMALL_SWEEPS, SMALL_STALL)``, checked: None, or an int >= 1 (sweeps) / >= 0 (window)."""
+    for name, value, least in (("SMALL_SWEEPS", SMALL_SWEEPS, 1), ("SMALL_STALL", SMALL_STALL, 0)):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int)
+                                  or value < least):
+            raise ValueError(f"socp_cd.solvers.auto.{name} must be None or an int >= {least}, "
+                             f"got {value!r}")
+    return SMALL_SWEEPS, SMALL_STALL
+
+
 def _small_cap(max_iter):
     """Sweeps of the first NSGS stage on a small local problem (:data:`SMALL_SWEEPS`)."""
-    if SMALL_SWEEPS is None:
+    cap, _ = _small_knobs()
+    if cap is None:
         return max_iter
-    return SMALL_SWEEPS if max_iter is None else min(SMALL_SWEEPS, max_iter)
+    return cap if max_iter is None else min(cap, max_iter)
 
 
 def route(problem, *, tol, max_iter, r0, time_limit):
@@ -246,7 +288,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
         return None
     t0 = _clock()
     out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True,
-                            SMALL_STALL if method == "nsgs" else None)
+                            _small_knobs()[1] if method == "nsgs" else None)
     if out is None:
         return None
     x, R = out.stats, nsgs_route
@@ -256,7 +298,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     sweeps = int(x[R.SWEEPS])
     stage = {"method": method, "formulation": "coulomb", "iterations": sweeps,
              "time": _clock() - t0, "error": stage_error, "status": out.status}
-    met = stage_error <= tol
+    met = stage_error <= tol and out.guard["value"] <= tol     # as the judge (_Judge.accepts)
     feats = {"dim": problem.dim, "n_contacts": problem.n_contacts, "global": False,
              "mu_max": x[R.MU_MAX], "frictionless": False, "structurally_rank_deficient": None}
     info = {"path": [stage], "features": feats, "best_stage": 0, "guard": out.guard,
@@ -294,7 +336,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     methods = options.get("methods")
     order = (_explicit_order(methods, formulation) if methods is not None
              else stage_order(problem, formulation, feats))
-    judge = _Judge(problem, formulation, params)
+    judge = _Judge(problem, formulation, params, tol)
     best_r = None if r0 is None else np.array(r0, dtype=np.float64)
     best_err = judge(best_r) if best_r is not None else np.inf
     best_v, best_stage = None, -1
@@ -303,10 +345,15 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     iterations, status, message = 0, "max_iter", ""
     version, ran = 0, set()       # version: bumped whenever the best iterate changes
     after_far_probe = False       # the previous stage was a probe that ended far from tol
+    stage_tol = tol               # the stages' target: tightened after a guard refusal
     for k, (method, form) in enumerate(order):
-        if (method, form, version) in ran:
+        # the first NSGS stage of a small problem may run with a study knob's settings
+        # (SMALL_SWEEPS / SMALL_STALL): a different run from NSGS with its defaults
+        variant = ("small_first" if (k == 0 and method == "nsgs" and methods is None
+                                     and _small_knobs() != (None, None)) else "")
+        if (method, form, version, variant) in ran:
             continue    # same deterministic method from the same start: nothing to gain
-        ran.add((method, form, version))
+        ran.add((method, form, version, variant))
         target = problem
         if k == 0 and resume is not None and (method, form) == (resume["stage"]["method"],
                                                                 "coulomb"):
@@ -341,7 +388,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                   and not feats["frictionless"] and not feats["global"]
                   and feats["n_contacts"] <= SMALL_NC):
                 stage_max_iter = _small_cap(max_iter)   # the first stage of a small problem
-                if SMALL_STALL is not None:
+                if _small_knobs()[1] is not None:
                     opts["stall_window"] = SMALL_STALL
             if form == "tresca":
                 opts["threshold"] = options["threshold"]
@@ -350,7 +397,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 cold = (method in ALWAYS_COLD
                         or (method in COLD_STAGES and not best_err <= WARM_MAX))
                 start = (None if (cold and k > 0) else r0 if after_far_probe else best_r)
-                res = spec.func(target, form, tol=tol, max_iter=stage_max_iter, r0=start,
+                res = spec.func(target, form, tol=stage_tol, max_iter=stage_max_iter, r0=start,
                                 history=history, time_limit=stage_limit, verbose=verbose,
                                 inner_settings={}, **opts)
                 r = np.asarray(res.r, dtype=np.float64).reshape(-1)
@@ -377,8 +424,13 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             version += 1
         status = st if st != "converged" else "stalled"
         if best_err <= tol:
-            status, message = "converged", f"{method} met tol"
-            break
+            g = judge.guard_value(best_r)
+            if g <= tol:
+                status, message = "converged", f"{method} met tol"
+                break
+            # within tol by the stages' measure, not by the guard: the later stages aim lower,
+            # as the dispatcher's retry would (options.tightened_tolerance)
+            stage_tol = min(stage_tol, tightened_tolerance(tol, best_err, max(best_err, g)))
     if best_r is None:
         best_r = np.zeros(problem.m)
     if status != "converged" and not message:
@@ -399,5 +451,6 @@ SPEC = SolverSpec(
     inner_settings="not applicable (rejected)", check=check, route=route)
 
 __all__ = ["auto_backend", "route", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
+           "SMALL_SWEEPS", "SMALL_STALL",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
            "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC"]

@@ -49,6 +49,20 @@ def inner_tolerance(tol: float) -> float:
     return min(1e-10, tol * 1e-2)
 
 
+def tightened_tolerance(tol: float, measured: float, worst: float) -> float:
+    """Tolerance for another run after an answer met ``tol`` by a solver's own measure only.
+
+    ``measured``: the solver's measure of that answer (Siconos' error in the
+    balanced units it saw, at most ``tol``); ``worst``: the larger of the
+    dispatcher's checks (the recomputed error and the units guard).  Errors
+    near a solution are proportional, so the solver is asked for its measure
+    scaled down by how far the checks exceed it, with a factor 2 of margin:
+    ``max(0.5 tol measured / worst, 1e-3 tol)`` (``tol`` when ``worst`` is 0).
+    The one policy of the dispatcher's retry and of ``auto``'s later stages.
+    """
+    return max(0.5 * tol * measured / worst, 1e-3 * tol) if worst > 0 else tol
+
+
 def check_real(name, value, *, positive=False, minimum=None, maximum=None,
                open_interval=False) -> float:
     """``value`` as a finite float, or :class:`InvalidProblemError` naming ``name``."""
@@ -125,5 +139,5 @@ def check_unknown(solver_name, options, declared):
                                f"valid options: {valid}")
 
 
-__all__ = ["inner_tolerance", "COMMON_OPTIONS", "SOLVE_ARGUMENTS", "check_common", "check_unknown", "check_real",
+__all__ = ["inner_tolerance", "tightened_tolerance", "COMMON_OPTIONS", "SOLVE_ARGUMENTS", "check_common", "check_unknown", "check_real",
            "check_int", "check_choice"]

@@ -25,7 +25,7 @@ from ..laws import LAW_RESIDUALS, check_threshold, law_parameters
 from ..residuals import failed_guard, guard
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
 from .checks import coulomb_error, coulomb_guard, velocity, zero_error
-from .options import COMMON_OPTIONS, check_common, check_unknown
+from .options import COMMON_OPTIONS, check_common, check_unknown, tightened_tolerance
 from .result import STATUSES, SolverResult
 from .scaling import balance, balanced
 from .spec import SolverSpec
@@ -213,7 +213,7 @@ def _retry(first, problem, spec, target, scaling, formulation, tol, options, tim
     # that measure scaled down by how far ours exceed it
     worst = max(first.error, checked["value"])
     measured = min(checked.get("balanced_siconos", tol), tol)
-    tighter = max(0.5 * tol * measured / worst, 1e-3 * tol) if worst > 0 else tol
+    tighter = tightened_tolerance(tol, measured, worst)
     start = first.r if checked["rounding"] <= tol else np.zeros(problem.m)
     left = None if time_limit is None else time_limit - (_time.perf_counter() - t0)
     if left is not None and left <= 0:
