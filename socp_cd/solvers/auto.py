@@ -187,7 +187,7 @@ _GUARD_VALUE = GUARD_KEYS.index("value")
 
 class _Judge:
     """Stage error of an ``r`` for the law asked for (compiled kernel on local Coulomb problems),
-    and whether the dispatcher's units guard accepts it too (:meth:`accepts`)."""
+    and its units-guard value, the dispatcher's second test (:meth:`guard_value`)."""
 
     def __init__(self, problem, formulation, params, tol):
         self.problem, self.formulation, self.params, self.tol = problem, formulation, params, tol
@@ -249,6 +249,8 @@ def check(problem, options, inner_settings) -> None:
 
 def _small_knobs():
     """``(SMALL_SWEEPS, SMALL_STALL)``, checked: None, or an int >= 1 (sweeps) / >= 0 (window)."""
+    if SMALL_SWEEPS is None and SMALL_STALL is None:      # the default (the compiled route's path)
+        return None, None
     for name, value, least in (("SMALL_SWEEPS", SMALL_SWEEPS, 1), ("SMALL_STALL", SMALL_STALL, 0)):
         if value is not None and (isinstance(value, bool) or not isinstance(value, int)
                                   or value < least):
@@ -280,15 +282,15 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     """
     # the chain's first stage on a local problem with friction (stage_order): NSGS, or on
     # more than SMALL_NC contacts the NSGS probe of at most PROBE_SWEEPS sweeps
+    stall = None
     if problem.n_contacts <= SMALL_NC:
-        method, cap = "nsgs", _small_cap(max_iter)
+        method, cap, stall = "nsgs", _small_cap(max_iter), _small_knobs()[1]
     elif PROBE_SWEEPS > 0:
         method, cap = "nsgs_probe", min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
     else:
         return None
     t0 = _clock()
-    out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True,
-                            _small_knobs()[1] if method == "nsgs" else None)
+    out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True, stall)
     if out is None:
         return None
     x, R = out.stats, nsgs_route
@@ -298,7 +300,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     sweeps = int(x[R.SWEEPS])
     stage = {"method": method, "formulation": "coulomb", "iterations": sweeps,
              "time": _clock() - t0, "error": stage_error, "status": out.status}
-    met = stage_error <= tol and out.guard["value"] <= tol     # as the judge (_Judge.accepts)
+    met = stage_error <= tol and out.guard["value"] <= tol     # auto_backend's stop test
     feats = {"dim": problem.dim, "n_contacts": problem.n_contacts, "global": False,
              "mu_max": x[R.MU_MAX], "frictionless": False, "structurally_rank_deficient": None}
     info = {"path": [stage], "features": feats, "best_stage": 0, "guard": out.guard,
@@ -346,11 +348,15 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     version, ran = 0, set()       # version: bumped whenever the best iterate changes
     after_far_probe = False       # the previous stage was a probe that ended far from tol
     stage_tol = tol               # the stages' target: tightened after a guard refusal
+    knobs = _small_knobs()
     for k, (method, form) in enumerate(order):
-        # the first NSGS stage of a small problem may run with a study knob's settings
-        # (SMALL_SWEEPS / SMALL_STALL): a different run from NSGS with its defaults
-        variant = ("small_first" if (k == 0 and method == "nsgs" and methods is None
-                                     and _small_knobs() != (None, None)) else "")
+        # the first NSGS stage of a small local exact-Coulomb problem runs with the study
+        # knobs' settings (SMALL_SWEEPS / SMALL_STALL): when one is set, a different run from
+        # NSGS with its defaults (the chain's last stage then)
+        small_first = (k == 0 and method == "nsgs" and form == "coulomb" and methods is None
+                       and not feats["frictionless"] and not feats["global"]
+                       and feats["n_contacts"] <= SMALL_NC)
+        variant = "small_first" if small_first and knobs != (None, None) else ""
         if (method, form, version, variant) in ran:
             continue    # same deterministic method from the same start: nothing to gain
         ran.add((method, form, version, variant))
@@ -384,12 +390,10 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             stage_max_iter = _CAPPED.get(method) if max_iter is None else max_iter
             if method == "nsgs_probe" and PROBE_SWEEPS > 0:  # a probe: at most PROBE_SWEEPS sweeps
                 stage_max_iter = min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
-            elif (method == "nsgs" and k == 0 and methods is None and formulation == "coulomb"
-                  and not feats["frictionless"] and not feats["global"]
-                  and feats["n_contacts"] <= SMALL_NC):
-                stage_max_iter = _small_cap(max_iter)   # the first stage of a small problem
-                if _small_knobs()[1] is not None:
-                    opts["stall_window"] = SMALL_STALL
+            elif small_first:
+                stage_max_iter = _small_cap(max_iter)
+                if knobs[1] is not None:
+                    opts["stall_window"] = knobs[1]
             if form == "tresca":
                 opts["threshold"] = options["threshold"]
             t0 = _clock()
