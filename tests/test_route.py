@@ -273,3 +273,28 @@ def test_compiled_run_stall_window_is_the_option(dim):
         assert np.array_equal(out.vectors[1], ref.r)
         stops.add(ref.status)
     assert stops == {"stalled", "max_iter"}         # the window changed where NSGS stopped
+
+
+def test_per_call_literal_indices_name_the_stats_they_read():
+    # nsgs_route.run and auto.route read the kernel's stats by literal index (the per-call
+    # path); they must be the entries the named constants point at
+    assert (nsgs_route.SWEEPS, nsgs_route.INTERNAL_ERROR, nsgs_route.ERROR, nsgs_route.ZERO_ERROR,
+            nsgs_route.START_ERROR, nsgs_route.MU_MAX) == (0, 1, 5, 6, 7, 8)
+    assert nsgs_route.STATS[9:13] == ("velocity_scale", "diag_min", "diag_max", "guard_finite")
+    assert len(nsgs_route.STATS) == 13 and len(GUARD_KEYS) == 7
+    assert GUARD_KEYS == ("error", "balanced_siconos", "rounding", "value", "cone",
+                          "normal_velocity", "complementarity")
+
+
+def test_of_local_fills_the_fields_it_names():
+    from dataclasses import fields
+    from socp_cd.solvers.result import SolverResult
+    r, u, info = np.ones(3), np.zeros(3), {"k": 1}
+    res = SolverResult.of_local(r, u, "stalled", 0.25, 7, info, "why", True)
+    assert [f.name for f in fields(SolverResult)][:16] == [
+        "r", "u", "v", "converged", "status", "error", "coulomb_error", "iterations", "time",
+        "solver", "formulation", "tol", "history", "info", "message", "trivial"]
+    assert (res.r is r and res.u is u and res.v is None and res.converged is False
+            and res.status == "stalled" and res.error == res.coulomb_error == 0.25
+            and res.iterations == 7 and res.info is info and res.message == "why"
+            and res.trivial is True and res.history is None)

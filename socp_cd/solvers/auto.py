@@ -282,9 +282,12 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     """
     # the chain's first stage on a local problem with friction (stage_order): NSGS, or on
     # more than SMALL_NC contacts the NSGS probe of at most PROBE_SWEEPS sweeps
+    nc = problem.mu.shape[0]
     stall = None
-    if problem.n_contacts <= SMALL_NC:
-        method, cap, stall = "nsgs", _small_cap(max_iter), _small_knobs()[1]
+    if nc <= SMALL_NC:
+        method, cap = "nsgs", max_iter
+        if SMALL_SWEEPS is not None or SMALL_STALL is not None:    # a study's knobs
+            cap, stall = _small_cap(max_iter), _small_knobs()[1]
     elif PROBE_SWEEPS > 0:
         method, cap = "nsgs_probe", min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
     else:
@@ -293,24 +296,25 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True, stall)
     if out is None:
         return None
-    x, R = out.stats, nsgs_route
-    stage_error = x[R.INTERNAL_ERROR]      # the stage judge's measure (to rounding)
-    if not stage_error < x[R.START_ERROR]:
+    status, vectors, x, guard, scaling = out
+    # x: nsgs_route.STATS by index (literals on the per-call path; tests/test_route.py holds
+    # them equal to the named constants): 0 SWEEPS, 1 INTERNAL_ERROR, 5 ERROR,
+    # 6 ZERO_ERROR, 7 START_ERROR, 8 MU_MAX
+    stage_error = x[1]                      # the stage judge's measure (to rounding)
+    if not stage_error < x[7]:
         return None
-    sweeps = int(x[R.SWEEPS])
+    sweeps = int(x[0])
     stage = {"method": method, "formulation": "coulomb", "iterations": sweeps,
-             "time": _clock() - t0, "error": stage_error, "status": out.status}
-    met = stage_error <= tol and out.guard["value"] <= tol     # auto_backend's stop test
-    feats = {"dim": problem.dim, "n_contacts": problem.n_contacts, "global": False,
-             "mu_max": x[R.MU_MAX], "frictionless": False, "structurally_rank_deficient": None}
-    info = {"path": [stage], "features": feats, "best_stage": 0, "guard": out.guard,
-            "scaling": out.scaling, "route": "compiled"}
+             "time": _clock() - t0, "error": stage_error, "status": status}
+    met = stage_error <= tol and guard["value"] <= tol     # auto_backend's stop test
+    feats = {"dim": problem.dim, "n_contacts": nc, "global": False,
+             "mu_max": x[8], "frictionless": False, "structurally_rank_deficient": None}
+    info = {"path": [stage], "features": feats, "best_stage": 0, "guard": guard,
+            "scaling": scaling, "route": "compiled"}
     if not met:
-        info["resume"] = {"r": out.vectors[0], "stage": stage}
-    return SolverResult(r=out.vectors[1], u=out.vectors[2],
-                        status="converged" if met else "stalled", error=x[R.ERROR],
-                        coulomb_error=x[R.ERROR], iterations=sweeps, info=info,
-                        message="nsgs met tol" if met else "", trivial=x[R.ZERO_ERROR] <= tol)
+        info["resume"] = {"r": vectors[0], "stage": stage}
+    return SolverResult.of_local(vectors[1], vectors[2], "converged" if met else "stalled", x[5],
+                                 sweeps, info, "nsgs met tol" if met else "", x[6] <= tol)
 
 
 def _explicit_order(methods, formulation):

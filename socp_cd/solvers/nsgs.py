@@ -257,9 +257,8 @@ def route(problem, *, tol, max_iter, r0, time_limit):
             "guard": out.guard, "scaling": out.scaling, "route": "compiled"}
     message = _message(out.status, x[R.LIGHT], x[R.INTERNAL_ERROR], st["stall_window"], None,
                        sweeps)
-    return SolverResult(r=out.vectors[1], u=out.vectors[2], status=out.status, error=x[R.ERROR],
-                        coulomb_error=x[R.ERROR], iterations=sweeps, info=info,
-                        message=message, trivial=x[R.ZERO_ERROR] <= tol)
+    return SolverResult.of_local(out.vectors[1], out.vectors[2], out.status, x[R.ERROR], sweeps,
+                                 info, message, x[R.ZERO_ERROR] <= tol)
 
 
 SPEC = SolverSpec(

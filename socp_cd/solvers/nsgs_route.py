@@ -199,6 +199,12 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
 RouteOutcome = namedtuple("RouteOutcome", "status vectors stats guard scaling")
 
 
+def _outcome(fields, _new=tuple.__new__):
+    """A :data:`RouteOutcome` from the tuple of its five fields (half the cost of the
+    named tuple's own constructor, on the per-call path)."""
+    return _new(RouteOutcome, fields)
+
+
 def run(problem, settings, tol, max_iter, r0, time_limit, need_friction):
     """Run :func:`nsgs_checked` on a local problem: a :data:`RouteOutcome`, or None.
 
@@ -213,26 +219,28 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction):
     """
     indptr, indices, data = problem.csr_parts
     q = problem.q
-    if not applies(q.shape[0] // problem.dim, int(indptr[-1]), max_iter, time_limit):
+    mu = problem.mu
+    if not applies(mu.shape[0], int(indptr[-1]), max_iter, time_limit):
         return None
     warm = r0 is not None
     kind, loc_tol, newton_maxit, proj_maxit, omega, error_every, stall_window = settings
     code, vectors, stats = nsgs_checked(
-        indptr, indices, data, q, problem.mu, problem.dim, r0 if warm else q, warm, tol, max_iter,
+        indptr, indices, data, q, mu, problem.dim, r0 if warm else q, warm, tol, max_iter,
         time_limit is not None, TIME_CHECK_SWEEPS, kind, loc_tol, newton_maxit, proj_maxit, omega,
         error_every, stall_window, need_friction)
     if code < 0:
         return None
     x = stats.tolist()
-    if not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
+    if not x[12] or not math.isfinite(x[5]):          # GUARD_FINITE, ERROR
         return None
-    g = _N_STATS       # the guard's record, keys in GUARD_KEYS' order (a literal: the fastest)
-    guard = {"error": x[g], "balanced_siconos": x[g + 1], "rounding": x[g + 2],
-             "value": x[g + 3], "cone": x[g + 4], "normal_velocity": x[g + 5],
-             "complementarity": x[g + 6]}
-    return RouteOutcome(STATUS_NAMES[code], vectors, x, guard,
-                        {"velocity_scale": x[VELOCITY_SCALE], "diag_min": x[DIAG_MIN],
-                         "diag_max": x[DIAG_MAX]})
+    # the guard's record, keys in GUARD_KEYS' order; literal indices: the per-call path
+    # (_N_STATS = 13, VELOCITY_SCALE = 9, DIAG_MIN = 10, DIAG_MAX = 11; tests/test_route.py
+    # holds the literals equal to the named constants)
+    guard = {"error": x[13], "balanced_siconos": x[14], "rounding": x[15],
+             "value": x[16], "cone": x[17], "normal_velocity": x[18],
+             "complementarity": x[19]}
+    return _outcome((STATUS_NAMES[code], vectors, x, guard,
+                     {"velocity_scale": x[9], "diag_min": x[10], "diag_max": x[11]}))
 
 
 __all__ = ["nsgs_checked", "run", "applies", "RouteOutcome", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",

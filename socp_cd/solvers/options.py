@@ -118,14 +118,18 @@ def check_common(tol, max_iter, time_limit, verbose, inner_settings):
         tol = check_real("tol", tol, positive=True)
     # None stays None: the solver applies its documented default (SolverSpec.default_max_iter)
     max_iter = None if max_iter is None else check_int("max_iter", max_iter, minimum=1)
-    if time_limit is not None:
+    if time_limit is not None and not (type(time_limit) is float and 0.0 < time_limit < math.inf):
         time_limit = check_real("time_limit", time_limit, positive=True)
-    if type(verbose) is not bool and not isinstance(verbose, numbers.Integral):
-        raise InvalidProblemError("verbose", f"must be a bool, got {verbose!r}")
-    if inner_settings is not None and not isinstance(inner_settings, dict):
+    if type(verbose) is not bool:
+        if not isinstance(verbose, numbers.Integral):
+            raise InvalidProblemError("verbose", f"must be a bool, got {verbose!r}")
+        verbose = bool(verbose)
+    if inner_settings is None:
+        return tol, max_iter, time_limit, verbose, {}
+    if not isinstance(inner_settings, dict):
         raise InvalidProblemError("inner_settings", f"must be a dict, got "
                                                     f"{type(inner_settings).__name__}")
-    return tol, max_iter, time_limit, bool(verbose), dict(inner_settings or {})
+    return tol, max_iter, time_limit, verbose, dict(inner_settings)
 
 
 def check_unknown(solver_name, options, declared):

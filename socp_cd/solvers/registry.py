@@ -351,8 +351,10 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
         Unknown solver or option, or a formulation/dimension the solver cannot do.
     """
     _check_problem(problem)
-    table = _table()
-    spec = _resolve(solver, table)
+    table = _TABLE if _LOADED[0] else _table()
+    spec = table.get(solver) if type(solver) is str else None      # a registered name
+    if spec is None:
+        spec = _resolve(solver, table)
     name = spec.name
     if formulation not in FORMULATIONS:
         raise UnsupportedError(f"unknown formulation {formulation!r}; available: {FORMULATIONS}")
@@ -362,7 +364,7 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
             f"(it supports {spec.formulations})")
     if problem.dim not in spec.dims:
         raise UnsupportedError(f"solver {name!r} does not support dim = {problem.dim}")
-    if "*" not in spec.options:
+    if options and "*" not in spec.options:
         check_unknown(name, options, spec.options)
     tol, max_iter, time_limit, verbose, inner_settings = check_common(
         tol, max_iter, time_limit, verbose, inner_settings)
