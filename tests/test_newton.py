@@ -298,3 +298,47 @@ def test_hybrid_plain_steps_keep_alpha_and_stop_when_the_error_does_not_follow(s
             assert trace[k + 1][0] == trace[k][0]          # alpha unchanged by a plain step
             if plain[k + 1]:
                 assert hist[k + 1] < hist[k]                # a plain step continues only on progress
+
+
+def _scipy_jacobian(Dr, Du, W, alpha):
+    """The reference of the sparse local Newton matrix: scipy's ``Dr + alpha Du + Du W``."""
+    nc, d = Dr.shape[0], Dr.shape[1]
+    ind, ptr = np.arange(nc), np.arange(nc + 1)
+    Dr_s = sp.bsr_matrix((Dr + alpha * Du, ind, ptr), shape=W.shape).tocsr()
+    Du_s = sp.bsr_matrix((Du, ind, ptr), shape=W.shape).tocsr()
+    return (Dr_s + Du_s @ W).toarray()
+
+
+@pytest.mark.parametrize("name", ["Capsules-i125-1213.hdf5", "fc2d_granularflowonwall_00667_00000.dat"])
+def test_block_jacobian_equals_the_scipy_product_call_after_call(name):
+    from socp_cd.solvers.newton import BlockJacobian
+    path = next((p for p in shared_problems() if p.file == name), None)
+    if path is None:
+        pytest.skip("shared data not available")
+    p = socp_cd.read_problem(path)
+    W, d, nc = sp.csr_matrix(p.W), p.dim, p.n_contacts
+    bj = BlockJacobian(W, d)
+    rng = np.random.default_rng(3)
+    for call in range(3):       # the stored pattern must survive each call's zero elimination
+        Dr, Du = rng.standard_normal((nc, d, d)), rng.standard_normal((nc, d, d))
+        separated = rng.random(nc) < 0.4          # Du_i = 0, Dr_i = I: zero rows off the diagonal
+        Du[separated] = 0.0
+        Dr[separated] = np.eye(d)
+        J = bj.matrix(Dr, Du, 0.1 * call)
+        assert sp.isspmatrix_csc(J)
+        np.testing.assert_array_equal(J.toarray(), _scipy_jacobian(Dr, Du, W, 0.1 * call))
+        assert J.nnz == np.count_nonzero(J.toarray())      # no stored zeros reach SuperLU
+
+
+def test_block_jacobian_stores_a_structurally_zero_diagonal_block():
+    from socp_cd.solvers.newton import BlockJacobian
+    d, nc = 3, 3
+    A = np.arange(1.0, 82.0).reshape(9, 9)
+    A[3:6, 3:6] = 0.0                    # contact 1 has no diagonal block in W
+    W = sp.csr_matrix(A)
+    bj = BlockJacobian(W, d)
+    rng = np.random.default_rng(0)
+    Dr, Du = rng.standard_normal((nc, d, d)), rng.standard_normal((nc, d, d))
+    J = bj.matrix(Dr, Du, 0.5)
+    np.testing.assert_allclose(J.toarray(), _scipy_jacobian(Dr, Du, W, 0.5), rtol=1e-14, atol=0)
+    np.testing.assert_allclose(J.toarray()[3:6, 3:6], Dr[1] + 0.5 * Du[1], rtol=1e-14)
