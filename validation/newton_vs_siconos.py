@@ -95,7 +95,13 @@ def problem_set(args) -> list[dict]:
             items.append(dict(set="eval", id=c.case_id, split=c.split, kind=kind, nc=c.n_contacts,
                               problem=c.problem()))
     for folder in args.sim or ():
-        for sub in sorted({p.parent for p in Path(folder).rglob("*.hdf5")}):
+        folder = Path(folder)
+        if not folder.is_dir():             # a name under validation/, e.g. "evalset_sim"
+            folder = Path(__file__).resolve().parent / folder
+        if not folder.is_dir() or not any(folder.rglob("*.hdf5")):
+            raise SystemExit(f"--sim {folder}: no FCLib collection there (run "
+                             "validation/build_sim_collections.py first)")
+        for sub in sorted({p.parent for p in folder.rglob("*.hdf5")}):
             for c in collection_cases(sub):
                 if c.n_contacts <= args.max_contacts:
                     p = c.problem()

@@ -1,0 +1,52 @@
+"""Per-call wall time of ``socp_cd.solve`` on the small shared problems, for interleaved rounds.
+
+Prints one line per run: for each problem, the min over 5 × 5 000 calls of
+``solve(p)`` (the same problem object), ``solve(copy.copy(p), time_limit=1)``
+(a new problem per call, the benchmark's call) and ``solve(p, "nsgs")``, in µs.
+Compare two trees in alternating rounds on the same machine (the README's
+session-9 table: two rounds each)::
+
+    for k in 1 2; do for d in /tmp/old_tree $PWD; do
+        PYTHONPATH=$d python validation/per_call_rounds.py; done; done
+
+Appends each line, with the tree it ran, to ``validation/results/per_call_rounds.txt``.
+"""
+from __future__ import annotations
+
+import copy
+import timeit
+from pathlib import Path
+
+import socp_cd
+from socp_cd.data import shared_problems_dir
+
+PROBLEMS = ["FrictionContact3D_1c.dat", "FrictionContact3D_RR_1c.dat", "Rover11035.dat",
+            "FC3D_Example1.dat", "Rover4396.dat"]
+
+
+def per_call(f, number=5000, repeat=5) -> float:
+    """Min over ``repeat`` loops of ``number`` calls, µs per call."""
+    return min(timeit.repeat(f, number=number, repeat=repeat)) / number * 1e6
+
+
+def main() -> int:
+    out = []
+    for name in PROBLEMS:
+        p = socp_cd.read_problem(shared_problems_dir() / name)
+        socp_cd.solve(p)
+        socp_cd.solve(p, "nsgs")
+        same = per_call(lambda: socp_cd.solve(p))
+        fresh = per_call(lambda: socp_cd.solve(copy.copy(p), time_limit=1.0))
+        nsgs = per_call(lambda: socp_cd.solve(p, "nsgs"))
+        out.append(f"{name}:{same:.1f}/{fresh:.1f}/{nsgs:.1f}")
+    line = f"{Path(socp_cd.__file__).resolve().parents[1]} " + " ".join(out)
+    print(line)
+    results = Path(__file__).resolve().parent / "results"
+    results.mkdir(exist_ok=True)
+    with open(results / "per_call_rounds.txt", "a") as fh:
+        fh.write(line + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
