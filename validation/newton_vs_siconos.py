@@ -95,12 +95,13 @@ def problem_set(args) -> list[dict]:
             items.append(dict(set="eval", id=c.case_id, split=c.split, kind=kind, nc=c.n_contacts,
                               problem=c.problem()))
     for folder in args.sim or ():
-        folder = Path(folder)
-        if not folder.is_dir():             # a name under validation/, e.g. "evalset_sim"
-            folder = Path(__file__).resolve().parent / folder
-        if not folder.is_dir() or not any(folder.rglob("*.hdf5")):
-            raise SystemExit(f"--sim {folder}: no FCLib collection there (run "
+        tried = [Path(folder), Path(__file__).resolve().parent / folder]   # as given, under validation/
+        found = [f for f in tried if f.is_dir() and any(f.rglob("*.hdf5"))]
+        if not found:
+            raise SystemExit(f"--sim {folder}: no FCLib collection in "
+                             f"{' or '.join(map(str, tried))} (run "
                              "validation/build_sim_collections.py first)")
+        folder = found[0]
         for sub in sorted({p.parent for p in folder.rglob("*.hdf5")}):
             for c in collection_cases(sub):
                 if c.n_contacts <= args.max_contacts:

@@ -73,6 +73,7 @@ import contextlib
 import functools
 import math
 import time
+import types
 
 import numpy as np
 import scipy.linalg as sla
@@ -122,8 +123,8 @@ CONDENSE_MAX_M = 600
 #: factorization time x0.95 (geometric mean; x0.85 on the 30 captures of 1 ms or more,
 #: worst x1.16), fill x0.97, the same solve residuals, no failures; the minimum-degree
 #: ordering on ``A + Aᵀ`` was slower (x1.09, up to x1.8).
-SPLU_OPTIONS = {"permc_spec": "COLAMD", "diag_pivot_thresh": 0.1,
-                "options": {"SymmetricMode": True}}
+SPLU_OPTIONS = types.MappingProxyType({"permc_spec": "COLAMD", "diag_pivot_thresh": 0.1,
+                                       "options": {"SymmetricMode": True}})
 #: solver-specific options (the common ones are in :mod:`socp_cd.solvers.options`)
 OPTIONS = {
     "alpha0": "initial proximal parameter relative to the diagonal scale of W (default 1)",
