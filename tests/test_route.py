@@ -275,9 +275,9 @@ def test_compiled_run_stall_window_is_the_option(dim):
     assert stops == {"stalled", "max_iter"}         # the window changed where NSGS stopped
 
 
-def test_per_call_literal_indices_name_the_stats_they_read():
-    # nsgs_route.run and auto.route read the kernel's stats by literal index (the per-call
-    # path); they must be the entries the named constants point at
+def test_stats_layout_of_the_route():
+    # the layout of nsgs_checked's stats array (RouteOutcome.stats), which the routes of
+    # nsgs and auto read through the named constants, and the guard's keys after it
     assert (nsgs_route.SWEEPS, nsgs_route.INTERNAL_ERROR, nsgs_route.ERROR, nsgs_route.ZERO_ERROR,
             nsgs_route.START_ERROR, nsgs_route.MU_MAX) == (0, 1, 5, 6, 7, 8)
     assert nsgs_route.STATS[9:13] == ("velocity_scale", "diag_min", "diag_max", "guard_finite")

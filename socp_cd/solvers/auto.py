@@ -58,10 +58,11 @@ import numpy as np
 from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, law_parameters
 from ..residuals import guard
-from . import clarabel_backend, newton, nsgs, nsgs_route
+from . import clarabel_backend, newton, nsgs
 from .kernels.cone import siconos_error
 from .kernels.dense import csr_matvec_add
 from .kernels.scaling import GUARD_KEYS, balanced_guard
+from .nsgs_route import ERROR, INTERNAL_ERROR, MU_MAX, START_ERROR, SWEEPS, ZERO_ERROR
 from .options import tightened_tolerance
 from .result import SolverResult
 from .spec import SolverSpec
@@ -297,24 +298,22 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     if out is None:
         return None
     status, vectors, x, guard, scaling = out
-    # x: nsgs_route.STATS by index (literals on the per-call path; tests/test_route.py holds
-    # them equal to the named constants): 0 SWEEPS, 1 INTERNAL_ERROR, 5 ERROR,
-    # 6 ZERO_ERROR, 7 START_ERROR, 8 MU_MAX
-    stage_error = x[1]                      # the stage judge's measure (to rounding)
-    if not stage_error < x[7]:
+    stage_error = x[INTERNAL_ERROR]         # the stage judge's measure (to rounding)
+    if not stage_error < x[START_ERROR]:
         return None
-    sweeps = int(x[0])
+    sweeps = int(x[SWEEPS])
     stage = {"method": method, "formulation": "coulomb", "iterations": sweeps,
              "time": _clock() - t0, "error": stage_error, "status": status}
     met = stage_error <= tol and guard["value"] <= tol     # auto_backend's stop test
     feats = {"dim": problem.dim, "n_contacts": nc, "global": False,
-             "mu_max": x[8], "frictionless": False, "structurally_rank_deficient": None}
+             "mu_max": x[MU_MAX], "frictionless": False, "structurally_rank_deficient": None}
     info = {"path": [stage], "features": feats, "best_stage": 0, "guard": guard,
             "scaling": scaling, "route": "compiled"}
     if not met:
         info["resume"] = {"r": vectors[0], "stage": stage}
-    return SolverResult.of_local(vectors[1], vectors[2], "converged" if met else "stalled", x[5],
-                                 sweeps, info, "nsgs met tol" if met else "", x[6] <= tol)
+    return SolverResult.of_local(vectors[1], vectors[2], "converged" if met else "stalled",
+                                 x[ERROR], sweeps, info, "nsgs met tol" if met else "",
+                                 x[ZERO_ERROR] <= tol)
 
 
 def _explicit_order(methods, formulation):

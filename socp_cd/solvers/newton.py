@@ -84,7 +84,7 @@ from threadpoolctl import ThreadpoolController
 
 from ..errors import UnsupportedError
 from ..residuals import guard_values
-from .block_storage import csr_to_bsr
+from .block_storage import block_csr_arrays
 from .kernels import newton_dense as nd
 from .kernels.cone import project_cone_stacked, siconos_error
 from .kernels.dense import csr_to_dense, lu_solve, matvec, matvec_into
@@ -200,9 +200,8 @@ class BlockJacobian:
 
     def __init__(self, W, d):
         nc = W.shape[0] // d
-        bptr, bcol, blocks, diag_pos, _ = csr_to_bsr(
-            W.indptr.astype(np.int64), W.indices.astype(np.int64),
-            W.data.astype(np.float64, copy=False), d, nc)
+        B = block_csr_arrays(W.indptr, W.indices, W.data, d)
+        bptr, bcol, blocks, diag_pos = B.indptr, B.indices, B.blocks, B.diag_pos
         missing = np.flatnonzero(diag_pos < 0)
         if missing.size:          # a structurally zero W_ii: J_ii = Dr_i + alpha Du_i still
             rows = np.concatenate([np.repeat(np.arange(nc), np.diff(bptr)), missing])

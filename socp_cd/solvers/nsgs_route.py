@@ -231,16 +231,15 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction):
     if code < 0:
         return None
     x = stats.tolist()
-    if not x[12] or not math.isfinite(x[5]):          # GUARD_FINITE, ERROR
+    if not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
         return None
-    # the guard's record, keys in GUARD_KEYS' order; literal indices: the per-call path
-    # (_N_STATS = 13, VELOCITY_SCALE = 9, DIAG_MIN = 10, DIAG_MAX = 11; tests/test_route.py
-    # holds the literals equal to the named constants)
-    guard = {"error": x[13], "balanced_siconos": x[14], "rounding": x[15],
-             "value": x[16], "cone": x[17], "normal_velocity": x[18],
-             "complementarity": x[19]}
+    g = _N_STATS       # the guard's record, keys in GUARD_KEYS' order (a literal: the fastest)
+    guard = {"error": x[g], "balanced_siconos": x[g + 1], "rounding": x[g + 2],
+             "value": x[g + 3], "cone": x[g + 4], "normal_velocity": x[g + 5],
+             "complementarity": x[g + 6]}
     return _outcome((STATUS_NAMES[code], vectors, x, guard,
-                     {"velocity_scale": x[9], "diag_min": x[10], "diag_max": x[11]}))
+                     {"velocity_scale": x[VELOCITY_SCALE], "diag_min": x[DIAG_MIN],
+                      "diag_max": x[DIAG_MAX]}))
 
 
 __all__ = ["nsgs_checked", "run", "applies", "RouteOutcome", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",

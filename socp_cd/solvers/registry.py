@@ -272,6 +272,10 @@ def _check_problem(problem):
 
 def _resolve(solver, table):
     """Spec of ``solver`` (a registered name or a callable solver function)."""
+    if type(solver) is str:                 # a registered name: one lookup (every solve)
+        spec = table.get(solver)
+        if spec is not None:
+            return spec
     if callable(solver) and not isinstance(solver, str):
         return SolverSpec(getattr(solver, "__name__", "callable"), solver, FORMULATIONS,
                           options={"*": "any keyword, passed through"})
@@ -351,10 +355,8 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
         Unknown solver or option, or a formulation/dimension the solver cannot do.
     """
     _check_problem(problem)
-    table = _TABLE if _LOADED[0] else _table()
-    spec = table.get(solver) if type(solver) is str else None      # a registered name
-    if spec is None:
-        spec = _resolve(solver, table)
+    table = _table()
+    spec = _resolve(solver, table)
     name = spec.name
     if formulation not in FORMULATIONS:
         raise UnsupportedError(f"unknown formulation {formulation!r}; available: {FORMULATIONS}")
