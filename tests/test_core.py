@@ -339,7 +339,8 @@ def test_no_private_names_imported_across_modules():
 def test_one_compiled_implementation_of_each_kernel():
     src = {p: p.read_text() for p in (PKG / "solvers").rglob("*.py")}
     for name in ("def project_cone_block", "def project_cone_jacobian_block",
-                 "def error_parts", "def ac_blocks"):
+                 "def error_parts", "def ac_blocks", "def cone_projection", "def law_projection",
+                 "def law_velocity", "def ac_function", "def ac_newton"):
         assert sum(t.count(name + "(") for t in src.values()) == 1, name
     # nobody re-implements the projection's side-region formula outside kernels/cone.py
     formula = "/ (1.0 + mu * mu)"

@@ -309,3 +309,67 @@ def test_block_storage_reproduces_W():
     np.testing.assert_allclose(dense, W.toarray())
     expected_diag = np.stack([W.toarray()[i * d:(i + 1) * d, i * d:(i + 1) * d] for i in range(nc)])
     np.testing.assert_allclose(S.diag, expected_diag)
+
+
+# ------------------------------------------------------- the one-contact Alart–Curnier kernel
+def _ac_local(A, b, r, mu, rho_n, rho_t, d, law=0, g=0.0):
+    """``(||F||, F, J)`` of :func:`socp_cd.solvers.local_solvers.ac_function` as arrays."""
+    from socp_cd.solvers.local_solvers import ac_function
+    b2, r2 = (b[2], r[2]) if d == 3 else (0.0, 0.0)
+    out = ac_function(A[None], 0, b[0], b[1], b2, mu, g, law, rho_n, rho_t, r[0], r[1], r2, d)
+    F = np.array(out[1:1 + d])
+    J = np.array(out[4:]).reshape(3, 3)[:d, :d]
+    return out[0], F, J
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_local_ac_function_equals_the_newton_kernels_reference(d):
+    """NSGS's one-contact F and J (scalar kernel) equal the Newton method's NumPy reference
+    ``F``, ``Dr + Du A`` (:func:`~socp_cd.solvers.kernels.newton_ac.ac_blocks_reference`),
+    in all four branches (open/closed normal x stick/slide), symmetric or not."""
+    from socp_cd.solvers.kernels.newton_ac import ac_blocks_reference
+    rng = np.random.default_rng(d)
+    branches = set()
+    for k in range(400):
+        B = rng.standard_normal((d, d))
+        A = B @ B.T + 0.5 * np.eye(d) if k % 2 else B + d * np.eye(d)      # asymmetric half
+        b, r = rng.standard_normal(d), rng.standard_normal(d) * rng.choice([1e-3, 1.0, 1e3])
+        mu = float(rng.choice([0.0, 0.3, 1.0, 4.0]))
+        rho_n, rho_t = rng.uniform(0.1, 3.0, 2)
+        if k % 10 == 0:     # x_T = r_T - rho_t u_T = 0 exactly: the stick test passes with R = 0
+            A[1:, 0] = 0.0
+            b[1:] = r[1:] = 0.0
+        nF, F, J = _ac_local(A, b, r, mu, rho_n, rho_t, d)
+        F_ref, Dr, Du, branch = ac_blocks_reference(r, A @ r + b, [mu], [rho_n], [rho_t], d)
+        branches.add(int(branch[0]))
+        np.testing.assert_allclose(F, F_ref.ravel(), rtol=1e-13, atol=1e-13 * np.abs(r).max())
+        assert nF == pytest.approx(np.linalg.norm(F_ref), rel=1e-13, abs=1e-300)
+        np.testing.assert_allclose(J, Dr[0] + Du[0] @ A, rtol=1e-12, atol=1e-12)
+    assert len(branches) == 4, branches
+
+
+@pytest.mark.parametrize("d", [2, 3])
+@pytest.mark.parametrize("law", ["coulomb", "tresca"])
+def test_local_ac_jacobian_matches_finite_differences(d, law):
+    """Away from the kinks, J of the one-contact kernel is the derivative of F (both laws)."""
+    rng = np.random.default_rng(10 * d + len(law))
+    code = 0 if law == "coulomb" else 2
+    checked = 0
+    for _ in range(200):
+        B = rng.standard_normal((d, d))
+        A = B @ B.T + np.eye(d)
+        b, r = rng.standard_normal(d), rng.standard_normal(d)
+        mu, g = 0.7, 0.4
+        h = 1e-7
+        cols, smooth = [], True
+        nF, F, J = _ac_local(A, b, r, mu, 1.0, 0.8, d, code, g)
+        for e in np.eye(d):
+            Fp = _ac_local(A, b, r + h * e, mu, 1.0, 0.8, d, code, g)[1]
+            Fm = _ac_local(A, b, r - h * e, mu, 1.0, 0.8, d, code, g)[1]
+            # a kink between r - h e and r + h e: one-sided differences disagree
+            smooth &= np.allclose(Fp - F, F - Fm, atol=1e-9)
+            cols.append((Fp - Fm) / (2 * h))
+        if smooth:
+            np.testing.assert_allclose(J, np.column_stack(cols), atol=1e-6)
+            checked += 1
+    assert checked >= 150

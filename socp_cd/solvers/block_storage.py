@@ -93,8 +93,11 @@ def csr_to_bsr(indptr, indices, data, dim, nc):
                         diag_pos[I] = nxt
                     nxt += 1
                 blocks[pos[J], a, col - J * dim] += data[p]
-        if diag_pos[I] >= 0:
-            diag[I] = blocks[diag_pos[I]]
+        k = diag_pos[I]
+        if k >= 0:
+            for a in range(dim):           # element by element: no array view per contact
+                for c in range(dim):
+                    diag[I, a, c] = blocks[k, a, c]
     return bptr, bcol, blocks, diag_pos, diag
 
 

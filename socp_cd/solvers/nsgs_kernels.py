@@ -136,8 +136,7 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
     if shuffle:
         np.random.seed(seed)
     work = np.zeros((8, d))
-    J = np.zeros((d, d))
-    M = np.zeros((d, d))
+    M = np.zeros((d, d + 1))
     b = np.zeros(d)
     rl = np.zeros(d)
     rold = np.zeros(d)
@@ -164,8 +163,8 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
             for a in range(d):
                 rold[a] = r[o + a]
                 rl[a] = r[o + a]
-            flag = local_solve(kind, diag[i], b, mu[i], g[i], law, rhoN[i], rhoT[i], rhoP[i],
-                               rl, d, loc_tol, newton_maxit, proj_maxit, work, J, M)
+            flag = local_solve(kind, diag, i, b, mu[i], g[i], law, rhoN[i], rhoT[i], rhoP[i],
+                               rl, d, loc_tol, newton_maxit, proj_maxit, work, M)
             if flag != 0:
                 n_fail += 1
             finite = True
@@ -245,23 +244,22 @@ def local_parameters(diag, blocks):
     rhoP = np.zeros(nc)
     bad = np.zeros(nc, dtype=np.bool_)
     for i in range(nc):
-        A = diag[i]
-        wn = A[0, 0]
+        wn = diag[i, 0, 0]             # element by element: no array view per contact
         if not (wn > 1e-14 * scale):
             bad[i] = True
             continue
         rhoN[i] = 1.0 / wn
         if d == 2:
-            lt = A[1, 1]
+            lt = diag[i, 1, 1]
         else:
-            a = A[1, 1]
-            c = A[2, 2]
-            bs = 0.5 * (A[1, 2] + A[2, 1])
+            a = diag[i, 1, 1]
+            c = diag[i, 2, 2]
+            bs = 0.5 * (diag[i, 1, 2] + diag[i, 2, 1])
             lt = 0.5 * (a + c) + np.sqrt(0.25 * (a - c) ** 2 + bs * bs)
         rhoT[i] = 1.0 / lt if lt > 0.0 else rhoN[i]
         fro = 0.0
         for a2 in range(d):
             for c2 in range(d):
-                fro += A[a2, c2] * A[a2, c2]
+                fro += diag[i, a2, c2] * diag[i, a2, c2]
         rhoP[i] = 1.0 / np.sqrt(fro)
     return rhoN, rhoT, rhoP, bad

@@ -61,28 +61,69 @@ def tangential_norm_block(x, dim):
     return np.sqrt(x[1] * x[1] + x[2] * x[2])
 
 
+# The block operations work on scalars (a contact's <= 3 components): numba counts a
+# reference for every array handed between inlined functions, and on one contact that
+# bookkeeping cost more than the arithmetic.  The array forms below wrap them.
 @njit(cache=True, inline="always")
-def project_cone_block(x, dim, mu, out):
-    """Project one block ``x`` on ``K_mu`` (into ``out``; ``out`` may be ``x``).
+def tangential_norm(x1, x2, dim):
+    """``||x_T||`` of a block given by its tangential components (``x2`` ignored in 2D)."""
+    if dim == 2:
+        return abs(x1)
+    return np.sqrt(x1 * x1 + x2 * x2)
+
+
+@njit(cache=True, inline="always")
+def cone_projection(x0, x1, x2, dim, mu):
+    """``P_{K_mu}`` of the block ``(x0, x1, x2)`` (``x2`` ignored, returned 0, in 2D).
 
     The polar test comes first, as in :func:`socp_cd.cones.project_cone`: with
     ``mu = 0`` and ``x_T = 0`` both tests read ``0 <= ...``, and a block with
     ``x_N < 0`` must project to 0, not to itself.
     """
-    xn = x[0]
-    t = tangential_norm_block(x, dim)
-    if mu * t <= -xn:
-        for a in range(dim):
-            out[a] = 0.0
-    elif t <= mu * xn:
-        for a in range(dim):
-            out[a] = x[a]
-    else:
-        pn = (xn + mu * t) / (1.0 + mu * mu)
-        out[0] = pn
-        s = mu * pn / t
-        for a in range(1, dim):
-            out[a] = s * x[a]
+    t = tangential_norm(x1, x2, dim)
+    if mu * t <= -x0:
+        return 0.0, 0.0, 0.0
+    if t <= mu * x0:
+        return x0, x1, (x2 if dim == 3 else 0.0)
+    pn = (x0 + mu * t) / (1.0 + mu * mu)
+    s = mu * pn / t
+    return pn, s * x1, (s * x2 if dim == 3 else 0.0)
+
+
+@njit(cache=True, inline="always")
+def law_projection(x0, x1, x2, dim, mu, g, law):
+    """Projection on ``K_mu`` (Coulomb, associated) or ``R+ x B(0, g)`` (Tresca), scalars."""
+    if law == LAW_TRESCA:
+        t = tangential_norm(x1, x2, dim)
+        s = 1.0
+        if t > g:
+            s = g / t
+        return (x0 if x0 > 0.0 else 0.0), s * x1, (s * x2 if dim == 3 else 0.0)
+    return cone_projection(x0, x1, x2, dim, mu)
+
+
+@njit(cache=True, inline="always")
+def law_velocity(u0, u1, u2, dim, mu, law):
+    """``û = u + mu ||u_T|| e_N`` (Coulomb), ``u`` itself for the other laws, scalars."""
+    if law == LAW_COULOMB:
+        return u0 + mu * tangential_norm(u1, u2, dim), u1, u2
+    return u0, u1, u2
+
+
+@njit(cache=True, inline="always")
+def _write(out, dim, p0, p1, p2):
+    out[0] = p0
+    out[1] = p1
+    if dim == 3:
+        out[2] = p2
+
+
+@njit(cache=True, inline="always")
+def project_cone_block(x, dim, mu, out):
+    """Project one block ``x`` on ``K_mu`` (into ``out``; ``out`` may be ``x``;
+    :func:`cone_projection`)."""
+    p0, p1, p2 = cone_projection(x[0], x[1], x[2] if dim == 3 else 0.0, dim, mu)
+    _write(out, dim, p0, p1, p2)
 
 
 @njit(cache=True, inline="always")
@@ -99,36 +140,24 @@ def project_dual_cone_block(x, dim, mu, out):
 
 @njit(cache=True, inline="always")
 def project_law_block(x, dim, mu, g, law, out):
-    """Project on ``K_mu`` (Coulomb, associated) or ``R+ x B(0, g)`` (Tresca)."""
-    if law == LAW_TRESCA:
-        t = tangential_norm_block(x, dim)
-        out[0] = x[0] if x[0] > 0.0 else 0.0
-        s = 1.0
-        if t > g:
-            s = g / t
-        for a in range(1, dim):
-            out[a] = s * x[a]
-        return
-    project_cone_block(x, dim, mu, out)
+    """Project on ``K_mu`` (Coulomb, associated) or ``R+ x B(0, g)`` (Tresca)
+    (:func:`law_projection`)."""
+    p0, p1, p2 = law_projection(x[0], x[1], x[2] if dim == 3 else 0.0, dim, mu, g, law)
+    _write(out, dim, p0, p1, p2)
 
 
 @njit(cache=True, inline="always")
 def desaxce_velocity_block(u, dim, mu, out):
     """``û = u + mu ||u_T|| e_N`` for one block."""
-    t = tangential_norm_block(u, dim)
-    for a in range(dim):
-        out[a] = u[a]
-    out[0] += mu * t
+    p0, p1, p2 = law_velocity(u[0], u[1], u[2] if dim == 3 else 0.0, dim, mu, LAW_COULOMB)
+    _write(out, dim, p0, p1, p2)
 
 
 @njit(cache=True, inline="always")
 def law_velocity_block(u, dim, mu, law, out):
-    """``û`` for the Coulomb law, ``u`` itself for the others."""
-    if law == LAW_COULOMB:
-        desaxce_velocity_block(u, dim, mu, out)
-    else:
-        for a in range(dim):
-            out[a] = u[a]
+    """``û`` for the Coulomb law, ``u`` itself for the others (:func:`law_velocity`)."""
+    p0, p1, p2 = law_velocity(u[0], u[1], u[2] if dim == 3 else 0.0, dim, mu, law)
+    _write(out, dim, p0, p1, p2)
 
 
 @njit(cache=True)
@@ -187,21 +216,33 @@ def error_parts(r, u, mu, g, dim, law):
     entry per contact.
     """
     nc = r.shape[0] // dim
-    x = np.empty(dim)
-    p = np.empty(dim)
     f2 = 0.0
     r2 = 0.0
     u2 = 0.0
     for i in range(nc):
         o = i * dim
-        law_velocity_block(u[o:o + dim], dim, mu[i], law, x)
-        for a in range(dim):
-            x[a] = r[o + a] - x[a]
-            r2 += r[o + a] * r[o + a]
-            u2 += u[o + a] * u[o + a]
-        project_law_block(x, dim, mu[i], g[i], law, p)
-        for a in range(dim):
-            e = r[o + a] - p[a]
+        r0, r1 = r[o], r[o + 1]
+        u0, u1 = u[o], u[o + 1]
+        r_2 = r[o + 2] if dim == 3 else 0.0
+        u_2 = u[o + 2] if dim == 3 else 0.0
+        h0, h1, h2 = law_velocity(u0, u1, u_2, dim, mu[i], law)
+        x0 = r0 - h0
+        x1 = r1 - h1
+        x2 = r_2 - h2
+        r2 += r0 * r0
+        u2 += u0 * u0
+        r2 += r1 * r1
+        u2 += u1 * u1
+        if dim == 3:
+            r2 += r_2 * r_2
+            u2 += u_2 * u_2
+        p0, p1, p2 = law_projection(x0, x1, x2, dim, mu[i], g[i], law)
+        e = r0 - p0
+        f2 += e * e
+        e = r1 - p1
+        f2 += e * e
+        if dim == 3:
+            e = r_2 - p2
             f2 += e * e
     return f2, r2, u2
 
@@ -242,33 +283,39 @@ def coulomb_violations(r, u, mu, dim):
     :func:`socp_cd.cones.fenchel_young_gap`) reduced over the contacts.
     """
     nc = r.shape[0] // dim
-    p = np.empty(dim)
-    uh = np.empty(dim)
     cone = 0.0
     normal = 0.0
     gap = 0.0
     for i in range(nc):
         o = i * dim
-        project_cone_block(r[o:o + dim], dim, mu[i], p)
-        d2 = 0.0
-        for a in range(dim):
-            e = r[o + a] - p[a]
+        r0, r1 = r[o], r[o + 1]
+        u0, u1 = u[o], u[o + 1]
+        r_2 = r[o + 2] if dim == 3 else 0.0
+        u_2 = u[o + 2] if dim == 3 else 0.0
+        p0, p1, p2 = cone_projection(r0, r1, r_2, dim, mu[i])
+        e = r0 - p0
+        d2 = e * e
+        e = r1 - p1
+        d2 += e * e
+        if dim == 3:
+            e = r_2 - p2
             d2 += e * e
         d = np.sqrt(d2)
         if d > cone or i == 0:
             cone = d
-        v = -u[o] if -u[o] > 0.0 else 0.0
+        v = -u0 if -u0 > 0.0 else 0.0
         if v > normal or i == 0:
             normal = v
-        desaxce_velocity_block(u[o:o + dim], dim, mu[i], uh)
-        g = 0.0
-        for a in range(dim):
-            g += r[o + a] * uh[a]
+        h0, h1, h2 = law_velocity(u0, u1, u_2, dim, mu[i], LAW_COULOMB)
+        g = r0 * h0 + r1 * h1
+        if dim == 3:
+            g += r_2 * h2
         gap += abs(g)
     return cone, normal, gap
 
 
 __all__ = ["LAW_COULOMB", "LAW_ASSOCIATED", "LAW_TRESCA", "EPS", "tangential_norm_block",
+           "tangential_norm", "cone_projection", "law_projection", "law_velocity",
            "project_cone_block", "project_cone_stacked", "project_dual_cone_block", "project_law_block",
            "desaxce_velocity_block", "law_velocity_block", "project_cone_jacobian_block",
            "error_parts", "relative_error", "law_error", "siconos_error", "coulomb_violations"]

@@ -44,13 +44,15 @@ def unit_factors(diag, q, dim):
     for j in range(m):
         d[j // dim] += abs(diag[j])
     n_good = 0
-    log_sum = 0.0
     for i in range(nc):
         d[i] /= dim
         if np.isfinite(d[i]) and d[i] > 0.0:
             n_good += 1
-            log_sum += np.log(d[i])
-    if n_good < nc:
+    if n_good < nc:         # the geometric mean of the good ones (logs only when needed)
+        log_sum = 0.0
+        for i in range(nc):
+            if np.isfinite(d[i]) and d[i] > 0.0:
+                log_sum += np.log(d[i])
         fill = np.exp(log_sum / n_good) if n_good > 0 else 1.0
         for i in range(nc):
             if not (np.isfinite(d[i]) and d[i] > 0.0):
@@ -133,8 +135,10 @@ def balance_csr(indptr, indices, data, q, mu, dim):
                 diag[row] += data[k]
     a, b, q_s, q2, qs2 = unit_factors(diag, q, dim)
     srt = np.empty(m)
-    for j in range(m):
-        srt[j] = np.sqrt(a[j] / b[j])
+    for i in range(m // dim):          # a / b is one value per contact: one square root each
+        v = np.sqrt(a[i * dim] / b[i * dim])
+        for k in range(dim):
+            srt[i * dim + k] = v
     data_s = np.empty(data.shape[0])
     for row in range(m):
         for k in range(indptr[row], indptr[row + 1]):
