@@ -35,6 +35,7 @@ from collections import namedtuple
 
 import numpy as np
 from numba import njit
+from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from .block_storage import csr_to_bsr
 from .kernels.cone import LAW_COULOMB, error_parts, relative_error, siconos_error
@@ -81,12 +82,14 @@ STATS = ("sweeps", "internal_error", "n_full", "n_fail", "light", "error", "zero
 (SWEEPS, INTERNAL_ERROR, N_FULL, N_FAIL, LIGHT, ERROR, ZERO_ERROR, START_ERROR, MU_MAX,
  VELOCITY_SCALE, DIAG_MIN, DIAG_MAX, GUARD_FINITE) = range(len(STATS))
 _N_STATS = len(STATS)
+#: length of :func:`nsgs_checked`'s ``stats`` tuple (STATS, then the guard's entries)
+_N_OUT = _N_STATS + len(GUARD_KEYS)
 
 
 @njit(cache=True)
 def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blocked, first_block,
                  kind, loc_tol, newton_max_iter, projection_max_iter, omega, error_every,
-                 stall_window, need_friction):
+                 stall_window, need_friction, vectors):
     """Balance, NSGS sweeps from ``r0``, map back, and the dispatcher's checks, in one call.
 
     Parameters
@@ -107,17 +110,19 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     need_friction
         Decline (code :data:`DECLINED_FRICTIONLESS`) before any work when every
         ``mu`` is 0.
+    vectors : ndarray (3, m)
+        Output, overwritten: rows the balanced iterate ``r~``, ``r = a r~`` and
+        ``u = W r + q`` (the data as written).  Passed in, one array: an array
+        a compiled call allocates and returns costs its boxing (~0.3 µs, three
+        times NumPy's allocation).
 
     Returns
     -------
     code : int
         The sweeps' status, or a ``DECLINED_*`` code (then nothing else is meaningful).
-    vectors : ndarray (3, m)
-        Rows: the balanced iterate ``r~``, ``r = a r~`` and ``u = W r + q`` (the
-        data as written).  One array: each array a compiled call returns costs
-        its boxing.
-    stats : ndarray
-        The entries named by :data:`STATS`, then the units guard's
+    stats : tuple of float
+        A tuple, not an array (boxing floats costs a third of an array's and
+        its ``tolist``): the entries named by :data:`STATS`, then the units guard's
         (:func:`~socp_cd.solvers.kernels.scaling.balanced_guard` of ``(r, u)``):
         NSGS's counts and last errors (``internal_error``: Siconos' error of the
         balanced pair, what ``solver="auto"``'s stage judge measures, to
@@ -129,20 +134,20 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     """
     nc = mu.shape[0]
     m = q.shape[0]
-    stats = np.zeros(_N_STATS + len(GUARD_KEYS))
-    vectors = np.zeros((3, m))
+    stats = np.zeros(_N_OUT)
     mu_max = 0.0
     for i in range(nc):
         mu_max = max(mu_max, mu[i])
     stats[MU_MAX] = mu_max
     if need_friction and mu_max == 0.0:
-        return DECLINED_FRICTIONLESS, vectors, stats
+        return DECLINED_FRICTIONLESS, to_fixed_tuple(stats, _N_OUT)
     a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, dim)
     bptr, bcol, blocks, _, diag = csr_to_bsr(indptr, indices, data_s, dim, nc)
     rhoN, rhoT, rhoP, bad = local_parameters(diag, blocks)
     if bad.any():
-        return DECLINED_ILL_POSED, vectors, stats
+        return DECLINED_ILL_POSED, to_fixed_tuple(stats, _N_OUT)
     r_s = vectors[0]
+    r_s[:] = 0.0
     start_error = np.inf
     if warm:
         for j in range(m):
@@ -169,7 +174,7 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     u[:] = csr_matvec_add(indptr, indices, data, r, q)
     for j in range(m):
         if not (np.isfinite(r[j]) and np.isfinite(u[j])):
-            return DECLINED_NOT_FINITE, vectors, stats
+            return DECLINED_NOT_FINITE, to_fixed_tuple(stats, _N_OUT)
     f2, r2, u2 = error_parts(r, u, mu, np.zeros(nc), dim, LAW_COULOMB)
     g_finite, guard = balanced_guard(r, u, a, b, mu, dim, q_s_norm)
     sigma, d_min, d_max = factor_summary(a, b, dim)
@@ -186,12 +191,12 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     stats[DIAG_MAX] = d_max
     stats[GUARD_FINITE] = 1.0 if g_finite else 0.0
     stats[_N_STATS:] = guard
-    return status, vectors, stats
+    return status, to_fixed_tuple(stats, _N_OUT)
 
 
 #: What :func:`run` gives a backend's route.  ``status``: the sweeps' own status
 #: (:data:`~socp_cd.solvers.nsgs_kernels.STATUS_NAMES`); ``vectors``: rows ``r~`` (the
-#: balanced iterate), ``r`` and ``u = W r + q`` in the caller's units; ``stats``: the list
+#: balanced iterate), ``r`` and ``u = W r + q`` in the caller's units; ``stats``: the tuple
 #: of the entries of :data:`STATS` (index constants ``SWEEPS``, ``ERROR``, ...: ``ERROR``
 #: is the dispatcher's recomputed Siconos error, ``INTERNAL_ERROR`` what ``auto``'s stage
 #: judge measures); ``guard``: the units guard's record (:func:`socp_cd.residuals.guard`);
@@ -224,13 +229,13 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction):
         return None
     warm = r0 is not None
     kind, loc_tol, newton_maxit, proj_maxit, omega, error_every, stall_window = settings
-    code, vectors, stats = nsgs_checked(
+    vectors = np.empty((3, q.shape[0]))
+    code, x = nsgs_checked(
         indptr, indices, data, q, mu, problem.dim, r0 if warm else q, warm, tol, max_iter,
         time_limit is not None, TIME_CHECK_SWEEPS, kind, loc_tol, newton_maxit, proj_maxit, omega,
-        error_every, stall_window, need_friction)
+        error_every, stall_window, need_friction, vectors)
     if code < 0:
         return None
-    x = stats.tolist()
     if not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
         return None
     g = _N_STATS       # the guard's record, keys in GUARD_KEYS' order (a literal: the fastest)
