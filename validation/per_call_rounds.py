@@ -2,7 +2,10 @@
 
 Prints one line per run: for each problem, the min over 5 × 5 000 calls of
 ``solve(p)`` (the same problem object), ``solve(copy.copy(p), time_limit=1)``
-(a new problem per call, the benchmark's call) and ``solve(p, "nsgs")``, in µs.
+(a new problem per call, the benchmark's call) and ``solve(p, "nsgs")``, in µs,
+then the benchmark's call again with the copies made before the timer, as the
+benchmark makes them (``validation/newton_vs_siconos.py``): the second column
+also times ``copy.copy`` itself (~1.4 µs) and its effect on the caches.
 Compare two trees in alternating rounds on the same machine (the README's
 session-9 table: two rounds each)::
 
@@ -14,6 +17,8 @@ Appends each line, with the tree it ran, to ``validation/results/per_call_rounds
 from __future__ import annotations
 
 import copy
+import gc
+import time
 import timeit
 from pathlib import Path
 
@@ -29,6 +34,23 @@ def per_call(f, number=5000, repeat=5) -> float:
     return min(timeit.repeat(f, number=number, repeat=repeat)) / number * 1e6
 
 
+def per_call_fresh(p, number=5000, repeat=5) -> float:
+    """Min over ``repeat`` loops of ``number`` calls ``solve(copy, time_limit=1)``, µs per
+    call, the copies made before the timer (garbage collection off, as ``timeit``)."""
+    best = float("inf")
+    for _ in range(repeat):
+        copies = [copy.copy(p) for _ in range(number)]
+        gc.disable()
+        try:
+            t0 = time.perf_counter()
+            for c in copies:
+                socp_cd.solve(c, time_limit=1.0)
+            best = min(best, time.perf_counter() - t0)
+        finally:
+            gc.enable()
+    return best / number * 1e6
+
+
 def main() -> int:
     out = []
     for name in PROBLEMS:
@@ -38,7 +60,8 @@ def main() -> int:
         same = per_call(lambda: socp_cd.solve(p))
         fresh = per_call(lambda: socp_cd.solve(copy.copy(p), time_limit=1.0))
         nsgs = per_call(lambda: socp_cd.solve(p, "nsgs"))
-        out.append(f"{name}:{same:.1f}/{fresh:.1f}/{nsgs:.1f}")
+        outside = per_call_fresh(p)
+        out.append(f"{name}:{same:.1f}/{fresh:.1f}/{nsgs:.1f}/{outside:.1f}")
     line = f"{Path(socp_cd.__file__).resolve().parents[1]} " + " ".join(out)
     print(line)
     results = Path(__file__).resolve().parent / "results"
