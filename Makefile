@@ -6,7 +6,7 @@ STAMP   := $(VENV)/.installed
 SHARED  ?= ../shared/data/problems
 PYTEST_ARGS ?= -n 2
 
-.PHONY: demo test bench validate clean
+.PHONY: demo test bench validate clean clean-cache
 
 $(VPY):
 	$(PY) -m venv $(VENV)
@@ -28,5 +28,10 @@ bench: $(STAMP)
 validate: $(STAMP)
 	$(VENV)/bin/socp-cd validate
 
-clean:
+clean: clean-cache
 	rm -rf $(VENV) build *.egg-info .pytest_cache
+
+# numba's cache (cache=True) is keyed on each function's own file: a cached caller keeps
+# the old code of a kernel it calls from another file until this is run
+clean-cache:
+	find socp_cd -name '*.nbi' -delete -o -name '*.nbc' -delete

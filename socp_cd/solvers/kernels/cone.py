@@ -204,7 +204,11 @@ def project_cone_stacked(x, mu, dim, out):
     """
     for i in range(mu.shape[0]):
         o = i * dim
-        project_cone_block(x[o:o + dim], dim, mu[i], out[o:o + dim])
+        p0, p1, p2 = cone_projection(x[o], x[o + 1], x[o + 2] if dim == 3 else 0.0, dim, mu[i])
+        out[o] = p0
+        out[o + 1] = p1
+        if dim == 3:
+            out[o + 2] = p2
     return out
 
 
