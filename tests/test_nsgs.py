@@ -373,3 +373,83 @@ def test_local_ac_jacobian_matches_finite_differences(d, law):
             np.testing.assert_allclose(J, np.column_stack(cols), atol=1e-6)
             checked += 1
     assert checked >= 150
+
+
+# ------------------------------------------- the one-contact solves NSGS runs (scalar kernels)
+@pytest.mark.parametrize("d", [2, 3])
+def test_solve_small_equals_lapack_with_row_swaps(d):
+    """The augmented-buffer solve of the local Newton step: the right-hand side moves with
+    its row when the pivot search swaps rows; a singular matrix is refused."""
+    from socp_cd.solvers.local_solvers import solve_small
+    rng = np.random.default_rng(40 + d)
+    swapped = 0
+    for _ in range(50):
+        J = rng.standard_normal((d, d))
+        J[1, 0] = 3.0 * max(abs(J[0, 0]), 1.0) * np.sign(J[1, 0] or 1.0)   # a row swap at k = 0
+        rhs = rng.standard_normal(d)
+        M = np.zeros((d, d + 1))
+        M[:, :d], M[:, d] = J, rhs
+        assert solve_small(M, d)
+        np.testing.assert_allclose(M[:, d], np.linalg.solve(J, rhs), rtol=1e-10, atol=1e-12)
+        swapped += 1
+    assert swapped == 50
+    M = np.zeros((d, d + 1))
+    M[:, :d] = np.outer(np.arange(1.0, d + 1), np.ones(d))                    # rank 1
+    assert not solve_small(M, d)
+
+
+def _sliding_contact_3d(mu=0.6, seed=3):
+    """A 3D contact with a known sliding solution: ``(A (1, 3, 3), b, r*)``."""
+    rng = np.random.default_rng(seed)
+    B = rng.standard_normal((3, 3))
+    A = B @ B.T + np.eye(3)
+    t = np.array([0.6, 0.8])                          # direction of r_T
+    r_star = np.r_[2.0, mu * 2.0 * t]                 # on the cone's boundary
+    u_star = np.r_[0.0, -1.5 * t]                     # u_N = 0, u_T opposite to r_T
+    return A[None], u_star - A @ r_star, r_star, mu
+
+
+def test_ac_newton_3d_slide_converges_fast_in_every_component():
+    """Semismooth Newton near a smooth sliding solution: a few steps, all three components
+    of r exact (a step that drops a component stalls or fails)."""
+    from socp_cd.solvers.kernels.cone import LAW_COULOMB
+    from socp_cd.solvers.local_solvers import ac_newton
+    A, b, r_star, mu = _sliding_contact_3d()
+    x0 = r_star + np.array([0.05, -0.04, 0.03])
+    M = np.zeros((3, 4))
+    it, *r = ac_newton(A, 0, *b, mu, 0.0, LAW_COULOMB, 1.0, 1.0, *x0, 3, 50, 1e-14, M)
+    assert 1 <= it <= 5
+    np.testing.assert_allclose(r, r_star, rtol=0, atol=1e-12)
+
+
+def test_local_solve_falls_back_to_the_projection_then_newton():
+    """With one Newton step allowed, Newton alone fails from r = 0 on a sliding contact; the
+    chain's projection fixed point, then Newton again, solves it."""
+    from socp_cd.solvers.kernels.cone import LAW_COULOMB
+    from socp_cd.solvers.local_solvers import (KIND_AC_NEWTON, LOCAL_OK, ac_newton,
+                                               local_solve)
+    A, b, r_star, mu = _sliding_contact_3d()
+    M = np.zeros((3, 4))
+    rho = 1.0 / np.trace(A[0]) * 3
+    it = ac_newton(A, 0, *b, mu, 0.0, LAW_COULOMB, rho, rho, 0.0, 0.0, 0.0, 3, 1, 1e-12, M)[0]
+    assert it < 0                                     # Newton alone: not within one step
+    r = np.zeros(3)
+    status = local_solve(KIND_AC_NEWTON, A, 0, b, mu, 0.0, LAW_COULOMB, rho, rho, rho, r, 3,
+                         1e-12, 1, 5000, np.zeros((8, 3)), M)
+    assert status == LOCAL_OK
+    np.testing.assert_allclose(r, r_star, rtol=0, atol=1e-9)
+
+
+def test_tresca_projection_clamps_the_normal_part():
+    """Tresca's set R+ x B(0, g): a negative normal part goes to 0, the tangential part to
+    the disc; and a separated, tangentially still Tresca contact gets r = 0 from NSGS."""
+    from socp_cd.solvers.kernels.cone import LAW_TRESCA, law_projection
+    p = law_projection(-1.0, 3.0, 4.0, 3, 0.5, 2.0, LAW_TRESCA)
+    np.testing.assert_allclose(p, (0.0, 1.2, 1.6), rtol=0, atol=1e-15)
+    p = law_projection(2.0, 0.3, 0.0, 2, 0.5, 2.0, LAW_TRESCA)
+    np.testing.assert_allclose(p, (2.0, 0.3, 0.0), rtol=0, atol=0)
+    W = np.array([[2.0, 0.3, 0.1], [0.3, 1.5, 0.2], [0.1, 0.2, 1.2]])
+    sep = FrictionContactProblem(W, np.array([0.5, 0.0, 0.0]), np.array([0.4]), 3)   # u = q
+    res = solve(sep, "nsgs", formulation="tresca", threshold=np.array([0.3]), tol=TOL)
+    assert res.converged
+    np.testing.assert_allclose(res.r, 0.0, atol=1e-14)

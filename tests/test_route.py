@@ -276,7 +276,7 @@ def test_compiled_run_stall_window_is_the_option(dim):
 
 
 def test_stats_layout_of_the_route():
-    # the layout of nsgs_checked's stats array (RouteOutcome.stats), which the routes of
+    # the layout of nsgs_checked's stats tuple (RouteOutcome.stats), which the routes of
     # nsgs and auto read through the named constants, and the guard's keys after it
     assert (nsgs_route.SWEEPS, nsgs_route.INTERNAL_ERROR, nsgs_route.ERROR, nsgs_route.ZERO_ERROR,
             nsgs_route.START_ERROR, nsgs_route.MU_MAX) == (0, 1, 5, 6, 7, 8)

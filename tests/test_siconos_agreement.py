@@ -95,6 +95,13 @@ def siconos():
             p.path for p in shared_problems(kind="global") if p.file == "GFC3D_TwoRods1.dat"),
             "solver": "nsgs", "tol": 1e-10, "max_iter": 1000},
         "bogus": {"task": "solve", "problem": rover, "solver": "no_such_solver"},
+        # W's storage: PFP runs on sparse-block storage only; every storage gives NSGS
+        # the same answer; SOCLCP rewrites its options, so each repeat needs new ones
+        **{f"{s}-{st}": {"task": "solve", "problem": rover, "solver": s, "tol": 1e-8,
+                         "max_iter": 1000, "storage": st, "repeat": 3, "time_limit": 20}
+           for s in ("nsgs", "pfp") for st in ("dense", "sbm", "csc")},
+        "soclcp-repeat": {"task": "solve", "problem": rover, "solver": "soclcp", "tol": 1e-8,
+                          "max_iter": 1000, "repeat": 3, "time_limit": 20},
         "abort": {"task": "_abort"},
         "slow": {"task": "solve", "problem": next(
             p.path for p in LOCAL if p.file == "KaplasTower-i1061-4.hdf5.dat"),
@@ -219,3 +226,27 @@ def test_bridge_failures_are_data(siconos):
     assert s["abort"]["status"] == "crashed" and s["abort"]["exitcode"] < 0
     assert s["slow"]["status"] == "time_limit"
     assert s["slow"]["wall_time"] < 60
+
+
+def test_bridge_storage_of_w(siconos):
+    """The worker stores W as asked; each storage reaches the same NSGS answer, PFP needs
+    sparse-block storage (dense or CSparse abort it in Siconos 4.4)."""
+    s, rover = siconos["solves"], siconos["rover"]
+    ref = s["nsgs-csc"]
+    assert ref["status"] == "ok" and ref["info"] == 0
+    for st in ("dense", "sbm"):
+        res = s[f"nsgs-{st}"]
+        assert res["status"] == "ok" and res["iterations"] == ref["iterations"]
+        np.testing.assert_allclose(res["r"], ref["r"], rtol=1e-10, atol=1e-14)
+    pfp = s["pfp-sbm"]
+    assert pfp["status"] == "ok" and pfp["solver_name"] == "FC3D_PFP"
+    assert socp_cd.error(rover, pfp["r"]) <= 1e-8
+    assert s["pfp-dense"]["status"] == "crashed" and s["pfp-csc"]["status"] == "crashed"
+
+
+def test_bridge_repeats_with_new_options(siconos):
+    """A driver that rewrites its options (SOCLCP) is repeated with new ones: its answer
+    is returned, not an "Unknown solver" error from the second call."""
+    res = siconos["solves"]["soclcp-repeat"]
+    assert res["status"] == "ok", res.get("message")
+    assert np.all(np.isfinite(res["r"])) and res["iterations"] >= 1

@@ -144,8 +144,71 @@ def _dense_local(sn, W, q, mu, dim):
                                      np.ascontiguousarray(mu, dtype=float))
 
 
+def _sbm_local(sn, A, q, mu, dim):
+    """A local problem with ``W`` in Siconos' sparse-block storage (``dim`` x ``dim`` blocks).
+
+    ``A``: scipy sparse ``W``.  The block matrix keeps a reference to its parts
+    (``problem._keep``): SWIG does not tie their lifetimes together.
+    """
+    np = _np
+    A = _csc64(A)
+    M = sn.NumericsMatrix(A)
+    info, sbm = sn.SBM_from_csparse(int(dim), sn.NM_csc(M))
+    if info:
+        raise ValueError(f"SBM_from_csparse failed (info {info})")
+    n = A.shape[0]
+    W = sn.NM_new_SBM(n, n, sbm)
+    p = sn.FrictionContactProblem(int(dim), W, np.ascontiguousarray(q, dtype=float),
+                                  np.ascontiguousarray(mu, dtype=float))
+    p._keep = (A, M, sbm, W)
+    return p
+
+
+def _stored(sn, p, storage):
+    """The local problem ``p`` with ``W`` in ``storage`` (None: as it is)."""
+    np = _np
+    if storage is None or int(p.dimension) == 2:
+        return p
+    want = {"dense": sn.NM_DENSE, "sbm": sn.NM_SPARSE_BLOCK, "csc": sn.NM_SPARSE}[storage]
+    if p.M.storageType == want:
+        return p
+    A = _sparse_of(p.M)
+    q, mu, d = np.array(p.q), np.array(p.mu), int(p.dimension)
+    if storage == "dense":
+        return _dense_local(sn, A.toarray(), q, mu, d)
+    if storage == "sbm":
+        return _sbm_local(sn, A, q, mu, d)
+    return sn.FrictionContactProblem(d, _csc64(A), q, mu)
+
+
+def _csc64(A):
+    """``A`` as scipy CSC with summed duplicates and the 64-bit indices Siconos stores."""
+    np = _np
+    import scipy.sparse as sp
+    A = sp.csc_matrix(A)
+    A.sum_duplicates()
+    A.indices = A.indices.astype(np.int64)
+    A.indptr = A.indptr.astype(np.int64)
+    return A
+
+
 def _problem(task, inputs):
-    """Build the Siconos problem of a task -> (kind, problem)."""
+    """Build the Siconos problem of a task -> (kind, problem).
+
+    A local 3D problem's ``W`` is stored as ``task["storage"]`` asks
+    (``"dense"``, ``"sbm"``: Siconos' 3x3 sparse-block storage, ``"csc"``; None:
+    as read from the file, CSparse when shipped as arrays; ``task["dense"]``
+    is the older spelling of ``"dense"``).
+    """
+    kind, p = _problem_as_given(task, inputs)
+    if kind == "local":
+        storage = task.get("storage") or ("dense" if task.get("dense") else None)
+        p = _stored(_imports()[1], p, storage)
+    return kind, p
+
+
+def _problem_as_given(task, inputs):
+    """Build the Siconos problem of a task as read or shipped -> (kind, problem)."""
     np, sn = _imports()
     if task.get("file"):
         path = task["file"]
@@ -163,7 +226,7 @@ def _problem(task, inputs):
     if kind == "local":
         W = _triplets(pre + "W", inputs)
         q = np.ascontiguousarray(inputs[pre + "q"], dtype=float)
-        if task.get("dense") or dim == 2:
+        if dim == 2:
             return kind, _dense_local(sn, W.toarray(), q, mu, dim)
         return kind, sn.FrictionContactProblem(dim, W, q, mu)
     g = sn.GlobalFrictionContactProblem()
@@ -317,17 +380,24 @@ def task_solve(task, inputs):
     if kind == "local" and dim == 2:
         p = _for_2d_driver(p)
     sid = solver_id(kind, dim, task["solver"])
-    so = sn.SolverOptions(sid)
-    if task.get("max_iter") is not None:
-        so.iparam[sn.SICONOS_IPARAM_MAX_ITER] = int(task["max_iter"])
-    if task.get("tol") is not None:
-        so.dparam[sn.SICONOS_DPARAM_TOL] = float(task["tol"])
-    _set_params(sn, so, task.get("iparam"), task.get("dparam"))
-    if task.get("internal_iparam") or task.get("internal_dparam"):
-        if so.numberOfInternalSolvers < 1:
-            raise ValueError("this solver has no internal solver")
-        inner = sn.solver_options_get_internal_solver(so, 0)
-        _set_params(sn, inner, task.get("internal_iparam"), task.get("internal_dparam"))
+
+    def options():
+        # new options for every driver call: some drivers rewrite theirs (SOCLCP's sets its
+        # solverId to SOCLCP_NSGS, and a second call then fails with "Unknown solver")
+        so = sn.SolverOptions(sid)
+        if task.get("max_iter") is not None:
+            so.iparam[sn.SICONOS_IPARAM_MAX_ITER] = int(task["max_iter"])
+        if task.get("tol") is not None:
+            so.dparam[sn.SICONOS_DPARAM_TOL] = float(task["tol"])
+        _set_params(sn, so, task.get("iparam"), task.get("dparam"))
+        if task.get("internal_iparam") or task.get("internal_dparam"):
+            if so.numberOfInternalSolvers < 1:
+                raise ValueError("this solver has no internal solver")
+            inner = sn.solver_options_get_internal_solver(so, 0)
+            _set_params(sn, inner, task.get("internal_iparam"), task.get("internal_dparam"))
+        return so
+
+    so = options()
     m = dim * int(p.numberOfContacts)
 
     def start(key, n):
@@ -345,11 +415,12 @@ def task_solve(task, inputs):
     for k in range(repeat):
         if spent > REPEAT_BUDGET:       # repeats matter at the microsecond scale only
             break
-        if k:   # a fresh problem: some drivers (global ones) modify theirs in place
-            used.append(p)      # kept alive: the solver options may still refer to it
+        if k:   # a fresh problem and options: some drivers modify theirs in place
+            used.append((p, so))    # kept alive: the solver options may still refer to it
             kind, p = _problem(task, inputs)
             if kind == "local" and dim == 2:
                 p = _for_2d_driver(p)
+            so = options()
         r, u = start("r0", m), start("u0", m)
         if kind == "global":
             v = start("v0", len(np.array(p.q)))

@@ -24,7 +24,16 @@ densifies such 2D problems); the global ``"nsgs_wr"`` returns an r that solves
 the problem but ``v``, ``u`` not recomputed from it (recompute them, as
 :func:`socp_cd.error` does); the C ``fc2d_compute_error`` is not wrapped by
 SWIG (the worker calls it through ctypes); there is no local error for global
-problems (``gfc3d_compute_error`` measures something else).
+problems (``gfc3d_compute_error`` measures something else); PFP needs
+sparse-block storage (``storage="sbm"``; dense or CSparse ``W`` abort it:
+"createSplittedFrictionContactProblem: storageType value 0 not implemented",
+a double free); SOCLCP rewrites its options (a second driver call with them
+fails: the worker builds new options for every call); NSGSV is unfinished
+(its default local solver is rejected by its own initialization, and with the
+accepted one it dereferences a null local problem): it crashes on every
+problem; the storage of ``W`` moves the Newton solvers' times up to ×40 on
+small problems (PROX, NSN_AC on 4–9 contacts: CSparse 0.6–2.7 ms, dense or
+sparse-block 0.02–0.06 ms).
 """
 from __future__ import annotations
 
@@ -52,7 +61,7 @@ SOLVERS = {
 }
 #: Keyword options of :func:`siconos_solve` forwarded to the worker.
 SOLVE_PARAMS = ("iparam", "dparam", "internal_iparam", "internal_dparam", "r0", "u0", "v0", "repeat",
-                "kind", "dense")
+                "kind", "dense", "storage")
 _ARRAY_PARAMS = ("r0", "u0", "v0")
 _HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 
@@ -172,7 +181,9 @@ def _job_task(spec: dict, packer: _Packer) -> dict:
             task[name] = {str(k): v for k, v in dict(spec.pop(name)).items()}
         else:
             spec.pop(name, None)
-    for name in ("solver", "tol", "max_iter", "time_limit", "kind", "dense", "repeat"):
+    if spec.get("storage") not in (None, "dense", "sbm", "csc"):
+        raise UnsupportedError(f"storage must be 'dense', 'sbm' or 'csc', got {spec['storage']!r}")
+    for name in ("solver", "tol", "max_iter", "time_limit", "kind", "dense", "storage", "repeat"):
         if name in spec:
             value = spec.pop(name)
             if value is not None:
@@ -340,7 +351,11 @@ def siconos_solve(problem, solver: str, tol: float = 1e-8, max_iter: int = 10000
         ``iparam`` / ``dparam`` (``{index or constant name: value}``),
         ``internal_iparam`` / ``internal_dparam`` (first internal solver, e.g.
         NSGS's local solver), ``r0`` / ``u0`` / ``v0`` (initial guesses),
-        ``kind``, ``dense`` (ship ``W`` dense), ``repeat`` (call the driver up to
+        ``kind``, ``storage`` (a local 3D problem's ``W`` in Siconos' ``"dense"``,
+        ``"sbm"`` (3x3 sparse-block, the storage its local solvers are written for;
+        PFP accepts no other) or ``"csc"`` storage; None: as stored in a ``.dat``
+        file, CSparse when shipped as arrays), ``dense`` (older spelling of
+        ``storage="dense"``), ``repeat`` (call the driver up to
         this many times from the same start, in one process, and report the
         fastest call: a per-call time without cold caches; repeating stops once
         the calls have taken 0.05 s; each call gets a fresh problem; local

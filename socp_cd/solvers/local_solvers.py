@@ -2,10 +2,14 @@
 
 Cone projections and De Saxcé velocities come from
 :mod:`socp_cd.solvers.kernels.cone` (one implementation).  Each solver receives the *local problem* of contact ``i``: the diagonal block
-``A = W_ii`` (``dim x dim``, possibly nonsymmetric), the local free velocity
+``W_ii`` (``dim x dim``, possibly nonsymmetric), the local free velocity
 ``b = q_i + sum_{j != i} W_ij r_j`` and the friction coefficient ``mu``; it
-returns ``r`` such that ``u = A r + b`` and ``r`` obey the contact law of the
-formulation:
+returns ``r`` such that ``u = W_ii r + b`` and ``r`` obey the contact law of the
+formulation.  :func:`exact_2d`, :func:`projection_fp` and :func:`local_residual`
+take the block itself as ``A``; :func:`ac_function`, :func:`ac_newton` and
+:func:`local_solve` take the stacked diagonal blocks ``A`` (``n_contacts x dim
+x dim``) and the index ``i``, and work on scalars (no array view per contact:
+numba's reference counting of views cost more than the arithmetic).  The laws:
 
 * ``LAW_COULOMB``    — Signorini + Coulomb, ``K* ∋ û ⊥ r ∈ K_mu`` (``mu = 0``:
   frictionless);
@@ -421,7 +425,7 @@ def local_solve(kind, A, i, b, mu, g, law, rhoN, rhoT, rhoP, r, d, tol, newton_m
     (Newton; on failure the projection fixed point, then Newton again,
     keeping the iterate with the smaller local residual), ``KIND_PROJECTION``.
     The associated law always uses the projection fixed point.  ``work`` is a
-    ``(8, d)`` buffer, ``M`` a ``(d, d + 1)`` one.
+    ``(>= 4, d)`` buffer (rows 0–3 used), ``M`` a ``(d, d + 1)`` one.
 
     Returns ``LOCAL_OK`` or ``LOCAL_NOT_CONVERGED``.
     """

@@ -135,7 +135,7 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
     order = np.arange(nc)
     if shuffle:
         np.random.seed(seed)
-    work = np.zeros((8, d))
+    work = np.zeros((4, d))     # local_solve's buffer (rows 0-3)
     M = np.zeros((d, d + 1))
     b = np.zeros(d)
     rl = np.zeros(d)

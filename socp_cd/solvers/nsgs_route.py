@@ -35,6 +35,8 @@ from collections import namedtuple
 
 import numpy as np
 from numba import njit
+# numba's own array -> fixed-length tuple (numba >= 0.57; in its "unsafe" namespace, which
+# only means it trusts the length given: here a module constant)
 from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from .block_storage import csr_to_bsr
@@ -75,7 +77,7 @@ def applies(n_contacts, nnz, sweeps, time_limit) -> bool:
 #: the NSGS settings :func:`run` takes, in order (the keys of the NSGS backend's settings)
 ROUTE_SETTINGS = ("kind", "loc_tol", "newton_maxit", "proj_maxit", "omega", "error_every",
                   "stall_window")
-#: entries of :func:`nsgs_checked`'s ``stats`` array, in order (then the guard's,
+#: entries of :func:`nsgs_checked`'s ``stats`` tuple, in order (then the guard's,
 #: :data:`~socp_cd.solvers.kernels.scaling.GUARD_KEYS`)
 STATS = ("sweeps", "internal_error", "n_full", "n_fail", "light", "error", "zero_error",
          "start_error", "mu_max", "velocity_scale", "diag_min", "diag_max", "guard_finite")

@@ -19,6 +19,12 @@ Per contact ("block" of ``dim`` entries, normal first), writing into ``out``:
     The same for a contact law code (``LAW_COULOMB``, ``LAW_ASSOCIATED``:
     ``u`` unchanged; ``LAW_TRESCA``: projection on ``R+ x B(0, g)``).
 
+The same on scalars (a contact's components ``x0, x1, x2``; ``x2`` ignored in 2D),
+returning a tuple of three floats — the forms per-contact loops use:
+
+``tangential_norm(x1, x2, dim)``, ``cone_projection(x0, x1, x2, dim, mu)``,
+``law_projection(x0, x1, x2, dim, mu, g, law)``, ``law_velocity(u0, u1, u2, dim, mu, law)``.
+
 Whole stacked vectors (length ``m = dim * n_contacts``):
 
 ``project_cone_stacked(x, mu, dim, out)``
@@ -53,14 +59,6 @@ LAW_TRESCA = 2
 EPS = 2.220446049250313e-16
 
 
-@njit(cache=True, inline="always")
-def tangential_norm_block(x, dim):
-    """``||x_T||`` of one contact block."""
-    if dim == 2:
-        return abs(x[1])
-    return np.sqrt(x[1] * x[1] + x[2] * x[2])
-
-
 # The block operations work on scalars (a contact's <= 3 components): numba counts a
 # reference for every array handed between inlined functions, and on one contact that
 # bookkeeping cost more than the arithmetic.  The array forms below wrap them.
@@ -70,6 +68,12 @@ def tangential_norm(x1, x2, dim):
     if dim == 2:
         return abs(x1)
     return np.sqrt(x1 * x1 + x2 * x2)
+
+
+@njit(cache=True, inline="always")
+def tangential_norm_block(x, dim):
+    """``||x_T||`` of one contact block."""
+    return tangential_norm(x[1], x[2] if dim == 3 else 0.0, dim)
 
 
 @njit(cache=True, inline="always")
