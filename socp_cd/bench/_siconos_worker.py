@@ -197,12 +197,15 @@ def _problem(task, inputs):
 
     A local 3D problem's ``W`` is stored as ``task["storage"]`` asks
     (``"dense"``, ``"sbm"``: Siconos' 3x3 sparse-block storage, ``"csc"``; None:
-    as read from the file, CSparse when shipped as arrays; ``task["dense"]``
-    is the older spelling of ``"dense"``).
+    as read from a ``.dat`` file, sparse-block when shipped as arrays: CSparse,
+    how the arrays arrive, slowed every Siconos solver down and aborted PFP;
+    ``task["dense"]`` is the older spelling of ``"dense"``).
     """
     kind, p = _problem_as_given(task, inputs)
     if kind == "local":
         storage = task.get("storage") or ("dense" if task.get("dense") else None)
+        if storage is None and not task.get("file"):
+            storage = "sbm"
         p = _stored(_imports()[1], p, storage)
     return kind, p
 

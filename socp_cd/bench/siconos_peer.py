@@ -354,7 +354,7 @@ def siconos_solve(problem, solver: str, tol: float = 1e-8, max_iter: int = 10000
         ``kind``, ``storage`` (a local 3D problem's ``W`` in Siconos' ``"dense"``,
         ``"sbm"`` (3x3 sparse-block, the storage its local solvers are written for;
         PFP accepts no other) or ``"csc"`` storage; None: as stored in a ``.dat``
-        file, CSparse when shipped as arrays), ``dense`` (older spelling of
+        file, sparse-block when shipped as arrays), ``dense`` (older spelling of
         ``storage="dense"``), ``repeat`` (call the driver up to
         this many times from the same start, in one process, and report the
         fastest call: a per-call time without cold caches; repeating stops once
