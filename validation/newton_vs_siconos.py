@@ -26,8 +26,8 @@ same number of calls made in one process from the same start (the worker's
 ``repeat``), so that neither side pays a cold first call; both sides stop
 repeating once the calls have taken 0.05 s.  A local 3D problem is given to
 Siconos with ``W`` dense (up to :data:`DENSE_MAX_M` unknowns) and in its
-sparse-block storage, each solver credited with the better run (the CSV's
-``path`` column says which).  Both sides have the
+sparse-block storage, a local 2D one dense and sparse-block, each solver
+credited with the better run (the CSV's ``path`` column says which).  Both sides have the
 same per-problem ``--time-limit``.
 
 Usage::
@@ -65,7 +65,7 @@ SGM_SHIFT = 0.01
 SMALL = 10          #: contacts; Siconos is repeated on problems this small
 REPEAT_BUDGET = 0.05  #: seconds; as the Siconos worker, stop repeating past it
 #: a local 3D problem goes to Siconos with W both dense (up to this many unknowns) and in
-#: its 3x3 sparse-block storage, and each solver is credited with the better of the two
+#: its 3x3 sparse-block storage (2D: see :func:`storages`), and each solver is credited with the better of the two
 #: (solved first, then faster): the storage moves PROX / NSN_AC up to x40 on small
 #: problems (dense fastest), PFP runs on sparse-block storage only, and CSparse (what a
 #: problem shipped as arrays used to get, session 10 and before) was never the fastest
@@ -73,7 +73,13 @@ DENSE_MAX_M = 2000
 
 
 def storages(item) -> tuple:
-    """Siconos storages of ``W`` tried for ``item`` (None: the worker's default)."""
+    """Siconos storages of ``W`` tried for ``item`` (None: the worker's default).
+
+    Local 2D problems always go dense too (the only storage they had before session
+    10; the benchmark's ``--max-contacts`` bounds them), and sparse-block (2x2
+    blocks): Siconos' 2D NSGS ran 10x faster on it on FrictionContactProblem00237."""
+    if item["kind"] == "local2":
+        return ("dense", "sbm")
     if item["kind"] != "local3":
         return (None,)
     return ("dense", "sbm") if item["problem"].m <= DENSE_MAX_M else ("sbm",)
@@ -336,8 +342,8 @@ def write(rows, args, have_sic) -> None:
              f"calls, {args.repeats_small} on problems of at most {SMALL} contacts, stopped after "
              f"{REPEAT_BUDGET:g} s of calls; "
              "errors recomputed by `socp_cd.error`; a local 3D problem goes to Siconos with W dense "
-             f"(up to {DENSE_MAX_M} unknowns) and in sparse-block storage, each solver credited with "
-             "the better run). Sets: `shared` = the real problems; `eval` = exact "
+             f"(up to {DENSE_MAX_M} unknowns) and in sparse-block storage, a local 2D one dense and "
+             "sparse-block, each solver credited with the better run). Sets: `shared` = the real problems; `eval` = exact "
              "solutions manufactured on their operators (tune / holdout split by a hash of the case id; "
              "no parameter was chosen on holdout cases); `sim` = problems dumped from our simulations.", ""]
     if getattr(args, "from_csv", None) is not None:

@@ -167,7 +167,7 @@ def _sbm_local(sn, A, q, mu, dim):
 def _stored(sn, p, storage):
     """The local problem ``p`` with ``W`` in ``storage`` (None: as it is)."""
     np = _np
-    if storage is None or int(p.dimension) == 2:
+    if storage is None:
         return p
     want = {"dense": sn.NM_DENSE, "sbm": sn.NM_SPARSE_BLOCK, "csc": sn.NM_SPARSE}[storage]
     if p.M.storageType == want:
@@ -195,8 +195,9 @@ def _csc64(A):
 def _problem(task, inputs):
     """Build the Siconos problem of a task -> (kind, problem).
 
-    A local 3D problem's ``W`` is stored as ``task["storage"]`` asks
-    (``"dense"``, ``"sbm"``: Siconos' 3x3 sparse-block storage, ``"csc"``; None:
+    A local problem's ``W`` is stored as ``task["storage"]`` asks
+    (``"dense"``, ``"sbm"``: Siconos' sparse-block storage, ``dim x dim`` blocks,
+    ``"csc"`` (3D only: the 2D driver densifies it); None:
     as read from a ``.dat`` file, sparse-block when shipped as arrays: CSparse,
     how the arrays arrive, slowed every Siconos solver down and aborted PFP;
     ``task["dense"]`` is the older spelling of ``"dense"``).

@@ -351,8 +351,8 @@ def siconos_solve(problem, solver: str, tol: float = 1e-8, max_iter: int = 10000
         ``iparam`` / ``dparam`` (``{index or constant name: value}``),
         ``internal_iparam`` / ``internal_dparam`` (first internal solver, e.g.
         NSGS's local solver), ``r0`` / ``u0`` / ``v0`` (initial guesses),
-        ``kind``, ``storage`` (a local 3D problem's ``W`` in Siconos' ``"dense"``,
-        ``"sbm"`` (3x3 sparse-block, the storage its local solvers are written for;
+        ``kind``, ``storage`` (a local problem's ``W`` in Siconos' ``"dense"``,
+        ``"sbm"`` (sparse-block, the storage its local solvers are written for;
         PFP accepts no other) or ``"csc"`` storage; None: as stored in a ``.dat``
         file, sparse-block when shipped as arrays), ``dense`` (older spelling of
         ``storage="dense"``), ``repeat`` (call the driver up to
