@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from socp_cd.bench.siconos_peer import REPEAT_CALLS
 from socp_cd.data import shared_problems_dir
 from socp_cd.io import read_problem
 from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem
@@ -103,11 +104,10 @@ def peer_tasks(path, p, tol):
         names = ("aclmfp", "nsgs")
     else:
         names = ("nsgs",)
-    # local problems: the driver called up to 200 times in the task, stopped after 0.05 s of
-    # calls, the fastest kept (one call per task timed a cold first call, ~60 µs on one
-    # contact); global drivers are called once (the worker's rule)
+    # local problems: the driver called up to REPEAT_CALLS times in the task (the worker's
+    # repeat rule, siconos_peer), the fastest kept; global drivers are called once
     return [{"task": "solve", "problem": str(path), "solver": s, "tol": tol, "max_iter": 10000,
-             "time_limit": SICONOS_TIME_LIMIT, "repeat": 200} for s in names]
+             "time_limit": SICONOS_TIME_LIMIT, "repeat": REPEAT_CALLS} for s in names]
 
 
 def run_siconos(tasks):

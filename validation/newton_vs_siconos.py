@@ -57,13 +57,12 @@ import socp_cd
 from socp_cd.bench.evalset import collection_cases, manufactured_cases
 from socp_cd.bench.reports import performance_profile, shifted_geometric_mean
 from socp_cd.bench.siconos_peer import SOLVERS as SICONOS_SOLVERS
-from socp_cd.bench.siconos_peer import siconos_available, siconos_batch
+from socp_cd.bench.siconos_peer import REPEAT_BUDGET, siconos_available, siconos_batch
 from socp_cd.data import shared_problems_dir
 
 OUT = Path(__file__).resolve().parent / "results"
 SGM_SHIFT = 0.01
 SMALL = 10          #: contacts; Siconos is repeated on problems this small
-REPEAT_BUDGET = 0.05  #: seconds; as the Siconos worker, stop repeating past it
 #: a local 3D problem goes to Siconos with W both dense (up to this many unknowns) and in
 #: its 3x3 sparse-block storage (2D: see :func:`storages`), and each solver is credited with the better of the two
 #: (solved first, then faster): the storage moves PROX / NSN_AC up to x40 on small

@@ -29,16 +29,16 @@ from pathlib import Path
 import numpy as np
 
 import socp_cd
+# calls per problem on each side, stopped once they have taken REPEAT_BUDGET seconds (the
+# Siconos worker's rule), the fastest kept
+from socp_cd.bench.siconos_peer import REPEAT_BUDGET
+from socp_cd.bench.siconos_peer import REPEAT_CALLS as SICONOS_REPEAT
 from socp_cd.bench.siconos_peer import siconos_available, siconos_batch
 from socp_cd.data import shared_problems_dir
 from socp_cd.solvers.nsgs import warmup
 
 OUT = Path(__file__).resolve().parent / "results"
 TOL = 1e-8
-#: calls per problem on each side, stopped once they have taken REPEAT_BUDGET seconds (the
-#: Siconos worker's rule), the fastest kept
-SICONOS_REPEAT = 200
-REPEAT_BUDGET = 0.05
 MAX_ITER = 100_000
 
 COLUMNS = ["problem", "dim", "contacts", "status", "sic_status", "iters", "sic_iters",

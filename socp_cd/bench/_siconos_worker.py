@@ -103,7 +103,8 @@ SOLVERS = {
     },
 }
 
-#: seconds of repeated driver calls after which ``repeat`` stops early
+#: seconds of repeated driver calls after which ``repeat`` stops early (this script runs
+#: standalone under another interpreter: ``siconos_peer.REPEAT_BUDGET`` is its public copy)
 REPEAT_BUDGET = 0.05
 
 _sn = None
@@ -128,13 +129,9 @@ def _imports():
 # ----------------------------------------------------------------- problems
 def _triplets(prefix, inputs):
     import scipy.sparse as sp
-    np = _np
     shape = tuple(int(s) for s in inputs[prefix + "_shape"])
-    A = sp.coo_matrix((inputs[prefix + "_val"], (inputs[prefix + "_row"], inputs[prefix + "_col"])),
-                      shape=shape).tocsc()
-    A.indices = A.indices.astype(np.int64)
-    A.indptr = A.indptr.astype(np.int64)
-    return A
+    return _csc64(sp.coo_matrix((inputs[prefix + "_val"],
+                                 (inputs[prefix + "_row"], inputs[prefix + "_col"])), shape=shape))
 
 
 def _dense_local(sn, W, q, mu, dim):

@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from ..errors import InvalidProblemError
-from .siconos_peer import siconos_batch
+from .siconos_peer import REPEAT_CALLS, siconos_batch
 from .tasks import SICONOS_PREFIX, RunTask, base_record, outcome_record
 
 
@@ -20,18 +20,12 @@ from .tasks import SICONOS_PREFIX, RunTask, base_record, outcome_record
 SICONOS_MAX_ITER = 10000
 
 
-#: driver calls per local task (the worker stops repeating after 0.05 s of calls and
-#: reports the fastest): a single call is a cold first call, ~60 µs on one contact where
-#: the warm call takes 3 µs, while our side runs with its JIT warmed
-SICONOS_REPEAT = 200
-
-
 def siconos_spec(task: RunTask, problem) -> dict:
     """A :func:`siconos_batch` solve task (Siconos reads ``.dat`` files itself)."""
     target = task.problem.path if task.problem.path is not None else problem
     return {"task": "solve", "problem": target, "solver": task.solver.name[len(SICONOS_PREFIX):],
             "tol": task.tol, "max_iter": task.max_iter or SICONOS_MAX_ITER,
-            "time_limit": task.time_limit, "repeat": SICONOS_REPEAT, **dict(task.solver.options)}
+            "time_limit": task.time_limit, "repeat": REPEAT_CALLS, **dict(task.solver.options)}
 
 
 def run_siconos(task: RunTask, problem) -> tuple:
