@@ -169,7 +169,11 @@ def test_exact_coulomb_starts_with_newton_and_orders_by_features():
     for nc in (1, 4):                   # small: NSGS first (one contact: one local solve)
         small = _local(nc, 3, 8, mu=0.3)
         order = auto.stage_order(small, "coulomb", auto.features(small, "coulomb"))
-        assert order[:2] == (("nsgs", "coulomb"), ("newton", "coulomb"))
+        # the hand-off (a Newton trial, then the rest of NSGS) on more than one contact:
+        # one contact has too few stored entries for it (HANDOFF_WORK)
+        handoff = ((("newton_trial", "coulomb"), ("nsgs_rest", "coulomb")) if nc > 1 else ())
+        expected = (("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),)
+        assert order[:len(expected)] == expected
     g = _global(1, n=4, nc=3)            # m = 9 > n = 4: W singular by structure
     assert auto.features(g, "coulomb")["structurally_rank_deficient"] is True
 
@@ -355,3 +359,74 @@ def test_stages_after_a_guard_refusal_aim_lower(monkeypatch):
     g0 = auto._Judge(p, "coulomb", {}, 1e-8).guard_value(r0)
     assert tol0 == 1e-8 and err0 <= 1e-8 < g0
     assert tol1 == tightened_tolerance(1e-8, err0, max(err0, g0)) < 1e-8
+
+
+def test_handoff_cap_rules(monkeypatch):
+    # formulations/auto.md, "The hand-off": at least HANDOFF_SWEEPS sweeps and HANDOFF_WORK
+    # visits of stored entries; off when no sweep would be left, on one contact, for the
+    # study knobs; a bad value is refused by name
+    p = _local(4, 3, 8, mu=0.3)
+    nnz = int(p.csr_parts[0][-1])
+    cap = auto._handoff_cap(p, None)
+    assert cap >= auto.HANDOFF_SWEEPS and cap * nnz >= auto.HANDOFF_WORK
+    assert (cap - 1) * nnz < auto.HANDOFF_WORK or cap == auto.HANDOFF_SWEEPS
+    assert auto._handoff_cap(p, cap) is None                 # nothing left to hand off
+    assert auto._handoff_cap(p, 10 * cap) == cap
+    assert auto._handoff_cap(_local(1, 3, 8, mu=0.3), None) is None
+    monkeypatch.setattr(auto, "SMALL_SWEEPS", 5)
+    assert auto._handoff_cap(p, None) is None
+    monkeypatch.setattr(auto, "SMALL_SWEEPS", None)
+    monkeypatch.setattr(auto, "HANDOFF_SWEEPS", None)
+    assert auto._handoff_cap(p, None) is None
+    order = [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
+    assert "newton_trial" not in order and "nsgs_rest" not in order
+    monkeypatch.setattr(auto, "HANDOFF_SWEEPS", 2.5)
+    with pytest.raises(ValueError, match="HANDOFF_SWEEPS"):
+        socp_cd.solve(p)
+
+
+def test_failed_trial_hands_nsgs_its_own_iterate_back(monkeypatch):
+    # a Newton trial that fails (here: one that returns garbage) costs nothing but its time:
+    # NSGS goes on from the iterate *it* had reached, for the sweeps it has left, and the
+    # chain still meets tol
+    import dataclasses
+    from socp_cd.solvers import newton, nsgs
+    p = _local(6, 3, 3, mu=0.5)
+    monkeypatch.setattr(auto, "HANDOFF_SWEEPS", 2)
+    monkeypatch.setattr(auto, "HANDOFF_WORK", 1)
+    seen = {}
+
+    def first_nsgs(problem, formulation, **kw):
+        res = nsgs.nsgs_backend(problem, formulation, **kw)
+        seen.setdefault("first", (kw["max_iter"], res.r.copy()))
+        if "first" in seen and kw["max_iter"] != seen["first"][0]:
+            seen["rest"] = (kw["max_iter"], np.array(kw["r0"]))
+        return res
+
+    def bad_trial(problem, formulation, **kw):
+        res = newton.newton_backend(problem, formulation, **kw)
+        res.r = np.full_like(res.r, 1e3)
+        res.status = "stalled"
+        return res
+    monkeypatch.setitem(auto._STAGES, "nsgs", (dataclasses.replace(nsgs.SPEC, func=first_nsgs), {}))
+    monkeypatch.setitem(auto._STAGES, "nsgs_rest",
+                        (dataclasses.replace(nsgs.SPEC, func=first_nsgs), {}))
+    monkeypatch.setitem(auto._STAGES, "newton_trial",
+                        (dataclasses.replace(newton.SPEC, func=bad_trial), {"policy": "plain"}))
+    res = socp_cd.solve(p, tol=1e-10, history=True)          # history: the general path
+    methods = [s["method"] for s in res.info["path"]]
+    assert methods[:3] == ["nsgs", "newton_trial", "nsgs_rest"]
+    assert seen["first"][0] == 2
+    assert seen["rest"][0] == nsgs.DEFAULT_MAX_ITER - 2
+    np.testing.assert_array_equal(seen["rest"][1], seen["first"][1])
+    assert res.converged and res.error <= 1e-10
+
+
+def test_nsgs_rest_is_not_a_method_a_caller_can_name():
+    # "nsgs_rest" goes on from the hand-off's own NSGS iterate: without a hand-off it would
+    # be skipped silently, so an explicit order naming it is refused by name
+    with pytest.raises(InvalidProblemError) as exc:
+        socp_cd.solve(_local(2, 3, 9), "auto", methods=("nsgs", "nsgs_rest"))
+    assert exc.value.field == "methods"
+    res = socp_cd.solve(_local(2, 3, 9), "auto", methods=("newton_trial", "newton"))
+    assert [s["method"] for s in res.info["path"]][0] == "newton_trial"

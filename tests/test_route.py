@@ -298,3 +298,20 @@ def test_of_local_fills_the_fields_it_names():
             and res.status == "stalled" and res.error == res.coulomb_error == 0.25
             and res.iterations == 7 and res.info is info and res.message == "why"
             and res.trivial is True and res.history is None)
+
+
+def test_handoff_route_equals_general_path(monkeypatch):
+    # the hand-off (auto.HANDOFF_SWEEPS): the first NSGS stage stops at the same sweep on the
+    # compiled route and on the general path, and the chain goes on identically
+    from socp_cd.solvers import auto
+    p = manufactured(12, 3, mu=0.6, structure="redundant", mass_ratio=1e6, contact_scale=1e4,
+                     seed=6)
+    monkeypatch.setattr(auto, "HANDOFF_SWEEPS", 3)
+    monkeypatch.setattr(auto, "HANDOFF_WORK", 1)
+    a = socp_cd.solve(p, tol=1e-14)
+    b = _general(monkeypatch, p, tol=1e-14)
+    _same(a, b)
+    assert a.info["path"][0]["method"] == "nsgs" and a.info["path"][0]["iterations"] == 3
+    assert [s["method"] for s in a.info["path"]] == [s["method"] for s in b.info["path"]]
+    assert a.info["path"][1]["method"] == "newton_trial"
+    assert a.info["path"][1]["iterations"] <= auto.TRIAL_STEPS

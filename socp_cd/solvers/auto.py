@@ -12,7 +12,10 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
 * ``"associated"``: one SOCP (Clarabel), then NSGS;
 * ``"tresca"``: NSGS, then Clarabel;
 * ``"coulomb"`` (exact law): local problems with at most :data:`SMALL_NC`
-  contacts: NSGS, then the proximal semismooth Newton method
+  contacts: NSGS (handing off after :func:`_handoff_cap` sweeps to a trial of at
+  most :data:`TRIAL_STEPS` plain Newton steps, then going on from its own
+  iterate when the trial fails: ``"newton_trial"``, ``"nsgs_rest"``), then the
+  proximal semismooth Newton method
   (:mod:`socp_cd.solvers.newton`), the Clarabel De Saxcé fixed point and
   Newton again; larger local problems: an NSGS *probe* of at most
   :data:`PROBE_SWEEPS` sweeps first (then Newton starts afresh unless the probe
@@ -35,9 +38,10 @@ the best iterate of all stages (never worse than any stage).
 Options
 -------
 methods : sequence of str, optional
-    Explicit stage order (names among ``"newton"``, ``"nsgs"``, ``"clarabel"``
-    and ``"clarabel_qp"`` (Clarabel on the frictionless QP)) instead of the
-    feature-based one.
+    Explicit stage order (names among ``"newton"``, ``"newton_plain"``,
+    ``"newton_plain_cold"``, ``"newton_trial"``, ``"nsgs"``, ``"nsgs_probe"``,
+    ``"clarabel"`` and ``"clarabel_qp"`` (Clarabel on the frictionless QP))
+    instead of the feature-based one (no hand-off then).
 
 Common options (:mod:`socp_cd.solvers.options`): ``tol``; ``max_iter`` caps
 *each* stage, in that stage's own units (Newton outer iterations, NSGS sweeps,
@@ -96,6 +100,17 @@ SMALL_SWEEPS = None
 #: ... and with this stall window (NSGS's option: sweeps without a 1 % drop of the error
 #: before it stops; None: NSGS's default, 5000, more than its 1000 sweeps)
 SMALL_STALL = None
+#: the NSGS hand-off on local exact-Coulomb problems of at most SMALL_NC contacts (None:
+#: off): NSGS stops after this many sweeps; when it has not met ``tol``, a short trial of
+#: plain Newton steps (at most TRIAL_STEPS, stopped after TRIAL_STALL steps without a 10 %
+#: drop of the error) starts from its iterate, and when the trial fails NSGS goes on from
+#: *its own* iterate for the rest of its sweeps (``"nsgs_rest"``), so the trial costs at most
+#: TRIAL_STEPS Newton steps and NSGS loses nothing (formulations/auto.md, "The hand-off")
+HANDOFF_SWEEPS = 200
+#: ... and at least this many visits of stored entries of W (see _handoff_cap)
+HANDOFF_WORK = 32000
+TRIAL_STEPS = 6
+TRIAL_STALL = 2
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
@@ -103,6 +118,8 @@ _STAGES = {
     "newton_plain": (newton.SPEC, {"policy": "plain", "stall_window": PLAIN_STALL}),
     "newton_plain_cold": (newton.SPEC, {"policy": "plain", "stall_window": PLAIN_STALL}),
     "nsgs": (nsgs.SPEC, {}),
+    "newton_trial": (newton.SPEC, {"policy": "plain"}),    # + TRIAL_STALL, TRIAL_STEPS
+    "nsgs_rest": (nsgs.SPEC, {}),
     "clarabel": (clarabel_backend.SPEC, {}),
     "clarabel_qp": (clarabel_backend.SPEC, {}),
 }
@@ -117,11 +134,12 @@ ALWAYS_COLD = ("newton_plain_cold",)
 _CAPPED = {"newton_plain": PLAIN_MAX_ITER, "newton_plain_cold": PLAIN_MAX_ITER}
 #: share of the remaining budget of the (cheap, trial) plain stages, instead of STAGE_SHARE
 PLAIN_SHARE = 0.25
-_SHARES = {"newton_plain": PLAIN_SHARE, "newton_plain_cold": PLAIN_SHARE}
+_SHARES = {"newton_plain": PLAIN_SHARE, "newton_plain_cold": PLAIN_SHARE,
+           "newton_trial": PLAIN_SHARE}
 
 OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'newton_plain', 'newton_plain_cold', "
-               "'nsgs', 'nsgs_probe', 'clarabel', 'clarabel_qp' "
+               "'newton_trial', 'nsgs', 'nsgs_probe', 'clarabel', 'clarabel_qp' "
                "(default: chosen from the problem's features)",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
 }
@@ -167,7 +185,9 @@ def stage_order(problem, formulation, feats) -> tuple:
         # small local problems: NSGS first (one contact: one call of its local solver);
         # it costs a fraction of Newton's set-up and factorizations (formulations/auto.md)
         last = ((("nsgs", "coulomb"),) if (SMALL_SWEEPS, SMALL_STALL) != (None, None) else ())
-        return ((("nsgs", "coulomb"), ("newton", "coulomb")) + plain
+        handoff = ((("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
+                   if _handoff_cap(problem, None) is not None and not last else ())
+        return ((("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),) + plain
                 + (("clarabel", "coulomb"), ("newton", "coulomb")) + last)
     if feats["mu_max"] >= HIGH_MU or feats["dim"] == 2:
         middle = (("clarabel", "coulomb"), ("nsgs", "coulomb"))
@@ -242,9 +262,10 @@ def check(problem, options, inner_settings) -> None:
         if isinstance(methods, str) or not hasattr(methods, "__iter__"):
             raise InvalidProblemError("methods", f"must be a sequence of stage names, got {methods!r}")
         methods = tuple(methods)
-        bad = [m for m in methods if m not in _STAGES]
+        valid = sorted(set(_STAGES) - {"nsgs_rest"})    # (the hand-off's, not a method)
+        bad = [m for m in methods if m not in valid]
         if bad or not methods:
-            raise InvalidProblemError("methods", f"stage names must be among {sorted(_STAGES)}, "
+            raise InvalidProblemError("methods", f"stage names must be among {valid}, "
                                                  f"got {list(methods)!r}")
 
 
@@ -258,6 +279,30 @@ def _small_knobs():
             raise ValueError(f"socp_cd.solvers.auto.{name} must be None or an int >= {least}, "
                              f"got {value!r}")
     return SMALL_SWEEPS, SMALL_STALL
+
+
+def _handoff_cap(problem, max_iter):
+    """Sweeps of the first NSGS stage under the hand-off (None: off).
+
+    At least :data:`HANDOFF_SWEEPS` sweeps and at least :data:`HANDOFF_WORK`
+    visits of stored entries of ``W`` (``sweeps * nnz(W)``): on a problem of a
+    few contacts a sweep costs well under a microsecond, and a Newton trial
+    costs what thousands of them do.  Deterministic (no clock), so the compiled
+    route and the general path hand off at the same sweep.
+    """
+    cap = HANDOFF_SWEEPS
+    if cap is None or SMALL_SWEEPS is not None or SMALL_STALL is not None:
+        return None
+    if isinstance(cap, bool) or not isinstance(cap, int) or cap < 1:
+        raise ValueError(f"socp_cd.solvers.auto.HANDOFF_SWEEPS must be None or an int >= 1, "
+                         f"got {cap!r}")
+    total = nsgs.DEFAULT_MAX_ITER if max_iter is None else max_iter
+    m = problem.m
+    if m * m * total <= HANDOFF_WORK:
+        return None     # nnz(W) <= m^2: the cap would be at least ``total`` (one contact)
+    nnz = max(int(problem.csr_parts[0][-1]), 1)
+    cap = max(cap, -(-int(HANDOFF_WORK) // nnz))
+    return cap if cap < total else None     # no sweeps left to hand off: NSGS as without it
 
 
 def _small_cap(max_iter):
@@ -284,17 +329,23 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     # the chain's first stage on a local problem with friction (stage_order): NSGS, or on
     # more than SMALL_NC contacts the NSGS probe of at most PROBE_SWEEPS sweeps
     nc = problem.mu.shape[0]
-    stall = None
+    stall, handoff = None, (0, 0)
     if nc <= SMALL_NC:
         method, cap = "nsgs", max_iter
         if SMALL_SWEEPS is not None or SMALL_STALL is not None:    # a study's knobs
             cap, stall = _small_cap(max_iter), _small_knobs()[1]
+        elif HANDOFF_SWEEPS is not None:
+            # the hand-off's cap, computed in the compiled call (_handoff_cap's rule: a
+            # Python call here cost 0.85 us, a tenth of a one-contact call)
+            if not (type(HANDOFF_SWEEPS) is int and HANDOFF_SWEEPS >= 1):
+                _handoff_cap(problem, max_iter)         # raises, naming the constant
+            handoff = (HANDOFF_SWEEPS, int(HANDOFF_WORK))
     elif PROBE_SWEEPS > 0:
         method, cap = "nsgs_probe", min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
     else:
         return None
     t0 = _clock()
-    out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True, stall)
+    out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True, stall, handoff)
     if out is None:
         return None
     status, vectors, x, guard, scaling = out
@@ -352,6 +403,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     after_far_probe = False       # the previous stage was a probe that ended far from tol
     stage_tol = tol               # the stages' target: tightened after a guard refusal
     knobs = _small_knobs()
+    handoff = (_handoff_cap(problem, max_iter) if methods is None and not feats["global"]
+               and not feats["frictionless"] and feats["n_contacts"] <= SMALL_NC else None)
+    nsgs_own = None               # the hand-off's first NSGS stage: (its iterate, status, sweeps)
     for k, (method, form) in enumerate(order):
         # the first NSGS stage of a small local exact-Coulomb problem runs with the study
         # knobs' settings (SMALL_SWEEPS / SMALL_STALL): when one is set, a different run from
@@ -362,6 +416,14 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         variant = "small_first" if small_first and knobs != (None, None) else ""
         if (method, form, version, variant) in ran:
             continue    # same deterministic method from the same start: nothing to gain
+        if method == "nsgs_rest":
+            # NSGS goes on from its own iterate (not the trial's): only after a first stage
+            # that ran out of sweeps, and only for the sweeps it has left
+            rest = None
+            if nsgs_own is not None and nsgs_own[1] == "max_iter":
+                rest = (nsgs.DEFAULT_MAX_ITER if max_iter is None else max_iter) - nsgs_own[2]
+            if rest is None or rest <= 0:
+                continue
         ran.add((method, form, version, variant))
         target = problem
         if k == 0 and resume is not None and (method, form) == (resume["stage"]["method"],
@@ -371,6 +433,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             r, res = np.asarray(resume["r"], dtype=np.float64), None
             st, its, dt = stage["status"], int(stage["iterations"]), float(stage["time"])
             err = judge(r)
+            if small_first and handoff is not None:
+                nsgs_own = (r, st, its)
         else:
             stage_limit = None
             if time_limit is not None:
@@ -393,10 +457,17 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             stage_max_iter = _CAPPED.get(method) if max_iter is None else max_iter
             if method == "nsgs_probe" and PROBE_SWEEPS > 0:  # a probe: at most PROBE_SWEEPS sweeps
                 stage_max_iter = min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
+            elif small_first and handoff is not None:
+                stage_max_iter = handoff
             elif small_first:
                 stage_max_iter = _small_cap(max_iter)
                 if knobs[1] is not None:
                     opts["stall_window"] = knobs[1]
+            elif method == "nsgs_rest":
+                stage_max_iter = rest
+            elif method == "newton_trial":
+                stage_max_iter = TRIAL_STEPS if max_iter is None else min(max_iter, TRIAL_STEPS)
+                opts["stall_window"] = TRIAL_STALL
             if form == "tresca":
                 opts["threshold"] = options["threshold"]
             t0 = _clock()
@@ -404,6 +475,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 cold = (method in ALWAYS_COLD
                         or (method in COLD_STAGES and not best_err <= WARM_MAX))
                 start = (None if (cold and k > 0) else r0 if after_far_probe else best_r)
+                if method == "nsgs_rest":
+                    start = nsgs_own[0]
                 res = spec.func(target, form, tol=stage_tol, max_iter=stage_max_iter, r0=start,
                                 history=history, time_limit=stage_limit, verbose=verbose,
                                 inner_settings={}, **opts)
@@ -414,6 +487,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 message = f"{method}: {type(exc).__name__}: {exc}"
             dt = _clock() - t0
             err = judge(r)
+            if small_first and handoff is not None and r is not None:
+                nsgs_own = (r, st, its)
         if method == "nsgs_probe":
             after_far_probe = not min(err, best_err) <= WARM_MAX
         elif method not in COLD_STAGES or err < best_err:
@@ -458,6 +533,7 @@ SPEC = SolverSpec(
     inner_settings="not applicable (rejected)", check=check, route=route)
 
 __all__ = ["auto_backend", "route", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
-           "SMALL_SWEEPS", "SMALL_STALL",
+           "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS", "HANDOFF_WORK", "TRIAL_STEPS",
+           "TRIAL_STALL",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
            "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC"]

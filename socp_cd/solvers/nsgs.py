@@ -205,14 +205,16 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                         history=hist_all if history else None, info=info, message=message)
 
 
-def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False, stall_window=None):
+def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False, stall_window=None,
+                 handoff=(0, 0)):
     """NSGS with its default settings through the compiled route (:mod:`~socp_cd.solvers.nsgs_route`).
 
     ``max_iter`` sweeps (None: :data:`DEFAULT_MAX_ITER`) from ``r0`` (caller's
     units) on the balanced problem, in the backend's time-limit blocks when
     ``time_limit`` is given, with the dispatcher's checks of the answer;
     ``stall_window`` replaces the default one (the option of the same name)
-    when given.
+    when given; ``handoff`` ``(sweeps, work)``: ``solver="auto"``'s hand-off
+    cap (:func:`~socp_cd.solvers.nsgs_route.nsgs_checked`; ``(0, 0)``: none).
 
     Returns
     -------
@@ -229,7 +231,7 @@ def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False, st
         settings = settings[:-1] + (int(stall_window),)
     return nsgs_route.run(problem, settings, tol,
                           DEFAULT_MAX_ITER if max_iter is None else int(max_iter), r0, time_limit,
-                          need_friction)
+                          need_friction, handoff)
 
 
 def route(problem, *, tol, max_iter, r0, time_limit):

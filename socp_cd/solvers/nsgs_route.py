@@ -91,7 +91,7 @@ _N_OUT = _N_STATS + len(GUARD_KEYS)
 @njit(cache=True)
 def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blocked, first_block,
                  kind, loc_tol, newton_max_iter, projection_max_iter, omega, error_every,
-                 stall_window, need_friction, vectors):
+                 stall_window, need_friction, handoff_sweeps, handoff_work, vectors):
     """Balance, NSGS sweeps from ``r0``, map back, and the dispatcher's checks, in one call.
 
     Parameters
@@ -112,6 +112,11 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     need_friction
         Decline (code :data:`DECLINED_FRICTIONLESS`) before any work when every
         ``mu`` is 0.
+    handoff_sweeps, handoff_work
+        When ``handoff_sweeps > 0``: stop after
+        ``max(handoff_sweeps, ceil(handoff_work / nnz(W)))`` sweeps when that is
+        fewer than ``max_iter`` (``solver="auto"``'s hand-off,
+        :func:`socp_cd.solvers.auto._handoff_cap` is the same rule in Python).
     vectors : ndarray (3, m)
         Output, overwritten: rows the balanced iterate ``r~``, ``r = a r~`` and
         ``u = W r + q`` (the data as written).  Passed in, one array: an array
@@ -136,6 +141,11 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     """
     nc = mu.shape[0]
     m = q.shape[0]
+    if handoff_sweeps > 0:
+        nnz = max(indptr[nc * dim], 1)
+        cap = max(handoff_sweeps, (handoff_work + nnz - 1) // nnz)
+        if cap < max_iter:
+            max_iter = cap
     stats = np.zeros(_N_OUT)
     mu_max = 0.0
     for i in range(nc):
@@ -212,7 +222,7 @@ def _outcome(fields, _new=tuple.__new__):
     return _new(RouteOutcome, fields)
 
 
-def run(problem, settings, tol, max_iter, r0, time_limit, need_friction):
+def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff=(0, 0)):
     """Run :func:`nsgs_checked` on a local problem: a :data:`RouteOutcome`, or None.
 
     ``settings``: the NSGS backend's checked settings as the tuple
@@ -222,7 +232,8 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction):
     (:func:`applies`) or declines: a problem whose every ``mu`` is 0 when
     ``need_friction``, one with an ill-posed contact, an answer that is not
     finite, whose error overflows or whose guard cannot be evaluated (the
-    general path reports those).
+    general path reports those).  ``handoff``: ``(sweeps, work)`` of
+    :func:`nsgs_checked` (``(0, 0)``: off).
     """
     indptr, indices, data = problem.csr_parts
     q = problem.q
@@ -235,7 +246,7 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction):
     code, x = nsgs_checked(
         indptr, indices, data, q, mu, problem.dim, r0 if warm else q, warm, tol, max_iter,
         time_limit is not None, TIME_CHECK_SWEEPS, kind, loc_tol, newton_maxit, proj_maxit, omega,
-        error_every, stall_window, need_friction, vectors)
+        error_every, stall_window, need_friction, handoff[0], handoff[1], vectors)
     if code < 0:
         return None
     if not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
