@@ -1,4 +1,4 @@
-"""The compiled proximal Newton loop (kernels/newton_dense.py) equals its Python reference.
+"""The compiled Newton loops (kernels/newton_dense.py: proximal and plain) equal their Python reference.
 
 ``prox_newton(..., compiled=False)`` is the Python loop, ``compiled=None`` (the
 default) runs the twin on small dense local systems: same status, same number
@@ -33,7 +33,7 @@ SMALL_SHARED = ["FrictionContact3D_1c.dat", "FrictionContact3D_RR_1c.dat", "Rove
                 "OneObject-i1028-138.hdf5.dat"]
 
 
-def _both(p, r0, tol, max_iter=200, time_limit=None, rho="block", **settings):
+def _both(p, r0, tol, max_iter=200, time_limit=None, rho="block", policy="prox", **settings):
     """``(python, compiled)`` results of ``prox_newton`` on ``p`` from ``r0``."""
     settings = settings or COLD
     out = []
@@ -42,7 +42,7 @@ def _both(p, r0, tol, max_iter=200, time_limit=None, rho="block", **settings):
         mu = np.ascontiguousarray(p.mu, dtype=np.float64)
         out.append(nt.prox_newton(system, mu, np.array(r0, dtype=np.float64), tol=tol,
                                   max_iter=max_iter, time_limit=time_limit, history=False,
-                                  rho=rho, **settings))
+                                  rho=rho, policy=policy, compiled=compiled, **settings))
     return out
 
 
@@ -134,15 +134,24 @@ def test_twin_equals_python_loop_when_it_stalls_runs_out_or_overflows():
     assert a[0] == "numerical_error"
 
 
-def test_time_limit_chunks_give_the_same_iterates():
+def test_time_limit_chunks_give_the_same_iterates(monkeypatch):
     p = manufactured(9, 3, 0.5, seed=5)
     a, b = _both(p, np.zeros(p.m), 1e-10)
-    c = _both(p, np.zeros(p.m), 1e-10, time_limit=1e9)[1]     # one outer iteration per call
+    c = _both(p, np.zeros(p.m), 1e-10, time_limit=1e9)[1]     # chunks of outer iterations
     _assert_equal(a, c)
     _assert_equal(b, c)
+    # a spent budget: the Python loop stops after one outer iteration, the twin after one
+    # chunk (newton.CHUNK_WORK: here 3e6 / (10 * 27^3 / 3) = 45 iterations, enough to converge)
+    py, tw = _both(p, np.zeros(p.m), 1e-10, time_limit=0.0)
+    assert py[0] == "time_limit" and py[2] == 1
+    assert tw[0] == "converged" and tw[2] == a[2]
+    monkeypatch.setattr(nt, "CHUNK_WORK", 1.0)                 # one iteration per chunk
     d = _both(p, np.zeros(p.m), 1e-10, time_limit=0.0)
     _assert_equal(*d)
     assert d[0][0] == "time_limit" and d[0][2] == 1
+    monkeypatch.setattr(nt, "CHUNK_WORK", 2 * 10 * 27 ** 3 / 3)  # two per chunk
+    tw2 = _both(p, np.zeros(p.m), 1e-10, time_limit=0.0)[1]
+    assert tw2[0] == "time_limit" and tw2[2] == 2
 
 
 def test_project_cone_stacked_equals_reference():
@@ -209,3 +218,67 @@ def test_polish_given_the_dense_arrays_equals_the_polish_that_forms_them():
         assert cache["newton_system"].W is W           # used as given, not copied
         np.testing.assert_array_equal(a[0], b[0])
         assert a[1] == b[1]
+
+
+# --------------------------------------------------------------------------- plain policy
+#: settings of the plain stages of solver="auto" (newton_plain: stall 50; newton_trial: 2)
+PLAIN = dict(COLD, stall_window=50)
+
+
+@pytest.mark.parametrize("name", SMALL_SHARED)
+def test_plain_twin_equals_python_loop_on_shared_problems(name):
+    p = _shared(name)
+    a, b = _both(p, np.zeros(p.m), 1e-10, policy="plain", **PLAIN)
+    _assert_equal(a, b)
+    assert a[4]["policy"] == "plain" and a[4]["plain_steps"] == a[4]["newton_steps"]
+    # from a perturbed prox answer (the trial's start), and a stall window of 2
+    ref = _both(p, np.zeros(p.m), 1e-10)[0][1]
+    rng = np.random.default_rng(1)
+    r1 = ref * (1.0 + 1e-2 * rng.standard_normal(p.m))
+    _assert_equal(*_both(p, r1, 1e-12, max_iter=6, policy="plain", **dict(PLAIN, stall_window=2)))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("structure", ["tree", "redundant"])
+@pytest.mark.parametrize("mu", [0.0, 0.3, 2.0])
+def test_plain_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu):
+    """Stick / slide / separated / grazing mixes; "redundant": rank-deficient W, where plain
+    steps meet singular Newton matrices (the regularized retry) and failing line searches."""
+    nc = 24 if dim == 3 else 36
+    for seed, mix in enumerate([(0.25, 0.35, 0.3, 0.1), (0.0, 0.0, 0.0, 1.0),
+                                (0.0, 0.0, 1.0, 0.0), (0.5, 0.0, 0.0, 0.5)]):
+        p = manufactured(nc, dim, mu, structure=structure, mix=mix, seed=seed)
+        a, b = _both(p, np.zeros(p.m), 1e-10, max_iter=60, policy="plain", **PLAIN)
+        _assert_equal(a, b)
+        a, b = _both(p, p.solution.r + 1e-4 * np.abs(p.solution.r).max(), 1e-12,
+                     policy="plain", **PLAIN)
+        _assert_equal(a, b)
+
+
+def test_plain_twin_counts_failed_line_searches_like_the_python_loop():
+    # rank-deficient W and a mass ratio of 1e6: plain steps whose 30 halvings all fail
+    # (then the full step is taken) occur, and the twin counts them as the reference does
+    seen_ls = 0
+    for seed in range(6):
+        p = manufactured(20, 3, 1.0, structure="redundant", mass_ratio=1e6, seed=seed)
+        a, b = _both(p, np.zeros(p.m), 1e-14, max_iter=40, policy="plain", **PLAIN)
+        _assert_equal(a, b)
+        seen_ls += a[4]["line_search_failures"]
+    assert seen_ls > 0
+
+
+def test_plain_twin_time_limit_chunks_like_the_python_loop():
+    p = manufactured(20, 3, 0.5, structure="redundant", seed=2)
+    a, b = _both(p, np.zeros(p.m), 1e-14, max_iter=30, time_limit=1e3, policy="plain", **PLAIN)
+    _assert_equal(a, b)
+
+
+def test_velocity_error_is_the_guard_error():
+    from socp_cd.residuals import guard_values
+    from socp_cd.solvers.kernels.newton_dense import velocity_error
+    rng = np.random.default_rng(0)
+    for scale_r, scale_u, nq in [(1.0, 1.0, 1.0), (1e6, 1e-3, 1.0), (0.0, 0.0, 0.0),
+                                 (1e-20, 1e-20, 1e-20), (3.0, 1e5, 2.0)]:
+        r, u = scale_r * rng.standard_normal(12), scale_u * rng.standard_normal(12)
+        want = guard_values(1e-7, np.linalg.norm(r), np.linalg.norm(u), nq)["error"]
+        assert velocity_error(1e-7, r, u, nq) == pytest.approx(want, rel=1e-14)

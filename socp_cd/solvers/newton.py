@@ -83,7 +83,6 @@ import scipy.sparse.linalg as spla
 from threadpoolctl import ThreadpoolController
 
 from ..errors import UnsupportedError
-from ..residuals import guard_values
 from .block_storage import block_csr_arrays
 from .kernels import newton_dense as nd
 from .kernels.cone import project_cone_stacked, siconos_error
@@ -113,6 +112,12 @@ COMPILED_LU_MAX_M = 72
 #: :data:`COMPILED_LU_MAX_M`: both loops then factorize with the same compiled LU and
 #: the twin reproduces the reference's iterates bit for bit.
 COMPILED_LOOP_MAX_M = COMPILED_LU_MAX_M
+#: with a time limit the compiled loops run in chunks of outer iterations, the clock read
+#: between chunks; a chunk holds as many outer iterations as fit in about this many
+#: multiply-adds of LU factorizations (``inner_max_iter * m³ / 3`` per outer iteration; the
+#: plain policy: one): two at m = 72, hundreds on a few contacts, where one more compiled
+#: call (~3 µs of argument unboxing) cost more than the iteration it ran
+CHUNK_WORK = 3e6
 #: global problems up to this many unknowns r are condensed to the local form
 CONDENSE_MAX_M = 600
 #: SuperLU settings of every sparse Newton matrix (local ``J = Dr + Du (W + alpha I)`` and
@@ -510,8 +515,7 @@ def velocity_relative_error(err, r, u, norm_q):
     of the dispatcher's units guard (:func:`socp_cd.residuals.guard_values`,
     entry ``"error"``), so an iterate accepted by it is not refused by the guard.
     """
-    return guard_values(err, float(np.linalg.norm(r)), float(np.linalg.norm(u)),
-                        float(norm_q))["error"]
+    return float(nd.velocity_error(float(err), r, u, float(norm_q)))
 
 
 def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
@@ -520,9 +524,9 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     """Run the proximal-point semismooth Newton method.
 
     This Python loop is the reference; a small dense local system
-    (``m <= COMPILED_LOOP_MAX_M``) with ``policy="prox"`` and no history runs
-    its compiled twin instead (:func:`_prox_newton_compiled`: same iterates,
-    same counters).
+    (``m <= COMPILED_LOOP_MAX_M``) with ``policy="prox"`` or ``"plain"`` and no
+    history runs its compiled twin instead (:func:`_prox_newton_compiled`: same
+    iterates, same counters).
 
     Parameters
     ----------
@@ -557,15 +561,17 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         inner_steps, backtracks, branch_changes, plain)``.
     """
     policy = DEFAULT_POLICY if policy is None else policy
-    twin = (policy == "prox" and not history and getattr(system, "compiled", False)
+    twin = (policy in ("prox", "plain") and not history and getattr(system, "compiled", False)
             and system.m <= COMPILED_LOOP_MAX_M)
     if compiled and not twin:
         raise UnsupportedError("the compiled Newton loop needs a dense local system with "
-                               f"m <= {COMPILED_LOOP_MAX_M}, policy='prox' and no history")
+                               f"m <= {COMPILED_LOOP_MAX_M}, policy 'prox' or 'plain' and "
+                               "no history")
     if twin and compiled is not False:
         return _prox_newton_compiled(system, mu, r, tol=tol, max_iter=max_iter, alpha0=alpha0,
                                      alpha_min=alpha_min, inner_max_iter=inner_max_iter,
-                                     stall_window=stall_window, time_limit=time_limit, rho=rho)
+                                     stall_window=stall_window, time_limit=time_limit, rho=rho,
+                                     plain=policy == "plain")
     d = system.d
     nc = mu.shape[0]
     rho_n, rho_t, wscale = _system_rho(system, rho)
@@ -734,16 +740,21 @@ _TWIN_STATUS = {nd.RUNNING: "max_iter", nd.CONVERGED: "converged", nd.STALLED: "
 
 
 def _prox_newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
-                          stall_window, time_limit, rho):
-    """:func:`prox_newton` (policy "prox", no history) through its compiled twin.
+                          stall_window, time_limit, rho, plain=False):
+    """:func:`prox_newton` (policy "prox", or "plain" when ``plain``; no history) through its
+    compiled twin (:func:`~.kernels.newton_dense.prox_newton_dense`,
+    :func:`~.kernels.newton_dense.plain_newton_dense`).
 
     Same arguments and return value as :func:`prox_newton` (history ``None``).
     Without ``time_limit`` the twin runs the whole loop in one call: its cost
     is bounded by ``max_iter * inner_max_iter`` LU factorizations of an
     ``m x m`` matrix, ``m <= COMPILED_LOOP_MAX_M`` (each followed by at most
-    30 residual evaluations).  With ``time_limit`` it runs one outer iteration
-    per call and the clock is read between calls, where the Python loop reads
-    it: same iterates, same status.
+    30 residual evaluations).  With ``time_limit`` it runs chunks of outer
+    iterations (:data:`CHUNK_WORK`: one or two on the largest systems, more on
+    small ones) and reads the clock between chunks: the same iterates as the
+    Python loop, which reads it after every outer iteration; a run may overrun
+    its limit by one chunk and stop ``"time_limit"`` a few iterations later
+    than the Python loop would.
     """
     rho_n, rho_t, wscale = _system_rho(system, rho)
     fstate, istate = nd.new_state(alpha0 * wscale)
@@ -752,16 +763,24 @@ def _prox_newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, in
     if not mu.flags.writeable:      # one compiled signature: numba types read-only arrays apart
         mu = mu.copy()
     args = (system.W, system.q, float(system.norm_q), mu, rho_n, rho_t, system.d, float(tol))
-    rest = (alpha_min * wscale, _ALPHA_MAX * wscale, int(inner_max_iter), int(stall_window),
-            _ARMIJO, _MAX_BACKTRACK, NONMONOTONE, r, best_r, fstate, istate)
+    if plain:
+        loop = nd.plain_newton_dense
+        rest = (PLAIN_REGULARIZATION * wscale, int(stall_window), GOLDSTEIN_M1, _MAX_BACKTRACK,
+                r, best_r, fstate, istate)
+    else:
+        loop = nd.prox_newton_dense
+        rest = (alpha_min * wscale, _ALPHA_MAX * wscale, int(inner_max_iter), int(stall_window),
+                _ARMIJO, _MAX_BACKTRACK, NONMONOTONE, r, best_r, fstate, istate)
     if time_limit is None:
-        nd.prox_newton_dense(*args, int(max_iter), *rest)
+        loop(*args, int(max_iter), *rest)
         status = _TWIN_STATUS[int(istate[nd.I_STATUS])]
     else:
         t0 = time.perf_counter()
+        m = system.m
+        chunk = max(1, int(CHUNK_WORK // ((1 if plain else inner_max_iter) * m * m * m / 3.0)))
         while True:
             it_before = int(istate[nd.I_IT])
-            nd.prox_newton_dense(*args, min(it_before + 1, int(max_iter)), *rest)
+            loop(*args, min(it_before + chunk, int(max_iter)), *rest)
             status = _TWIN_STATUS[int(istate[nd.I_STATUS])]
             if status != "max_iter" or istate[nd.I_IT] == it_before:
                 break        # stopped by a status, or the budget is spent
@@ -776,7 +795,8 @@ def _prox_newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, in
     alpha = fs[nd.F_ALPHA]
     info = {"alpha": alpha, "alpha_relative": alpha / wscale,
             "alpha_max_relative": fs[nd.F_ALPHA_MAX_USED] / wscale,
-            "newton_steps": ist[nd.I_NEWTON], "plain_steps": 0, "policy": "prox",
+            "newton_steps": ist[nd.I_NEWTON], "plain_steps": ist[nd.I_NEWTON] if plain else 0,
+            "policy": "plain" if plain else "prox",
             "backtracks": ist[nd.I_BACKTRACK], "line_search_failures": ist[nd.I_LS_FAIL],
             "singular_steps": ist[nd.I_SINGULAR], "rejected_outer": ist[nd.I_REJECTED],
             "factorizations": system.factorizations, "linear_solver": system.kind,

@@ -52,6 +52,75 @@ def new_state(alpha):
 
 
 @njit(cache=True)
+def _start(W, q, norm_q, mu, d, tol, r, best_r, fstate, istate, velocity):
+    """``u = W r + q``; on a run's first call its error (Siconos', or :func:`velocity_error`
+    of it when ``velocity``) recorded as the current and best one, ``best_r = r``, and
+    ``CONVERGED`` when it already meets ``tol``.  Returns ``(u, status, it, best_it, err,
+    best_err)`` of the run so far."""
+    u = np.empty(r.shape[0])
+    matvec_into(W, r, q, u)
+    if istate[I_STARTED] == 0:
+        istate[I_STARTED] = 1
+        err0 = siconos_error(r, u, mu, d, norm_q)
+        if velocity:
+            err0 = velocity_error(err0, r, u, norm_q)
+        fstate[F_ERR] = err0
+        fstate[F_BEST_ERR] = err0
+        best_r[:] = r
+        if err0 <= tol:
+            istate[I_STATUS] = CONVERGED
+    return (u, istate[I_STATUS], istate[I_IT], istate[I_BEST_IT], fstate[F_ERR],
+            fstate[F_BEST_ERR])
+
+
+@njit(cache=True)
+def _buffers(m, nc, d):
+    """Work arrays of one call: ``F, Ft, mF, ua, rk, rt, ut`` (m), ``J`` (m, m),
+    ``Dr, Du`` (nc, d, d), ``branch`` (nc)."""
+    return (np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.empty(m),
+            np.empty(m), np.empty((m, m)), np.empty((nc, d, d)), np.empty((nc, d, d)),
+            np.empty(nc, dtype=np.int64))
+
+
+@njit(cache=True)
+def _measure(W, q, norm_q, mu, d, tol, r, rk, u, best_r, it, best_it, best_err, velocity):
+    """End of an outer iteration: ``u = W r + q``, the error of ``r`` (as :func:`_start`),
+    the best iterate kept (``best_it`` moves on a 10 % drop).  Returns ``(err, best_it,
+    best_err, status)``: ``NUMERICAL_ERROR`` (``r`` reset to ``rk``) on a non-finite
+    error, ``CONVERGED`` when it meets ``tol``, else ``RUNNING``."""
+    matvec_into(W, r, q, u)
+    err = siconos_error(r, u, mu, d, norm_q)
+    if velocity:
+        err = velocity_error(err, r, u, norm_q)
+    if not np.isfinite(err):
+        r[:] = rk
+        return err, best_it, best_err, NUMERICAL_ERROR
+    if err < best_err:
+        if err < 0.9 * best_err:
+            best_it = it
+        best_err = err
+        best_r[:] = r
+    return err, best_it, best_err, (CONVERGED if err <= tol else RUNNING)
+
+
+@njit(cache=True)
+def _store(istate, fstate, status, it, best_it, n_newton, n_backtrack, n_ls_fail, n_singular,
+           n_rejected, n_fact, err, best_err):
+    """Write a call's end state and add its counters to the run's."""
+    istate[I_STATUS] = status
+    istate[I_IT] = it
+    istate[I_BEST_IT] = best_it
+    istate[I_NEWTON] += n_newton
+    istate[I_BACKTRACK] += n_backtrack
+    istate[I_LS_FAIL] += n_ls_fail
+    istate[I_SINGULAR] += n_singular
+    istate[I_REJECTED] += n_rejected
+    istate[I_FACTORIZATIONS] += n_fact
+    fstate[F_ERR] = err
+    fstate[F_BEST_ERR] = best_err
+
+
+@njit(cache=True)
 def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_max,
                       inner_max_iter, stall_window, armijo, max_backtrack, nonmonotone,
                       r, best_r, fstate, istate):
@@ -88,40 +157,12 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
     """
     m = r.shape[0]
     nc = mu.shape[0]
-    u = np.empty(m)
-    matvec_into(W, r, q, u)
-    if istate[I_STARTED] == 0:
-        istate[I_STARTED] = 1
-        err0 = siconos_error(r, u, mu, d, norm_q)
-        fstate[F_ERR] = err0
-        fstate[F_BEST_ERR] = err0
-        best_r[:] = r
-        if err0 <= tol:
-            istate[I_STATUS] = CONVERGED
-    status = istate[I_STATUS]
-    it = istate[I_IT]
-    best_it = istate[I_BEST_IT]
+    u, status, it, best_it, err, best_err = _start(W, q, norm_q, mu, d, tol, r, best_r, fstate,
+                                                   istate, False)
     alpha = fstate[F_ALPHA]
     alpha_max_used = fstate[F_ALPHA_MAX_USED]
-    err = fstate[F_ERR]
-    best_err = fstate[F_BEST_ERR]
-    n_newton = 0
-    n_backtrack = 0
-    n_ls_fail = 0
-    n_singular = 0
-    n_rejected = 0
-    n_fact = 0
-    F = np.empty(m)
-    Ft = np.empty(m)
-    mF = np.empty(m)
-    ua = np.empty(m)
-    rk = np.empty(m)
-    rt = np.empty(m)
-    ut = np.empty(m)
-    J = np.empty((m, m))
-    Dr = np.empty((nc, d, d))
-    Du = np.empty((nc, d, d))
-    branch = np.empty(nc, dtype=np.int64)
+    n_newton = n_backtrack = n_ls_fail = n_singular = n_rejected = n_fact = 0
+    F, Ft, mF, ua, rk, rt, ut, J, Dr, Du, branch = _buffers(m, nc, d)
     while status == RUNNING and it < it_end:
         it += 1
         rk[:] = r
@@ -175,19 +216,9 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
                 if e_try <= tol or nFt <= 1e-3 * nF:
                     solved = True
                     break
-        matvec_into(W, r, q, u)
-        err = siconos_error(r, u, mu, d, norm_q)
-        if not np.isfinite(err):
-            r[:] = rk
-            status = NUMERICAL_ERROR
-            break
-        if err < best_err:
-            if err < 0.9 * best_err:
-                best_it = it
-            best_err = err
-            best_r[:] = r
-        if err <= tol:
-            status = CONVERGED
+        err, best_it, best_err, status = _measure(W, q, norm_q, mu, d, tol, r, rk, u, best_r,
+                                                  it, best_it, best_err, False)
+        if status != RUNNING:
             break
         if solved and err < err_k:
             alpha = max(a_min, alpha * 0.1)
@@ -201,19 +232,127 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
         if stall_window > 0 and it - best_it >= stall_window:
             status = STALLED
             break
-    istate[I_STATUS] = status
-    istate[I_IT] = it
-    istate[I_BEST_IT] = best_it
-    istate[I_NEWTON] += n_newton
-    istate[I_BACKTRACK] += n_backtrack
-    istate[I_LS_FAIL] += n_ls_fail
-    istate[I_SINGULAR] += n_singular
-    istate[I_REJECTED] += n_rejected
-    istate[I_FACTORIZATIONS] += n_fact
+    _store(istate, fstate, status, it, best_it, n_newton, n_backtrack, n_ls_fail, n_singular,
+           n_rejected, n_fact, err, best_err)
     fstate[F_ALPHA] = alpha
     fstate[F_ALPHA_MAX_USED] = alpha_max_used
-    fstate[F_ERR] = err
-    fstate[F_BEST_ERR] = best_err
+
+
+@njit(cache=True)
+def velocity_error(err, r, u, norm_q):
+    """Siconos' error ``err`` of ``(r, u)`` re-normalized by ``max(||q||, ||u||)``.
+
+    The ``"error"`` entry of :func:`socp_cd.residuals.guard_values` (the
+    units guard's measure in balanced units; norms of ``r``, ``u`` summed here
+    in index order, to rounding the reference's): ``err * max(||q||, ||r||,
+    ||u||) / max(||q||, ||u||)``, each maximum replaced by 1 when it is not
+    above machine epsilon.  :func:`socp_cd.solvers.newton.velocity_relative_error`
+    calls it, so the plain policy measures the same number on both loops.
+    """
+    r2 = 0.0
+    for k in range(r.shape[0]):
+        r2 += r[k] * r[k]
+    u2 = 0.0
+    for k in range(u.shape[0]):
+        u2 += u[k] * u[k]
+    r_norm, u_norm = np.sqrt(r2), np.sqrt(u2)
+    eps = 2.220446049250313e-16
+    vel = max(norm_q, u_norm)
+    vel = vel if vel > eps else 1.0
+    sic = max(max(norm_q, r_norm), u_norm)
+    sic = sic if sic > eps else 1.0
+    return err * (sic / vel)
+
+
+@njit(cache=True)
+def _plain_direction(W, Dr, Du, F, d, reg, J, mF):
+    """``(dr, W dr, ok, factorizations)`` of ``(Dr + Du (W + reg I)) dr = -F``: first
+    ``reg = 0``, then, when that matrix is singular, ``reg`` (the reference's retry)."""
+    m = F.shape[0]
+    for k in range(m):
+        mF[k] = -F[k]
+    dense_jacobian(Dr, Du, W, 0.0, d, J)
+    dr, ok = lu_solve(J, mF)
+    n_fact = 1
+    if not ok:
+        for k in range(m):
+            mF[k] = -F[k]
+        dense_jacobian(Dr, Du, W, reg, d, J)
+        dr, ok = lu_solve(J, mF)
+        n_fact = 2
+    if not ok:
+        return dr, dr, False, n_fact
+    return dr, matvec(W, dr), True, n_fact
+
+
+@njit(cache=True)
+def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stall_window,
+                       m1, max_backtrack, r, best_r, fstate, istate):
+    """Plain (nonmonotone) semismooth Newton steps until ``it_end``, convergence or stall.
+
+    The compiled twin of :func:`socp_cd.solvers.newton.prox_newton` with
+    ``policy="plain"`` (Siconos NSN_AC's globalization, ``formulations/newton.md``
+    §8), same iterates and counters: per step the Newton direction of the
+    Alart–Curnier equation (a singular matrix retried with ``W + reg I``; a
+    second failure ends the run with ``NUMERICAL_ERROR``), halvings of ``t``
+    until ``½||F(r + t dr)||² <= (1 - 2 m1 t) ½||F(r)||²``, at most
+    ``max_backtrack`` of them, else the full step; the error is Siconos'
+    re-normalized by the velocity scale (:func:`velocity_error`); the best
+    iterate is kept in ``best_r``; stalled after ``stall_window`` steps
+    without a 10 % drop of the best error.  ``fstate``, ``istate``: as
+    :func:`prox_newton_dense` (``F_ALPHA`` unused; every step counts in
+    ``I_NEWTON``).
+    """
+    m = r.shape[0]
+    nc = mu.shape[0]
+    u, status, it, best_it, err, best_err = _start(W, q, norm_q, mu, d, tol, r, best_r, fstate,
+                                                   istate, True)
+    n_newton = n_backtrack = n_ls_fail = n_singular = n_fact = 0
+    F, Ft, mF, _, rk, rt, ut, J, Dr, Du, branch = _buffers(m, nc, d)
+    while status == RUNNING and it < it_end:
+        it += 1
+        rk[:] = r
+        nF = ac_blocks(r, u, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
+        bt = 0
+        ls_ok = True
+        if nF != 0.0:
+            dr, du, ok, nf = _plain_direction(W, Dr, Du, F, d, reg, J, mF)
+            n_fact += nf
+            if not ok:
+                n_singular += 1
+                status = NUMERICAL_ERROR
+                break
+            t = 1.0
+            ls_ok = False
+            for b in range(max_backtrack):
+                for k in range(m):
+                    rt[k] = r[k] + t * dr[k]
+                    ut[k] = u[k] + t * du[k]
+                nFt = ac_blocks(rt, ut, mu, rho_n, rho_t, d, False, Ft, Dr, Du, branch)
+                if nFt * nFt <= (1.0 - 2.0 * m1 * t) * nF * nF:
+                    ls_ok = True
+                    bt = b
+                    break
+                t *= 0.5
+            if ls_ok:
+                r[:] = rt
+            else:
+                bt = max_backtrack
+                for k in range(m):
+                    r[k] = r[k] + dr[k]
+        n_newton += 1
+        n_backtrack += bt
+        if not ls_ok:
+            n_ls_fail += 1
+        err, best_it, best_err, status = _measure(W, q, norm_q, mu, d, tol, r, rk, u, best_r,
+                                                  it, best_it, best_err, True)
+        if status != RUNNING:
+            break
+        if stall_window > 0 and it - best_it >= stall_window:
+            status = STALLED
+            break
+    _store(istate, fstate, status, it, best_it, n_newton, n_backtrack, n_ls_fail, n_singular,
+           0, n_fact, err, best_err)
 
 
 @njit(cache=True)
@@ -230,7 +369,7 @@ def projected_error(W, q, norm_q, mu, d, r, out):
     return siconos_error(out, u, mu, d, norm_q)
 
 
-__all__ = ["prox_newton_dense", "new_state", "RUNNING", "CONVERGED", "STALLED",
+__all__ = ["prox_newton_dense", "plain_newton_dense", "velocity_error", "new_state", "RUNNING", "CONVERGED", "STALLED",
            "NUMERICAL_ERROR", "FSTATE", "ISTATE", "F_ALPHA", "F_ALPHA_MAX_USED", "F_ERR",
            "F_BEST_ERR", "I_STARTED", "I_STATUS", "I_IT", "I_BEST_IT", "I_NEWTON",
            "I_BACKTRACK", "I_LS_FAIL", "I_SINGULAR", "I_REJECTED", "I_FACTORIZATIONS",
