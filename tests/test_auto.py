@@ -169,9 +169,9 @@ def test_exact_coulomb_starts_with_newton_and_orders_by_features():
     for nc in (1, 4):                   # small: NSGS first (one contact: one local solve)
         small = _local(nc, 3, 8, mu=0.3)
         order = auto.stage_order(small, "coulomb", auto.features(small, "coulomb"))
-        # the hand-off (a Newton trial, then the rest of NSGS) on more than one contact:
-        # one contact has too few stored entries for it (HANDOFF_WORK)
-        handoff = ((("newton_trial", "coulomb"), ("nsgs_rest", "coulomb")) if nc > 1 else ())
+        # the hand-off's stages (a Newton trial, then the rest of NSGS), skipped by the
+        # backend when the call's cap leaves no sweeps (test_handoff_stages_follow_the_cap)
+        handoff = (("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
         expected = (("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),)
         assert order[:len(expected)] == expected
     g = _global(1, n=4, nc=3)            # m = 9 > n = 4: W singular by structure
@@ -386,9 +386,9 @@ def test_handoff_cap_rules(monkeypatch):
 
 
 def test_failed_trial_hands_nsgs_its_own_iterate_back(monkeypatch):
-    # a Newton trial that fails (here: one that returns garbage) costs nothing but its time:
-    # NSGS goes on from the iterate *it* had reached, for the sweeps it has left, and the
-    # chain still meets tol
+    # a Newton trial that fails costs nothing but its time: NSGS goes on from the iterate
+    # *it* had reached (not the trial's, even when the trial's error is lower), for the
+    # sweeps it has left, and the chain still meets tol
     import dataclasses
     from socp_cd.solvers import newton, nsgs
     p = _local(6, 3, 3, mu=0.5)
@@ -396,37 +396,52 @@ def test_failed_trial_hands_nsgs_its_own_iterate_back(monkeypatch):
     monkeypatch.setattr(auto, "HANDOFF_WORK", 1)
     seen = {}
 
-    def first_nsgs(problem, formulation, **kw):
+    def spy_nsgs(problem, formulation, **kw):
         res = nsgs.nsgs_backend(problem, formulation, **kw)
-        seen.setdefault("first", (kw["max_iter"], res.r.copy()))
-        if "first" in seen and kw["max_iter"] != seen["first"][0]:
-            seen["rest"] = (kw["max_iter"], np.array(kw["r0"]))
+        key = "first" if "first" not in seen else "rest"
+        seen[key] = (kw["max_iter"], None if kw["r0"] is None else np.array(kw["r0"]),
+                     res.r.copy())
         return res
 
-    def bad_trial(problem, formulation, **kw):
+    def near_miss_trial(problem, formulation, **kw):
+        # a better iterate than NSGS's after 2 sweeps, yet not within tol: the best so far
+        exact = newton.newton_backend(problem, formulation, **dict(kw, tol=1e-14, max_iter=200,
+                                                                   policy="prox"))
         res = newton.newton_backend(problem, formulation, **kw)
-        res.r = np.full_like(res.r, 1e3)
+        res.r = exact.r * (1.0 + 1e-4)
         res.status = "stalled"
         return res
-    monkeypatch.setitem(auto._STAGES, "nsgs", (dataclasses.replace(nsgs.SPEC, func=first_nsgs), {}))
+    monkeypatch.setitem(auto._STAGES, "nsgs", (dataclasses.replace(nsgs.SPEC, func=spy_nsgs), {}))
     monkeypatch.setitem(auto._STAGES, "nsgs_rest",
-                        (dataclasses.replace(nsgs.SPEC, func=first_nsgs), {}))
+                        (dataclasses.replace(nsgs.SPEC, func=spy_nsgs), {}))
     monkeypatch.setitem(auto._STAGES, "newton_trial",
-                        (dataclasses.replace(newton.SPEC, func=bad_trial), {"policy": "plain"}))
+                        (dataclasses.replace(newton.SPEC, func=near_miss_trial),
+                         {"policy": "plain"}))
     res = socp_cd.solve(p, tol=1e-10, history=True)          # history: the general path
-    methods = [s["method"] for s in res.info["path"]]
-    assert methods[:3] == ["nsgs", "newton_trial", "nsgs_rest"]
+    path = res.info["path"]
+    assert [s["method"] for s in path[:3]] == ["nsgs", "newton_trial", "nsgs_rest"]
+    assert path[1]["error"] < path[0]["error"]               # the trial's iterate was the best
     assert seen["first"][0] == 2
     assert seen["rest"][0] == nsgs.DEFAULT_MAX_ITER - 2
-    np.testing.assert_array_equal(seen["rest"][1], seen["first"][1])
+    np.testing.assert_array_equal(seen["rest"][1], seen["first"][2])
     assert res.converged and res.error <= 1e-10
 
 
-def test_nsgs_rest_is_not_a_method_a_caller_can_name():
-    # "nsgs_rest" goes on from the hand-off's own NSGS iterate: without a hand-off it would
-    # be skipped silently, so an explicit order naming it is refused by name
-    with pytest.raises(InvalidProblemError) as exc:
-        socp_cd.solve(_local(2, 3, 9), "auto", methods=("nsgs", "nsgs_rest"))
-    assert exc.value.field == "methods"
-    res = socp_cd.solve(_local(2, 3, 9), "auto", methods=("newton_trial", "newton"))
-    assert [s["method"] for s in res.info["path"]][0] == "newton_trial"
+def test_handoff_stages_follow_the_cap():
+    # the trial and the rest of NSGS run exactly when the first NSGS stage was capped and ran
+    # out of sweeps: not when max_iter leaves nothing to hand off (cap >= max_iter)
+    from socp_cd.bench.generators import manufactured
+    p = manufactured(12, 3, mu=0.6, structure="redundant", mass_ratio=1e6, contact_scale=1e4,
+                     seed=6)
+    cap = auto._handoff_cap(p, None)
+    assert cap is not None
+    for max_iter in (cap, cap + 50):
+        res = socp_cd.solve(p, tol=1e-15, max_iter=max_iter, history=True)
+        first = res.info["path"][0]
+        methods = [s["method"] for s in res.info["path"]]
+        handed = auto._handoff_cap(p, max_iter) is not None
+        assert handed == (max_iter > cap)
+        assert first["status"] == "max_iter"
+        assert first["iterations"] == (cap if handed else max_iter)
+        assert ("newton_trial" in methods) == handed
+        assert ("nsgs_rest" in methods) == handed

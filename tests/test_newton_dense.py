@@ -37,7 +37,7 @@ def _both(p, r0, tol, max_iter=200, time_limit=None, rho="block", policy="prox",
     """``(python, compiled)`` results of ``prox_newton`` on ``p`` from ``r0``."""
     settings = settings or COLD
     out = []
-    for compiled in (False, None):
+    for compiled in (False, True):       # True: the twin, or UnsupportedError
         system = nt._LocalSystem(p, "auto")
         mu = np.ascontiguousarray(p.mu, dtype=np.float64)
         out.append(nt.prox_newton(system, mu, np.array(r0, dtype=np.float64), tol=tol,
@@ -141,7 +141,8 @@ def test_time_limit_chunks_give_the_same_iterates(monkeypatch):
     _assert_equal(a, c)
     _assert_equal(b, c)
     # a spent budget: the Python loop stops after one outer iteration, the twin after one
-    # chunk (newton.CHUNK_WORK: here 3e6 / (10 * 27^3 / 3) = 45 iterations, enough to converge)
+    # chunk (newton.CHUNK_WORK: here 3e6 / (10 * 27^3 / 3) = 45 iterations, capped at
+    # CHUNK_MAX = 64: enough to converge)
     py, tw = _both(p, np.zeros(p.m), 1e-10, time_limit=0.0)
     assert py[0] == "time_limit" and py[2] == 1
     assert tw[0] == "converged" and tw[2] == a[2]
@@ -267,10 +268,14 @@ def test_plain_twin_counts_failed_line_searches_like_the_python_loop():
     assert seen_ls > 0
 
 
-def test_plain_twin_time_limit_chunks_like_the_python_loop():
+def test_plain_twin_time_limit_chunks_like_the_python_loop(monkeypatch):
+    # re-entry of the compiled loop between chunks: one step per call, then 7
     p = manufactured(20, 3, 0.5, structure="redundant", seed=2)
-    a, b = _both(p, np.zeros(p.m), 1e-14, max_iter=30, time_limit=1e3, policy="plain", **PLAIN)
-    _assert_equal(a, b)
+    for work in (1.0, 7 * 60 ** 3 / 3):
+        monkeypatch.setattr(nt, "CHUNK_WORK", work)
+        a, b = _both(p, np.zeros(p.m), 1e-14, max_iter=30, time_limit=1e3, policy="plain",
+                     **PLAIN)
+        _assert_equal(a, b)
 
 
 def test_velocity_error_is_the_guard_error():

@@ -315,3 +315,28 @@ def test_handoff_route_equals_general_path(monkeypatch):
     assert [s["method"] for s in a.info["path"]] == [s["method"] for s in b.info["path"]]
     assert a.info["path"][1]["method"] == "newton_trial"
     assert a.info["path"][1]["iterations"] <= auto.TRIAL_STEPS
+
+
+def test_handoff_work_term_route_equals_general_path(monkeypatch):
+    # two strongly coupled contacts: nnz(W) = 36, so HANDOFF_WORK (not HANDOFF_SWEEPS) sets the
+    # cap (ceil(32 000 / 36) = 889 sweeps); the compiled route and the general path must stop
+    # the first NSGS stage at the same sweep, with the module's constants, a warm start, a
+    # time limit and a max_iter above NSGS's default
+    from socp_cd.solvers import auto
+    m = 6
+    W = np.full((m, m), 1e-4) + np.eye(m) * (1 - 1e-4)
+    W[0, 3] = W[3, 0] = 0.9995
+    q = np.zeros(m)
+    q[0::3], q[1::3] = -1.0, 0.05
+    p = FrictionContactProblem(W, q, 0.3, 3)
+    cap = auto._handoff_cap(p, None)
+    assert cap == -(-auto.HANDOFF_WORK // int(p.csr_parts[0][-1])) > auto.HANDOFF_SWEEPS
+    for kw in (dict(), dict(r0=np.full(m, 0.1)), dict(time_limit=5.0), dict(max_iter=2000)):
+        a = socp_cd.solve(p, tol=1e-10, **kw)
+        b = _general(monkeypatch, p, tol=1e-10, **kw)
+        _same(a, b)
+        assert [s["method"] for s in a.info["path"]] == [s["method"] for s in b.info["path"]]
+        first = a.info["path"][0]
+        assert first["iterations"] <= cap
+        if first["status"] == "max_iter":
+            assert first["iterations"] == cap

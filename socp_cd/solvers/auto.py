@@ -185,8 +185,10 @@ def stage_order(problem, formulation, feats) -> tuple:
         # small local problems: NSGS first (one contact: one call of its local solver);
         # it costs a fraction of Newton's set-up and factorizations (formulations/auto.md)
         last = ((("nsgs", "coulomb"),) if (SMALL_SWEEPS, SMALL_STALL) != (None, None) else ())
+        # the hand-off's stages: listed whenever it is on; auto_backend skips them when the
+        # cap for this call (_handoff_cap with the caller's max_iter) leaves no sweeps to hand off
         handoff = ((("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
-                   if _handoff_cap(problem, None) is not None and not last else ())
+                   if HANDOFF_SWEEPS is not None and not last else ())
         return ((("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),) + plain
                 + (("clarabel", "coulomb"), ("newton", "coulomb")) + last)
     if feats["mu_max"] >= HIGH_MU or feats["dim"] == 2:
@@ -416,6 +418,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         variant = "small_first" if small_first and knobs != (None, None) else ""
         if (method, form, version, variant) in ran:
             continue    # same deterministic method from the same start: nothing to gain
+        if method in ("newton_trial", "nsgs_rest") and methods is None and handoff is None:
+            continue    # no hand-off in this call (one contact, or max_iter leaves no sweeps)
         if method == "nsgs_rest":
             # NSGS goes on from its own iterate (not the trial's): only after a first stage
             # that ran out of sweeps, and only for the sweeps it has left

@@ -115,9 +115,12 @@ COMPILED_LOOP_MAX_M = COMPILED_LU_MAX_M
 #: with a time limit the compiled loops run in chunks of outer iterations, the clock read
 #: between chunks; a chunk holds as many outer iterations as fit in about this many
 #: multiply-adds of LU factorizations (``inner_max_iter * m³ / 3`` per outer iteration; the
-#: plain policy: one): two at m = 72, hundreds on a few contacts, where one more compiled
-#: call (~3 µs of argument unboxing) cost more than the iteration it ran
+#: plain policy: one), at most CHUNK_MAX: two at m = 72 (prox), CHUNK_MAX on a few contacts,
+#: where one more compiled call (~3 µs of argument unboxing) cost more than the iteration
+#: it ran.  The estimate leaves out the line searches (up to 30 residual evaluations per
+#: step), hence the cap: a chunk overruns the time limit by at most CHUNK_MAX iterations
 CHUNK_WORK = 3e6
+CHUNK_MAX = 64
 #: global problems up to this many unknowns r are condensed to the local form
 CONDENSE_MAX_M = 600
 #: SuperLU settings of every sparse Newton matrix (local ``J = Dr + Du (W + alpha I)`` and
@@ -513,7 +516,10 @@ def velocity_relative_error(err, r, u, norm_q):
     ``1/||r||`` while ``u`` stays wrong.  In the balanced units the backends
     receive (:func:`socp_cd.residuals.contact_scales`) this is the error part
     of the dispatcher's units guard (:func:`socp_cd.residuals.guard_values`,
-    entry ``"error"``), so an iterate accepted by it is not refused by the guard.
+    entry ``"error"``; the compiled kernel
+    :func:`~socp_cd.solvers.kernels.newton_dense.velocity_error`, with norms summed in
+    index order: equal to rounding), so an iterate accepted by it is not refused by
+    the guard's error part (an iterate at the tolerance may miss by an ulp).
     """
     return float(nd.velocity_error(float(err), r, u, float(norm_q)))
 
@@ -750,8 +756,8 @@ def _prox_newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, in
     is bounded by ``max_iter * inner_max_iter`` LU factorizations of an
     ``m x m`` matrix, ``m <= COMPILED_LOOP_MAX_M`` (each followed by at most
     30 residual evaluations).  With ``time_limit`` it runs chunks of outer
-    iterations (:data:`CHUNK_WORK`: one or two on the largest systems, more on
-    small ones) and reads the clock between chunks: the same iterates as the
+    iterations (:data:`CHUNK_WORK`, :data:`CHUNK_MAX`: two on the largest systems,
+    up to 64 on small ones) and reads the clock between chunks: the same iterates as the
     Python loop, which reads it after every outer iteration; a run may overrun
     its limit by one chunk and stop ``"time_limit"`` a few iterations later
     than the Python loop would.
@@ -777,7 +783,8 @@ def _prox_newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, in
     else:
         t0 = time.perf_counter()
         m = system.m
-        chunk = max(1, int(CHUNK_WORK // ((1 if plain else inner_max_iter) * m * m * m / 3.0)))
+        chunk = max(1, min(CHUNK_MAX, int(CHUNK_WORK // ((1 if plain else inner_max_iter)
+                                                         * m * m * m / 3.0))))
         while True:
             it_before = int(istate[nd.I_IT])
             loop(*args, min(it_before + chunk, int(max_iter)), *rest)
