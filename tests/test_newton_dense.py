@@ -287,3 +287,20 @@ def test_velocity_error_is_the_guard_error():
         r, u = scale_r * rng.standard_normal(12), scale_u * rng.standard_normal(12)
         want = guard_values(1e-7, np.linalg.norm(r), np.linalg.norm(u), nq)["error"]
         assert velocity_error(1e-7, r, u, nq) == pytest.approx(want, rel=1e-14)
+
+
+def test_warmup_runs_both_twins(monkeypatch):
+    # newton.warmup (called by the benchmarks before timing) reaches both compiled loops, in
+    # 2D and 3D, with and without a time limit (the chunked path)
+    from socp_cd.solvers.kernels import newton_dense as nd
+    calls = []
+    for name in ("prox_newton_dense", "plain_newton_dense"):
+        original = getattr(nd, name)
+
+        def spy(*args, _name=name, _original=original):
+            calls.append((_name, args[6]))            # (loop, dim)
+            return _original(*args)
+        monkeypatch.setattr(nd, name, spy)
+    assert nt.warmup() > 0.0
+    assert {(n, d) for n, d in calls} == {(n, d) for n in ("prox_newton_dense",
+                                                          "plain_newton_dense") for d in (2, 3)}
