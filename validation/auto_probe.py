@@ -103,6 +103,16 @@ def record(fam, cid, p, tol, dt, res, **keys) -> dict:
                 solved=bool(err <= tol and res.converged), time=dt, path=path)
 
 
+def size_groups(rows, tiny, small_nc) -> dict:
+    """Rows grouped by ``(dim, size band, setting)``: bands ``"1–tiny"`` and
+    ``"tiny+1–small_nc"`` contacts, the setting in the rows' ``sweeps`` key."""
+    groups = defaultdict(list)
+    for r in rows:
+        band = f"1–{tiny}" if r["nc"] <= tiny else f"{tiny + 1}–{small_nc}"
+        groups[(r["dim"], band, r["sweeps"])].append(r)
+    return groups
+
+
 def write_csv(rows, path) -> None:
     """``rows`` (dicts with the same keys) as a CSV file."""
     with open(path, "w", newline="") as fh:
