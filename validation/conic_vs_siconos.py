@@ -218,6 +218,8 @@ def main(argv=None):
             print(f"    Siconos ACLMFP min of {args.siconos_repeats}: "
                   + (f"{a * 1e3:.3f}ms" if a else str(row.get("aclmfp_status"))), flush=True)
         elif fresh:
+            if p.n_contacts < args.fresh_below:   # the floor column, as in the rerun path
+                row["socp_floor"] = socp_floor(p)
             for t in peer_tasks(f, p, args.tol):
                 tasks.append(t)
                 owner.append((row, t["solver"]))
