@@ -437,8 +437,6 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             r, res = np.asarray(resume["r"], dtype=np.float64), None
             st, its, dt = stage["status"], int(stage["iterations"]), float(stage["time"])
             err = judge(r)
-            if small_first and handoff is not None:
-                nsgs_own = (r, st, its)
         else:
             stage_limit = None
             if time_limit is not None:
@@ -491,8 +489,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 message = f"{method}: {type(exc).__name__}: {exc}"
             dt = _clock() - t0
             err = judge(r)
-            if small_first and handoff is not None and r is not None:
-                nsgs_own = (r, st, its)
+        if small_first and handoff is not None and r is not None:
+            nsgs_own = (r, st, its)     # the hand-off's first NSGS stage (route or here)
         if method == "nsgs_probe":
             after_far_probe = not min(err, best_err) <= WARM_MAX
         elif method not in COLD_STAGES or err < best_err:

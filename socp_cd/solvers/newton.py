@@ -531,7 +531,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
 
     This Python loop is the reference; a small dense local system
     (``m <= COMPILED_LOOP_MAX_M``) with ``policy="prox"`` or ``"plain"`` and no
-    history runs its compiled twin instead (:func:`_prox_newton_compiled`: same
+    history runs its compiled twin instead (:func:`_newton_compiled`: same
     iterates, same counters).
 
     Parameters
@@ -574,7 +574,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
                                f"m <= {COMPILED_LOOP_MAX_M}, policy 'prox' or 'plain' and "
                                "no history")
     if twin and compiled is not False:
-        return _prox_newton_compiled(system, mu, r, tol=tol, max_iter=max_iter, alpha0=alpha0,
+        return _newton_compiled(system, mu, r, tol=tol, max_iter=max_iter, alpha0=alpha0,
                                      alpha_min=alpha_min, inner_max_iter=inner_max_iter,
                                      stall_window=stall_window, time_limit=time_limit, rho=rho,
                                      plain=policy == "plain")
@@ -745,8 +745,8 @@ _TWIN_STATUS = {nd.RUNNING: "max_iter", nd.CONVERGED: "converged", nd.STALLED: "
                 nd.NUMERICAL_ERROR: "numerical_error"}
 
 
-def _prox_newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
-                          stall_window, time_limit, rho, plain=False):
+def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
+                     stall_window, time_limit, rho, plain=False):
     """:func:`prox_newton` (policy "prox", or "plain" when ``plain``; no history) through its
     compiled twin (:func:`~.kernels.newton_dense.prox_newton_dense`,
     :func:`~.kernels.newton_dense.plain_newton_dense`).
