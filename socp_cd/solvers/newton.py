@@ -575,9 +575,9 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
                                "no history")
     if twin and compiled is not False:
         return _newton_compiled(system, mu, r, tol=tol, max_iter=max_iter, alpha0=alpha0,
-                                     alpha_min=alpha_min, inner_max_iter=inner_max_iter,
-                                     stall_window=stall_window, time_limit=time_limit, rho=rho,
-                                     plain=policy == "plain")
+                                alpha_min=alpha_min, inner_max_iter=inner_max_iter,
+                                stall_window=stall_window, time_limit=time_limit, rho=rho,
+                                plain=policy == "plain")
     d = system.d
     nc = mu.shape[0]
     rho_n, rho_t, wscale = _system_rho(system, rho)
