@@ -284,6 +284,11 @@ def test_stats_layout_of_the_route():
     assert len(nsgs_route.STATS) == 13 and len(GUARD_KEYS) == 7
     assert GUARD_KEYS == ("error", "balanced_siconos", "rounding", "value", "cone",
                           "normal_velocity", "complementarity")
+    # the records built from the tuple by literal index
+    x = tuple(float(k) for k in range(20))
+    assert nsgs_route.guard_record(x) == {k: 13.0 + j for j, k in enumerate(GUARD_KEYS)}
+    assert nsgs_route.scaling_record(x) == {name: x[nsgs_route.STATS.index(name)]
+                                            for name in ("velocity_scale", "diag_min", "diag_max")}
 
 
 def test_of_local_fills_the_fields_it_names():
@@ -340,3 +345,32 @@ def test_handoff_work_term_route_equals_general_path(monkeypatch):
         assert first["iterations"] <= cap
         if first["status"] == "max_iter":
             assert first["iterations"] == cap
+
+
+def test_plain_call_fast_dispatch_equals_the_full_checks():
+    # solve(p) with common options only takes registry._plain; verbose=0 (an int, not the
+    # bool False) sends the same call through every check of solve(): the same answer
+    for name, p in CASES[:6]:
+        for kw in (dict(), dict(time_limit=2.0), dict(max_iter=4), dict(tol=1e-12),
+                   dict(r0=np.random.default_rng(3).random(p.m))):
+            for solver in ("auto", "nsgs"):
+                a = socp_cd.solve(p, solver, **kw)
+                b = socp_cd.solve(p, solver, verbose=0, **kw)
+                _same(a, b)
+                assert (a.solver, a.formulation, a.tol, a.message) == (b.solver, b.formulation,
+                                                                       b.tol, b.message)
+
+
+@pytest.mark.parametrize("kw", [dict(tol=0.0), dict(tol=float("nan")), dict(tol=-1e-8),
+                                dict(tol="1e-8"), dict(max_iter=0), dict(max_iter=2.5),
+                                dict(time_limit=-1.0), dict(time_limit=float("inf")),
+                                dict(r0=np.zeros(2)), dict(r0=np.full(9, np.nan))])
+def test_plain_call_rejects_what_the_full_checks_reject(kw):
+    p = _random(3, 3, seed=11)
+    errors = []
+    for extra in (dict(), dict(verbose=0)):
+        with pytest.raises(socp_cd.SocpCdError) as exc:
+            socp_cd.solve(p, **kw, **extra)
+        errors.append((type(exc.value), str(exc.value)))
+    assert errors[0] == errors[1]
+

@@ -66,7 +66,8 @@ from . import clarabel_backend, newton, nsgs
 from .kernels.cone import siconos_error
 from .kernels.dense import csr_matvec_add
 from .kernels.scaling import GUARD_KEYS, balanced_guard
-from .nsgs_route import ERROR, INTERNAL_ERROR, MU_MAX, START_ERROR, SWEEPS, ZERO_ERROR
+from .nsgs_route import (ERROR, INTERNAL_ERROR, MU_MAX, START_ERROR, SWEEPS, ZERO_ERROR,
+                         guard_record, scaling_record)
 from .options import tightened_tolerance
 from .result import SolverResult
 from .spec import SolverSpec
@@ -350,22 +351,25 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True, stall, handoff)
     if out is None:
         return None
-    status, vectors, x, guard, scaling = out
+    status, vectors, x = out
     stage_error = x[INTERNAL_ERROR]         # the stage judge's measure (to rounding)
     if not stage_error < x[START_ERROR]:
         return None
     sweeps = int(x[SWEEPS])
     stage = {"method": method, "formulation": "coulomb", "iterations": sweeps,
              "time": _clock() - t0, "error": stage_error, "status": status}
+    guard = guard_record(x)
     met = stage_error <= tol and guard["value"] <= tol     # auto_backend's stop test
-    feats = {"dim": problem.dim, "n_contacts": nc, "global": False,
-             "mu_max": x[MU_MAX], "frictionless": False, "structurally_rank_deficient": None}
-    info = {"path": [stage], "features": feats, "best_stage": 0, "guard": guard,
-            "scaling": scaling, "route": "compiled"}
-    if not met:
-        info["resume"] = {"r": vectors[0], "stage": stage}
-    return SolverResult.of_local(vectors[1], vectors[2], "converged" if met else "stalled",
-                                 x[ERROR], sweeps, info, "nsgs met tol" if met else "",
+    info = {"path": [stage],
+            "features": {"dim": problem.dim, "n_contacts": nc, "global": False,
+                         "mu_max": x[MU_MAX], "frictionless": False,
+                         "structurally_rank_deficient": None},
+            "best_stage": 0, "guard": guard, "scaling": scaling_record(x), "route": "compiled"}
+    if met:
+        return SolverResult.of_local(vectors[1], vectors[2], "converged", x[ERROR], sweeps, info,
+                                     "nsgs met tol", x[ZERO_ERROR] <= tol)
+    info["resume"] = {"r": vectors[0], "stage": stage}
+    return SolverResult.of_local(vectors[1], vectors[2], "stalled", x[ERROR], sweeps, info, "",
                                  x[ZERO_ERROR] <= tol)
 
 

@@ -256,7 +256,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
             "loop_time": time.perf_counter() - t0, "cpu_time": time.process_time() - cpu0,
             "full_error_evaluations": int(x[R.N_FULL]), "local_failures": int(x[R.N_FAIL]),
             "light_error": x[R.LIGHT], "internal_error": x[R.INTERNAL_ERROR],
-            "guard": out.guard, "scaling": out.scaling, "route": "compiled"}
+            "guard": R.guard_record(x), "scaling": R.scaling_record(x), "route": "compiled"}
     message = _message(out.status, x[R.LIGHT], x[R.INTERNAL_ERROR], st["stall_window"], None,
                        sweeps)
     return SolverResult.of_local(out.vectors[1], out.vectors[2], out.status, x[R.ERROR], sweeps,

@@ -211,18 +211,27 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
 #: balanced iterate), ``r`` and ``u = W r + q`` in the caller's units; ``stats``: the tuple
 #: of the entries of :data:`STATS` (index constants ``SWEEPS``, ``ERROR``, ...: ``ERROR``
 #: is the dispatcher's recomputed Siconos error, ``INTERNAL_ERROR`` what ``auto``'s stage
-#: judge measures); ``guard``: the units guard's record (:func:`socp_cd.residuals.guard`);
-#: ``scaling``: ``result.info["scaling"]`` (:meth:`~socp_cd.solvers.scaling.Scaling.describe`).
-RouteOutcome = namedtuple("RouteOutcome", "status vectors stats guard scaling")
+#: judge measures), then the units guard's (:func:`guard_record`, :func:`scaling_record`
+#: make the records ``result.info`` holds).
+RouteOutcome = namedtuple("RouteOutcome", "status vectors stats")
 
 
-def _outcome(fields, _new=tuple.__new__):
-    """A :data:`RouteOutcome` from the tuple of its five fields (half the cost of the
-    named tuple's own constructor, on the per-call path)."""
-    return _new(RouteOutcome, fields)
+def guard_record(x) -> dict:
+    """The units guard's record (:func:`socp_cd.residuals.guard`) from a stats tuple ``x``."""
+    # keys in GUARD_KEYS' order, literal indices (the fastest: this runs on every routed
+    # call; tests/test_route.py checks them against STATS and GUARD_KEYS)
+    return {"error": x[13], "balanced_siconos": x[14], "rounding": x[15], "value": x[16],
+            "cone": x[17], "normal_velocity": x[18], "complementarity": x[19]}
 
 
-def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff=(0, 0)):
+def scaling_record(x) -> dict:
+    """``result.info["scaling"]`` (:meth:`~socp_cd.solvers.scaling.Scaling.describe`) from a
+    stats tuple ``x``."""
+    return {"velocity_scale": x[9], "diag_min": x[10], "diag_max": x[11]}
+
+
+def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff=(0, 0),
+        _new=tuple.__new__):
     """Run :func:`nsgs_checked` on a local problem: a :data:`RouteOutcome`, or None.
 
     ``settings``: the NSGS backend's checked settings as the tuple
@@ -235,31 +244,22 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     general path reports those).  ``handoff``: ``(sweeps, work)`` of
     :func:`nsgs_checked` (``(0, 0)``: off).
     """
-    indptr, indices, data = problem.csr_parts
-    q = problem.q
     mu = problem.mu
+    indptr, indices, data = problem.csr_parts
     if not applies(mu.shape[0], int(indptr[-1]), max_iter, time_limit):
         return None
-    warm = r0 is not None
-    kind, loc_tol, newton_maxit, proj_maxit, omega, error_every, stall_window = settings
+    q = problem.q
     vectors = np.empty((3, q.shape[0]))
     code, x = nsgs_checked(
-        indptr, indices, data, q, mu, problem.dim, r0 if warm else q, warm, tol, max_iter,
-        time_limit is not None, TIME_CHECK_SWEEPS, kind, loc_tol, newton_maxit, proj_maxit, omega,
-        error_every, stall_window, need_friction, handoff[0], handoff[1], vectors)
-    if code < 0:
+        indptr, indices, data, q, mu, problem.dim, q if r0 is None else r0, r0 is not None, tol,
+        max_iter, time_limit is not None, TIME_CHECK_SWEEPS, *settings, need_friction, *handoff,
+        vectors)
+    if code < 0 or not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
         return None
-    if not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
-        return None
-    g = _N_STATS       # the guard's record, keys in GUARD_KEYS' order (a literal: the fastest)
-    guard = {"error": x[g], "balanced_siconos": x[g + 1], "rounding": x[g + 2],
-             "value": x[g + 3], "cone": x[g + 4], "normal_velocity": x[g + 5],
-             "complementarity": x[g + 6]}
-    return _outcome((STATUS_NAMES[code], vectors, x, guard,
-                     {"velocity_scale": x[VELOCITY_SCALE], "diag_min": x[DIAG_MIN],
-                      "diag_max": x[DIAG_MAX]}))
+    # (tuple.__new__: half the cost of the named tuple's own constructor, per call)
+    return _new(RouteOutcome, (STATUS_NAMES[code], vectors, x))
 
 
-__all__ = ["nsgs_checked", "run", "applies", "RouteOutcome", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
+__all__ = ["nsgs_checked", "run", "applies", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
            "MIN_TIME_LIMIT", "MAX_TIMED_WORK", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
            "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX"]

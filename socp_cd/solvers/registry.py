@@ -16,6 +16,7 @@ and remove others (tests, plug-ins).
 """
 from __future__ import annotations
 
+import math
 import time as _time
 
 import numpy as np
@@ -285,6 +286,62 @@ def _resolve(solver, table):
     return table[solver]
 
 
+def _general(problem, spec, formulation, tol, max_iter, r0, history, time_limit, verbose,
+             inner_settings, options, t0, resume, routed) -> SolverResult:
+    """:func:`solve`'s general path, its arguments checked: balance, run the backend (from
+    ``resume`` when a compiled route did the first part of the work), judge, retry.
+
+    ``routed``: a route ran and its time counts (``t0`` is then its start).
+    """
+    target = problem
+    if problem.is_global and formulation not in spec.global_native:
+        target = problem.local        # condensed once per problem
+    if not routed:
+        t0 = _time.perf_counter()
+    scaling = None if target.is_global else balance(target)
+    run = dict(max_iter=max_iter, history=history, verbose=verbose,
+               inner_settings=inner_settings, options=options)
+    if resume is None:
+        res = _run_backend(spec, target, scaling, formulation, tol, r0, time_limit, **run)
+    else:       # the route did the first part of the work: the backend goes on from there
+        left = None if time_limit is None else time_limit - (_time.perf_counter() - t0)
+        res = _run_backend(spec, target, scaling, formulation, tol, r0, left,
+                           **dict(run, options=dict(options, resume=resume)))
+    claimed = res.status
+    res.solver, res.formulation = spec.name, formulation
+    res = _finalize(problem, res, formulation, tol, options)
+    if claimed == "converged" and not res.converged and np.isfinite(res.error):
+        res = _retry(res, problem, spec, target, scaling, formulation, tol, options,
+                     time_limit, t0, run)
+    res.time = _time.perf_counter() - t0
+    if target is not problem:
+        res.info["condensed_to_local"] = True
+    return res
+
+
+def _plain(problem, spec, tol, max_iter, r0, time_limit):
+    """:func:`solve` of a plain call (see there) on a local problem, exact Coulomb law, a
+    registered solver with a compiled ``route`` that takes this problem, common options
+    only, ``verbose`` False (the general checks of these arguments, in the same order)."""
+    if not (type(tol) is float and 0.0 < tol < math.inf and max_iter is None
+            and (time_limit is None or type(time_limit) is float and 0.0 < time_limit < math.inf)):
+        tol, max_iter, time_limit, _, _ = check_common(tol, max_iter, time_limit, False, None)
+    if spec.check is not None:
+        spec.check(problem, {}, {})
+    if r0 is not None:
+        r0 = problem.check_reaction(r0, "r0")
+    t0 = _time.perf_counter()
+    res = spec.route(problem, tol=tol, max_iter=max_iter, r0=r0, time_limit=time_limit)
+    if res is not None:     # the route ran: its time counts
+        res, resume = _routed(res, spec.name, tol, time_limit, t0)
+        if res is not None:
+            return res
+        return _general(problem, spec, "coulomb", tol, max_iter, r0, False, time_limit, False,
+                        {}, {}, t0, resume, True)
+    return _general(problem, spec, "coulomb", tol, max_iter, r0, False, time_limit, False, {}, {},
+                    t0, None, False)
+
+
 def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 1e-8,
           max_iter: int | None = None, r0=None, history: bool = False, crosscheck: str | None = None,
           time_limit: float | None = None, verbose: bool = False, inner_settings: dict | None = None,
@@ -354,6 +411,14 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
     UnsupportedError
         Unknown solver or option, or a formulation/dimension the solver cannot do.
     """
+    if (type(problem) is FrictionContactProblem and formulation == "coulomb" and not options
+            and not history and crosscheck is None and verbose is False and inner_settings is None
+            and type(solver) is str and _LOADED[0]):
+        # the plain call of a compiled route: the same checks as below, in fewer steps
+        spec = _TABLE.get(solver)
+        if (spec is not None and spec.route is not None and "coulomb" in spec.formulations
+                and problem.dim in spec.dims):
+            return _plain(problem, spec, tol, max_iter, r0, time_limit)
     _check_problem(problem)
     table = _table()
     spec = _resolve(solver, table)
@@ -390,29 +455,8 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
             res, resume = _routed(res, name, tol, time_limit, t0)
             if res is not None:
                 return res
-    target = problem
-    if problem.is_global and formulation not in spec.global_native:
-        target = problem.local        # condensed once per problem
-    if not routed:
-        t0 = _time.perf_counter()
-    scaling = None if target.is_global else balance(target)
-    run = dict(max_iter=max_iter, history=history, verbose=verbose,
-               inner_settings=inner_settings, options=options)
-    if resume is None:
-        res = _run_backend(spec, target, scaling, formulation, tol, r0, time_limit, **run)
-    else:       # the route did the first part of the work: the backend goes on from there
-        left = None if time_limit is None else time_limit - (_time.perf_counter() - t0)
-        res = _run_backend(spec, target, scaling, formulation, tol, r0, left,
-                           **dict(run, options=dict(options, resume=resume)))
-    claimed = res.status
-    res.solver, res.formulation = name, formulation
-    res = _finalize(problem, res, formulation, tol, options)
-    if claimed == "converged" and not res.converged and np.isfinite(res.error):
-        res = _retry(res, problem, spec, target, scaling, formulation, tol, options,
-                     time_limit, t0, run)
-    res.time = _time.perf_counter() - t0
-    if target is not problem:
-        res.info["condensed_to_local"] = True
+    res = _general(problem, spec, formulation, tol, max_iter, r0, history, time_limit, verbose,
+                   inner_settings, options, t0, resume, routed)
     if crosscheck is not None:
         ref = solve(problem, solver=crosscheck, formulation=formulation, tol=tol,
                     **law_parameters(formulation, options))
