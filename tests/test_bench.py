@@ -153,6 +153,50 @@ def test_readme_section_is_rewritten_between_markers(tmp_path):
     assert plain.read_text() == "no markers here\n"
 
 
+def test_virtual_best_siconos_picks_the_fastest_success_else_the_smallest_error():
+    S = "siconos:"
+    recs = [_rec(problem="p1", solver=S + "a", time=0.5),
+            _rec(problem="p1", solver=S + "b", time=0.2),
+            _rec(problem="p1", solver=S + "c", time=0.01, status="max_iter", success=False),
+            _rec(problem="p2", solver=S + "a", status="max_iter", success=False, error=1e-3),
+            _rec(problem="p2", solver=S + "b", status="max_iter", success=False, error=1e-5),
+            _rec(problem="p3", solver=S + "a", status="unsupported", success=False),
+            _rec(problem="p1", solver="ours", time=0.1),
+            _rec(problem="p1", solver=S + "a", tol=1e-8, status="max_iter", success=False)]
+    best = {(r["problem"], r["tol"]): r for r in P.virtual_best(recs)}
+    assert set(best) == {("p1", 1e-4), ("p2", 1e-4), ("p1", 1e-8)}   # p3: nobody ran
+    assert best[("p1", 1e-4)]["time"] == 0.2 and best[("p1", 1e-4)]["success"]
+    assert best[("p1", 1e-4)]["message"].startswith(S + "b")
+    assert not best[("p2", 1e-4)]["success"] and best[("p2", 1e-4)]["error"] == 1e-5
+    assert not best[("p1", 1e-8)]["success"]
+    assert all(r["solver"] == P.SICONOS_BEST for r in best.values())
+    # in the summaries: a row of its own, counted over the problems of the preset
+    rows = {r["solver"]: r for r in P.summary_table(P.with_virtual_best(recs), {"low": 1e-4})}
+    assert rows[P.SICONOS_BEST]["success"] == 1 and rows[P.SICONOS_BEST]["problems"] == 2
+    assert f"| {P.SICONOS_BEST} | " in P.readme_table(recs, {"low": 1e-4})
+    assert P.virtual_best([_rec(problem="p1", solver="ours")]) == []
+
+
+def test_campaign_siconos_peers_are_every_solver_of_every_family():
+    from socp_cd.bench import siconos_peer, tasks
+    every = {n for names in siconos_peer.SOLVERS.values() for n in names}
+    assert set(tasks.SICONOS_SOLVERS) == every - set(tasks.SICONOS_LEFT_OUT)
+    assert {"prox", "nsn_fb", "nsn_ac", "prox_wr", "cpg", "lemke"} <= set(tasks.SICONOS_SOLVERS)
+
+
+def test_siconos_solver_of_another_family_is_unsupported_without_running():
+    from socp_cd.bench.siconos_runs import run_siconos_batch, siconos_unsupported_reason
+    ref2 = _ref(3, dim=2)
+    task = C.make_tasks([ref2], ["siconos:prox"], [1e-6])[0]
+    why = siconos_unsupported_reason(task, ref2.load())
+    assert "'prox'" in why and "local2" in why and "cpg" in why
+    # no worker is started for it (this runs without Siconos too)
+    rec, = run_siconos_batch([task])
+    assert rec["status"] == "unsupported" and not rec["success"] and "local2" in rec["message"]
+    task3 = C.make_tasks([_ref(3, dim=3)], ["siconos:prox"], [1e-6])[0]
+    assert siconos_unsupported_reason(task3, task3.problem.load()) is None
+
+
 def test_performance_profile_by_hand():
     inf = math.inf
     table = {"p1": {"A": 1.0, "B": 2.0}, "p2": {"A": 4.0, "B": 2.0},

@@ -57,7 +57,7 @@ import socp_cd
 from socp_cd.bench.evalset import collection_cases, manufactured_cases
 from socp_cd.bench.reports import performance_profile, shifted_geometric_mean
 from socp_cd.bench.siconos_peer import SOLVERS as SICONOS_SOLVERS
-from socp_cd.bench.siconos_peer import REPEAT_BUDGET, siconos_available, siconos_batch
+from socp_cd.bench.siconos_peer import REPEAT_BUDGET, family_of, siconos_available, siconos_batch
 from socp_cd.data import shared_problems_dir
 from socp_cd.solvers import newton, nsgs
 
@@ -93,11 +93,6 @@ def better(a, b, tol) -> dict:
     return a if key(a) <= key(b) else b
 
 
-def kind_of(p) -> str:
-    """Siconos' problem family of ``p``: ``local3``, ``local2`` or ``global3``."""
-    return "global3" if p.is_global else f"local{p.dim}"
-
-
 def problem_set(args) -> list[dict]:
     """``[{"set", "id", "split", "kind", "nc", "problem"}]`` of the run."""
     data = shared_problems_dir()
@@ -108,7 +103,7 @@ def problem_set(args) -> list[dict]:
             continue
         p = socp_cd.read_problem(path)
         if p.n_contacts <= args.max_contacts:
-            items.append(dict(set="shared", id=path.name, split="shared", kind=kind_of(p),
+            items.append(dict(set="shared", id=path.name, split="shared", kind=family_of(p),
                               nc=p.n_contacts, problem=p))
     rng = np.random.default_rng(args.seed)
     cases = manufactured_cases(data, max_contacts=args.max_contacts) if "eval" in sets else []
@@ -136,7 +131,7 @@ def problem_set(args) -> list[dict]:
             for c in collection_cases(sub):
                 if c.n_contacts <= args.max_contacts:
                     p = c.problem()
-                    items.append(dict(set="sim", id=c.case_id, split="holdout", kind=kind_of(p),
+                    items.append(dict(set="sim", id=c.case_id, split="holdout", kind=family_of(p),
                                       nc=c.n_contacts, problem=p))
     return items
 

@@ -72,6 +72,12 @@ _ARRAY_PARAMS = ("r0", "u0", "v0")
 _HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 
 
+def family_of(problem) -> str:
+    """Siconos' problem family of ``problem`` (a key of :data:`SOLVERS`): ``"local3"``,
+    ``"local2"`` or ``"global3"``."""
+    return "global3" if problem.is_global else f"local{problem.dim}"
+
+
 def siconos_python() -> str:
     """Path of the interpreter that has ``siconos.numerics``."""
     return os.environ.get("SOCP_CD_SICONOS_PYTHON", DEFAULT_PYTHON)
@@ -385,6 +391,6 @@ def siconos_solve(problem, solver: str, tol: float = 1e-8, max_iter: int = 10000
     return siconos_batch([task])[0]
 
 
-__all__ = ["siconos_available", "siconos_python", "siconos_load", "siconos_errors",
+__all__ = ["family_of", "siconos_available", "siconos_python", "siconos_load", "siconos_errors",
            "siconos_solve", "siconos_batch", "SOLVERS", "worker_path", "REPEAT_BUDGET",
            "REPEAT_CALLS"]

@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from ..errors import InvalidProblemError
-from .siconos_peer import REPEAT_CALLS, siconos_batch
+from .siconos_peer import REPEAT_CALLS, SOLVERS, family_of, siconos_batch
 from .tasks import SICONOS_PREFIX, RunTask, base_record, outcome_record
 
 
@@ -28,7 +28,20 @@ def siconos_spec(task: RunTask, problem) -> dict:
             "time_limit": task.time_limit, "repeat": REPEAT_CALLS, **dict(task.solver.options)}
 
 
+def siconos_unsupported_reason(task: RunTask, problem) -> str | None:
+    """Why Siconos' solver of ``task`` does not run on ``problem`` (None when it does): the
+    solver is not one of the problem's family (:data:`~socp_cd.bench.siconos_peer.SOLVERS`)."""
+    name, family = task.solver.name[len(SICONOS_PREFIX):], family_of(problem)
+    if name in SOLVERS[family]:
+        return None
+    return (f"Siconos solver {name!r} does not solve {family} problems (its solvers for "
+            f"them: {', '.join(SOLVERS[family])})")
+
+
 def run_siconos(task: RunTask, problem) -> tuple:
+    why = siconos_unsupported_reason(task, problem)
+    if why:
+        return ("unsupported", why)
     return siconos_outcome(siconos_batch([siconos_spec(task, problem)])[0])
 
 
@@ -68,6 +81,10 @@ def run_siconos_batch(tasks) -> list[dict]:
         except InvalidProblemError as exc:
             recs[i] = base_record(task, status="rejected", message=str(exc)[:300])
             continue
+        why = siconos_unsupported_reason(task, problem)
+        if why:
+            recs[i] = base_record(task, problem, status="unsupported", message=why)
+            continue
         loaded.append((i, task, problem))
         specs.append(siconos_spec(task, problem))
     if specs:
@@ -83,5 +100,5 @@ def run_siconos_batch(tasks) -> list[dict]:
     return recs
 
 
-__all__ = ["SICONOS_MAX_ITER", "siconos_spec", "run_siconos", "siconos_outcome",
+__all__ = ["SICONOS_MAX_ITER", "siconos_spec", "run_siconos", "siconos_unsupported_reason", "siconos_outcome",
            "run_siconos_batch"]

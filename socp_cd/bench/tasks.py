@@ -19,6 +19,7 @@ from ..residuals import error as siconos_error
 from ..solvers import solvers as registered_solvers
 from .problem_refs import ProblemRef
 from .records import new_record, settings_string
+from .siconos_peer import SOLVERS as SICONOS_FAMILIES
 from .siconos_peer import siconos_available
 
 #: Tolerance presets of ``--preset``.
@@ -28,8 +29,18 @@ SWEEP = tuple(10.0 ** -k for k in range(2, 11))
 ALL = tuple(10.0 ** -k for k in range(2, 11, 2))
 #: Prefix of Siconos peer solvers in solver specs and records.
 SICONOS_PREFIX = "siconos:"
-#: Siconos solvers run by default when Siconos is available.
-SICONOS_SOLVERS = ("nsgs", "nsn_ac", "admm", "aclmfp", "vi_fpp")
+#: Siconos solvers the default campaign leaves out: NSGSV is unfinished in Siconos 4.4 (its
+#: default local solver is rejected by its own initialization; with the accepted one it
+#: dereferences a null local problem), it crashes on every problem
+#: (``validation/newton_vs_siconos.py`` still runs it, and shows that).
+SICONOS_LEFT_OUT = ("nsgsv",)
+#: Siconos solvers run by default when Siconos is available: every solver the worker
+#: knows for any problem family (:data:`socp_cd.bench.siconos_peer.SOLVERS`: 3D local, 2D
+#: local, global), but :data:`SICONOS_LEFT_OUT`; a solver meets the problems of its own
+#: families only (the others are ``unsupported``, not run).
+SICONOS_SOLVERS = tuple(dict.fromkeys(
+    n for kind in ("local3", "local2", "global3") for n in SICONOS_FAMILIES[kind]
+    if n not in SICONOS_LEFT_OUT))
 
 #: File-name patterns grouping the shared problems into families.
 
@@ -219,6 +230,6 @@ def outcome_record(task: RunTask, problem, outcome: tuple, wall: float) -> dict:
     return rec
 
 
-__all__ = ["PRESETS", "SWEEP", "ALL", "SICONOS_PREFIX", "SICONOS_SOLVERS", "SolverChoice",
+__all__ = ["PRESETS", "SWEEP", "ALL", "SICONOS_PREFIX", "SICONOS_SOLVERS", "SICONOS_LEFT_OUT", "SolverChoice",
            "parse_solver", "default_solvers", "siconos_ready", "RunTask", "make_tasks",
            "base_record", "finish_record", "outcome_record", "run_skipped", "resolve_tolerances"]
