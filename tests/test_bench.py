@@ -367,3 +367,31 @@ def test_variant_comparison_charges_failures_and_finds_disagreements():
     groups = [(g, v) for g, v, _ in variant_comparison_by(rows, "kind", "v", ["p", "q"], 5.0)]
     assert groups == [("x", "p"), ("x", "q"), ("y", "p"), ("y", "q"), ("all", "p"), ("all", "q")]
     assert [cid for cid, _ in variant_disagreements(rows, "v")] == ["b"]
+
+
+def test_our_runs_follow_the_siconos_worker_repeat_rule(monkeypatch):
+    # a fast solve is repeated on new problem objects (shallow copies: no cache carries over)
+    # and the fastest call is reported, as the Siconos worker reports its driver's
+    from socp_cd.bench import isolation
+    ref = _ref(3)
+    p = ref.load()
+    seen = []
+    real = isolation.solve
+
+    def spy(problem, **kw):
+        seen.append(problem)
+        return real(problem, **kw)
+    monkeypatch.setattr(isolation, "solve", spy)
+    task = C.make_tasks([ref], ["nsgs"], [1e-8])[0]
+    socp_cd.solve(ref.load(), "nsgs")       # compiled first: a slow first call is not repeated
+    keys = set(vars(p))
+    kind, out = isolation.solve_payload(task, p, repeat=7)
+    assert kind == "ok" and out["calls"] == 7 and len(seen) == 7, out
+    assert all(q is not p for q in seen) and len({id(q) for q in seen}) == 7
+    assert set(vars(p)) == keys            # p itself is never solved: it caches nothing
+    assert out["status"] == "converged" and out["time"] > 0.0
+    # a run that does not converge is not repeated
+    seen.clear()
+    task = C.make_tasks([ref], ["nsgs,stall_window=1"], [1e-30])[0]
+    kind, out = isolation.solve_payload(task, p, repeat=7)
+    assert kind == "ok" and out["calls"] == 1 and out["status"] != "converged"
