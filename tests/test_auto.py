@@ -169,9 +169,11 @@ def test_exact_coulomb_starts_with_newton_and_orders_by_features():
     for nc in (1, 4):                   # small: NSGS first (one contact: one local solve)
         small = _local(nc, 3, 8, mu=0.3)
         order = auto.stage_order(small, "coulomb", auto.features(small, "coulomb"))
-        # the hand-off's stages (a Newton trial, then the rest of NSGS), skipped by the
+        # the hand-off's stages (a Newton trial; after an early hand-off whose trial failed,
+        # NSGS up to the cap and a second trial; then the rest of NSGS), skipped by the
         # backend when the call's cap leaves no sweeps (test_handoff_stages_follow_the_cap)
-        handoff = (("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
+        handoff = (("newton_trial", "coulomb"), ("nsgs_mid", "coulomb"),
+                   ("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
         expected = (("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),)
         assert order[:len(expected)] == expected
     g = _global(1, n=4, nc=3)            # m = 9 > n = 4: W singular by structure
@@ -379,7 +381,7 @@ def test_handoff_cap_rules(monkeypatch):
     monkeypatch.setattr(auto, "HANDOFF_SWEEPS", None)
     assert auto._handoff_cap(p, None) is None
     order = [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
-    assert "newton_trial" not in order and "nsgs_rest" not in order
+    assert not {"newton_trial", "nsgs_mid", "nsgs_rest"} & set(order)
     monkeypatch.setattr(auto, "HANDOFF_SWEEPS", 2.5)
     with pytest.raises(ValueError, match="HANDOFF_SWEEPS"):
         socp_cd.solve(p)
@@ -394,6 +396,7 @@ def test_failed_trial_hands_nsgs_its_own_iterate_back(monkeypatch):
     p = _local(6, 3, 3, mu=0.5)
     monkeypatch.setattr(auto, "HANDOFF_SWEEPS", 2)
     monkeypatch.setattr(auto, "HANDOFF_WORK", 1)
+    monkeypatch.setattr(auto, "HANDOFF_PREDICT", 0)       # (the early hand-off: tested below)
     seen = {}
 
     def spy_nsgs(problem, formulation, **kw):
@@ -442,6 +445,78 @@ def test_handoff_stages_follow_the_cap():
         handed = auto._handoff_cap(p, max_iter) is not None
         assert handed == (max_iter > cap)
         assert first["status"] == "max_iter"
-        assert first["iterations"] == (cap if handed else max_iter)
+        if handed:      # at the cap, or earlier at the end of a window of the rate prediction
+            its = first["iterations"]
+            assert its == cap or (its < cap and its % auto.HANDOFF_PREDICT == 0)
+        else:
+            assert first["iterations"] == max_iter
         assert ("newton_trial" in methods) == handed
         assert ("nsgs_rest" in methods) == handed
+
+
+def test_early_handoff_goes_on_to_the_cap_and_tries_again(monkeypatch):
+    # the rate prediction hands NSGS over before the cap; when that first trial fails, NSGS
+    # goes on from its own iterate up to the cap (nsgs_mid), a second trial starts from
+    # NSGS's iterate there, then the rest of NSGS: NSGS's sweeps are those of one run
+    import dataclasses
+    from socp_cd.solvers import newton, nsgs
+    m = 6           # two strongly coupled contacts: NSGS converges slowly (hundreds of sweeps)
+    W = np.full((m, m), 1e-4) + np.eye(m) * (1 - 1e-4)
+    W[0, 3] = W[3, 0] = 0.9995
+    q = np.zeros(m)
+    q[0::3], q[1::3] = -1.0, 0.05
+    p = socp_cd.FrictionContactProblem(W, q, 0.3, 3)
+    monkeypatch.setattr(auto, "HANDOFF_SWEEPS", 60)
+    monkeypatch.setattr(auto, "HANDOFF_WORK", 1)
+    monkeypatch.setattr(auto, "HANDOFF_PREDICT", 10)
+    calls = []
+
+    def slow_nsgs(problem, formulation, **kw):
+        res = nsgs.nsgs_backend(problem, formulation, **kw)
+        calls.append(("nsgs", kw["max_iter"], kw.get("predict_window", 0), res.iterations,
+                      None if kw["r0"] is None else np.array(kw["r0"]), res.r.copy()))
+        if kw.get("predict_window"):        # pretend the prediction fired after 20 sweeps
+            res = nsgs.nsgs_backend(problem, formulation, **dict(kw, max_iter=20,
+                                                                 predict_window=0))
+            res.status = "max_iter"
+            calls[-1] = calls[-1][:3] + (20, calls[-1][4], res.r.copy())
+        return res
+
+    def failing_trial(problem, formulation, **kw):
+        calls.append(("trial", np.array(kw["r0"])))
+        res = newton.newton_backend(problem, formulation, **dict(kw, max_iter=1))
+        res.r = np.array(kw["r0"], dtype=float)      # no progress: the trial fails
+        res.status = "stalled"
+        return res
+    for name in ("nsgs", "nsgs_mid", "nsgs_rest"):
+        monkeypatch.setitem(auto._STAGES, name, (dataclasses.replace(nsgs.SPEC, func=slow_nsgs),
+                                                 {}))
+    monkeypatch.setitem(auto._STAGES, "newton_trial",
+                        (dataclasses.replace(newton.SPEC, func=failing_trial), {}))
+    res = socp_cd.solve(p, tol=1e-10, history=True)          # history: the general path
+    methods = [s["method"] for s in res.info["path"]]
+    assert methods[:5] == ["nsgs", "newton_trial", "nsgs_mid", "newton_trial", "nsgs_rest"]
+    first, trial1, mid, trial2, rest = calls[:5]
+    assert first[1:4] == (60, 10, 20)                      # capped at 60, stopped at 20
+    assert mid[1] == 40 and mid[2] == 0                    # up to the cap, no prediction
+    np.testing.assert_array_equal(mid[4], first[5])        # from NSGS's own iterate
+    np.testing.assert_array_equal(trial2[1], mid[5])       # the second trial: NSGS at the cap
+    assert rest[1] == nsgs.DEFAULT_MAX_ITER - 20 - mid[3]  # the sweeps NSGS has left
+    np.testing.assert_array_equal(rest[4], mid[5])
+    # without an early stop (NSGS reached the cap) there is one trial and no nsgs_mid
+    monkeypatch.setattr(auto, "HANDOFF_PREDICT", 0)
+    calls.clear()
+    methods = [s["method"] for s in socp_cd.solve(p, tol=1e-10, history=True).info["path"]]
+    assert methods[:3] == ["nsgs", "newton_trial", "nsgs_rest"] and "nsgs_mid" not in methods
+    assert methods.count("newton_trial") == 1
+
+
+def test_rate_prediction_only_where_a_trial_is_compiled(monkeypatch):
+    from socp_cd.solvers import newton
+    small, big = _local(4, 3, 3, mu=0.5), _local(newton.COMPILED_LOOP_MAX_M // 3 + 1, 3, 3, mu=0.5)
+    assert small.m <= newton.COMPILED_LOOP_MAX_M < big.m
+    assert auto._predict_window(small) == auto.HANDOFF_PREDICT > 0
+    assert auto._predict_window(big) == 0
+    monkeypatch.setattr(auto, "HANDOFF_PREDICT", -1)
+    with pytest.raises(ValueError, match="HANDOFF_PREDICT"):
+        auto._predict_window(small)

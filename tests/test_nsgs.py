@@ -453,3 +453,49 @@ def test_tresca_projection_clamps_the_normal_part():
     res = solve(sep, "nsgs", formulation="tresca", threshold=np.array([0.3]), tol=TOL)
     assert res.converged
     np.testing.assert_allclose(res.r, 0.0, atol=1e-14)
+
+
+def test_predicted_sweeps_by_hand():
+    from socp_cd.solvers.nsgs_kernels import predicted_sweeps
+    # rate c = (1e-4 / 1e-2)^(1/20) = 10^(-0.1): 1e-4 -> 1e-8 takes 4 decades = 40 sweeps
+    assert predicted_sweeps(40, 20, 1e-2, 1e-4, 1e-8) == pytest.approx(80.0, rel=1e-12)
+    assert predicted_sweeps(40, 20, 1e-4, 1e-4, 1e-8) == np.inf         # no progress
+    assert predicted_sweeps(40, 20, 1e-4, 2e-4, 1e-8) == np.inf         # growing
+    assert predicted_sweeps(40, 20, 1e-2, 1e-9, 1e-8) == 40.0           # already there
+    assert predicted_sweeps(40, 20, 0.0, 1e-4, 1e-8) == np.inf          # nothing to compare
+
+
+def _slow_problem():
+    # two strongly coupled contacts: NSGS converges linearly, slowly (tests/test_route.py)
+    m = 6
+    W = np.full((m, m), 1e-4) + np.eye(m) * (1 - 1e-4)
+    W[0, 3] = W[3, 0] = 0.9995
+    q = np.zeros(m)
+    q[0::3], q[1::3] = -1.0, 0.05
+    return FrictionContactProblem(W, q, 0.3, 3)
+
+
+@pytest.mark.parametrize("time_limit", [None, 10.0])
+def test_predict_window_stops_a_slow_run_early(time_limit):
+    p = _slow_problem()
+    full = solve(p, "nsgs", tol=1e-10, max_iter=300, time_limit=time_limit)
+    assert full.status == "max_iter" and full.iterations == 300
+    res = solve(p, "nsgs", tol=1e-10, max_iter=300, predict_window=20, time_limit=time_limit)
+    assert res.status == "max_iter" and res.iterations < 300
+    assert "predicts more than 300" in res.message
+    if time_limit is None:
+        assert res.iterations % 20 == 0
+    # the prediction was right: the error NSGS had then cannot reach tol in the cap's sweeps
+    assert full.error > 1e-10
+    # with a budget large enough for the predicted rate, no early stop
+    long = solve(p, "nsgs", tol=1e-10, max_iter=200_000, predict_window=20)
+    assert long.status == "converged"
+
+
+def test_predict_window_leaves_a_fast_run_converged():
+    p = _random_problem(20, 3, seed=4)
+    a = solve(p, "nsgs", tol=1e-8)
+    b = solve(p, "nsgs", tol=1e-8, predict_window=20)
+    assert a.converged and b.converged and b.iterations <= a.iterations
+    with pytest.raises(socp_cd.InvalidProblemError, match="predict_window"):
+        solve(p, "nsgs", predict_window=-1)

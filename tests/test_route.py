@@ -336,15 +336,21 @@ def test_handoff_work_term_route_equals_general_path(monkeypatch):
     p = FrictionContactProblem(W, q, 0.3, 3)
     cap = auto._handoff_cap(p, None)
     assert cap == -(-auto.HANDOFF_WORK // int(p.csr_parts[0][-1])) > auto.HANDOFF_SWEEPS
-    for kw in (dict(), dict(r0=np.full(m, 0.1)), dict(time_limit=5.0), dict(max_iter=2000)):
-        a = socp_cd.solve(p, tol=1e-10, **kw)
-        b = _general(monkeypatch, p, tol=1e-10, **kw)
-        _same(a, b)
-        assert [s["method"] for s in a.info["path"]] == [s["method"] for s in b.info["path"]]
-        first = a.info["path"][0]
-        assert first["iterations"] <= cap
-        if first["status"] == "max_iter":
-            assert first["iterations"] == cap
+    stops = set()
+    for predict in (0, auto.HANDOFF_PREDICT):       # the rate prediction off, and the default
+        monkeypatch.setattr(auto, "HANDOFF_PREDICT", predict)
+        for kw in (dict(), dict(r0=np.full(m, 0.1)), dict(time_limit=5.0), dict(max_iter=2000)):
+            a = socp_cd.solve(p, tol=1e-10, **kw)
+            b = _general(monkeypatch, p, tol=1e-10, **kw)
+            _same(a, b)
+            assert [s["method"] for s in a.info["path"]] == [s["method"] for s in b.info["path"]]
+            first = a.info["path"][0]
+            assert first["iterations"] <= cap
+            if first["status"] == "max_iter":
+                stops.add((predict, first["iterations"] == cap))
+                assert first["iterations"] == cap or predict
+    # slow NSGS here: without the prediction it runs to the cap, with it it hands over earlier
+    assert stops == {(0, True), (auto.HANDOFF_PREDICT, False)}
 
 
 def test_plain_call_fast_dispatch_equals_the_full_checks():

@@ -12,9 +12,12 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
 * ``"associated"``: one SOCP (Clarabel), then NSGS;
 * ``"tresca"``: NSGS, then Clarabel;
 * ``"coulomb"`` (exact law): local problems with at most :data:`SMALL_NC`
-  contacts: NSGS (handing off after :func:`_handoff_cap` sweeps to a trial of at
-  most :data:`TRIAL_STEPS` plain Newton steps, then going on from its own
-  iterate when the trial fails: ``"newton_trial"``, ``"nsgs_rest"``), then the
+  contacts: NSGS (handing off after :func:`_handoff_cap` sweeps — or earlier,
+  at the end of a window of :data:`HANDOFF_PREDICT` sweeps after which its rate
+  predicts that the cap will not reach ``tol`` — to a trial of at most
+  :data:`TRIAL_STEPS` plain Newton steps, then going on from its own iterate
+  when the trial fails: ``"newton_trial"``, after an early hand-off
+  ``"nsgs_mid"`` up to the cap and a second trial, then ``"nsgs_rest"``), then the
   proximal semismooth Newton method
   (:mod:`socp_cd.solvers.newton`), the Clarabel De Saxcé fixed point and
   Newton again; larger local problems: an NSGS *probe* of at most
@@ -112,6 +115,13 @@ HANDOFF_SWEEPS = 200
 HANDOFF_WORK = 32000
 TRIAL_STEPS = 6
 TRIAL_STALL = 2
+#: ... and NSGS hands over earlier, at the end of any window of this many sweeps after which
+#: the error's mean rate over the window predicts that the hand-off's sweeps will not reach
+#: ``tol`` (NSGS's option ``predict_window``; 0: off), on problems of at most
+#: ``newton.COMPILED_LOOP_MAX_M`` unknowns (a compiled, cheap trial); when that early trial
+#: fails, NSGS goes on from its own iterate to the cap (``"nsgs_mid"``) and a second trial
+#: follows there, as without the prediction: a failed early trial costs its steps
+HANDOFF_PREDICT = 20
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
@@ -120,6 +130,7 @@ _STAGES = {
     "newton_plain_cold": (newton.SPEC, {"policy": "plain", "stall_window": PLAIN_STALL}),
     "nsgs": (nsgs.SPEC, {}),
     "newton_trial": (newton.SPEC, {"policy": "plain"}),    # + TRIAL_STALL, TRIAL_STEPS
+    "nsgs_mid": (nsgs.SPEC, {}),
     "nsgs_rest": (nsgs.SPEC, {}),
     "clarabel": (clarabel_backend.SPEC, {}),
     "clarabel_qp": (clarabel_backend.SPEC, {}),
@@ -188,7 +199,9 @@ def stage_order(problem, formulation, feats) -> tuple:
         last = ((("nsgs", "coulomb"),) if (SMALL_SWEEPS, SMALL_STALL) != (None, None) else ())
         # the hand-off's stages: listed whenever it is on; auto_backend skips them when the
         # cap for this call (_handoff_cap with the caller's max_iter) leaves no sweeps to hand off
-        handoff = ((("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
+        # (nsgs_mid and the second trial run only after an early hand-off whose trial failed)
+        handoff = ((("newton_trial", "coulomb"), ("nsgs_mid", "coulomb"),
+                    ("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
                    if HANDOFF_SWEEPS is not None and not last else ())
         return ((("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),) + plain
                 + (("clarabel", "coulomb"), ("newton", "coulomb")) + last)
@@ -265,7 +278,7 @@ def check(problem, options, inner_settings) -> None:
         if isinstance(methods, str) or not hasattr(methods, "__iter__"):
             raise InvalidProblemError("methods", f"must be a sequence of stage names, got {methods!r}")
         methods = tuple(methods)
-        valid = sorted(set(_STAGES) - {"nsgs_rest"})    # (the hand-off's, not a method)
+        valid = sorted(set(_STAGES) - {"nsgs_mid", "nsgs_rest"})   # (the hand-off's stages)
         bad = [m for m in methods if m not in valid]
         if bad or not methods:
             raise InvalidProblemError("methods", f"stage names must be among {valid}, "
@@ -308,6 +321,17 @@ def _handoff_cap(problem, max_iter):
     return cap if cap < total else None     # no sweeps left to hand off: NSGS as without it
 
 
+def _predict_window(problem):
+    """The hand-off's rate-prediction window for ``problem`` (:data:`HANDOFF_PREDICT`,
+    checked: an int >= 0): 0 on problems of more than ``newton.COMPILED_LOOP_MAX_M``
+    unknowns, where a Newton trial runs the Python loop and a failed early trial costs
+    what hundreds of sweeps do."""
+    w = HANDOFF_PREDICT
+    if isinstance(w, bool) or not isinstance(w, int) or w < 0:
+        raise ValueError(f"socp_cd.solvers.auto.HANDOFF_PREDICT must be an int >= 0, got {w!r}")
+    return w if problem.m <= newton.COMPILED_LOOP_MAX_M else 0
+
+
 def _small_cap(max_iter):
     """Sweeps of the first NSGS stage on a small local problem (:data:`SMALL_SWEEPS`)."""
     cap, _ = _small_knobs()
@@ -332,7 +356,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     # the chain's first stage on a local problem with friction (stage_order): NSGS, or on
     # more than SMALL_NC contacts the NSGS probe of at most PROBE_SWEEPS sweeps
     nc = problem.mu.shape[0]
-    stall, handoff = None, (0, 0)
+    stall, handoff, predict = None, (0, 0), 0
     if nc <= SMALL_NC:
         method, cap = "nsgs", max_iter
         if SMALL_SWEEPS is not None or SMALL_STALL is not None:    # a study's knobs
@@ -343,12 +367,13 @@ def route(problem, *, tol, max_iter, r0, time_limit):
             if not (type(HANDOFF_SWEEPS) is int and HANDOFF_SWEEPS >= 1):
                 _handoff_cap(problem, max_iter)         # raises, naming the constant
             handoff = (HANDOFF_SWEEPS, int(HANDOFF_WORK))
+            predict = _predict_window(problem)
     elif PROBE_SWEEPS > 0:
         method, cap = "nsgs_probe", min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
     else:
         return None
     t0 = _clock()
-    out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True, stall, handoff)
+    out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True, stall, handoff, predict)
     if out is None:
         return None
     status, vectors, x = out
@@ -412,6 +437,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     handoff = (_handoff_cap(problem, max_iter) if methods is None and not feats["global"]
                and not feats["frictionless"] and feats["n_contacts"] <= SMALL_NC else None)
     nsgs_own = None               # the hand-off's first NSGS stage: (its iterate, status, sweeps)
+    trials = mid_ran = 0          # the hand-off's trials so far; whether nsgs_mid ran
     for k, (method, form) in enumerate(order):
         # the first NSGS stage of a small local exact-Coulomb problem runs with the study
         # knobs' settings (SMALL_SWEEPS / SMALL_STALL): when one is set, a different run from
@@ -420,10 +446,24 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                        and not feats["frictionless"] and not feats["global"]
                        and feats["n_contacts"] <= SMALL_NC)
         variant = "small_first" if small_first and knobs != (None, None) else ""
+        if method == "newton_trial" and mid_ran:
+            variant = "at_cap"      # the second trial starts from NSGS's iterate, not the best
         if (method, form, version, variant) in ran:
             continue    # same deterministic method from the same start: nothing to gain
-        if method in ("newton_trial", "nsgs_rest") and methods is None and handoff is None:
+        if (method in ("newton_trial", "nsgs_mid", "nsgs_rest") and methods is None
+                and handoff is None):
             continue    # no hand-off in this call (one contact, or max_iter leaves no sweeps)
+        if method == "newton_trial" and methods is None and trials and not mid_ran:
+            continue    # a second trial only follows nsgs_mid
+        if method == "nsgs_mid":
+            # after an early hand-off (the rate prediction stopped NSGS before the cap) whose
+            # trial failed: NSGS goes on from its own iterate up to the cap, where a second
+            # trial follows, as without the prediction (a failed early trial costs its steps)
+            rest = None
+            if nsgs_own is not None and nsgs_own[1] == "max_iter" and nsgs_own[2] < handoff:
+                rest = handoff - nsgs_own[2]
+            if rest is None:
+                continue
         if method == "nsgs_rest":
             # NSGS goes on from its own iterate (not the trial's): only after a first stage
             # that ran out of sweeps, and only for the sweeps it has left
@@ -465,11 +505,13 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 stage_max_iter = min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
             elif small_first and handoff is not None:
                 stage_max_iter = handoff
+                if _predict_window(problem):
+                    opts["predict_window"] = _predict_window(problem)
             elif small_first:
                 stage_max_iter = _small_cap(max_iter)
                 if knobs[1] is not None:
                     opts["stall_window"] = knobs[1]
-            elif method == "nsgs_rest":
+            elif method in ("nsgs_mid", "nsgs_rest"):
                 stage_max_iter = rest
             elif method == "newton_trial":
                 stage_max_iter = TRIAL_STEPS if max_iter is None else min(max_iter, TRIAL_STEPS)
@@ -481,8 +523,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 cold = (method in ALWAYS_COLD
                         or (method in COLD_STAGES and not best_err <= WARM_MAX))
                 start = (None if (cold and k > 0) else r0 if after_far_probe else best_r)
-                if method == "nsgs_rest":
-                    start = nsgs_own[0]
+                if method in ("nsgs_mid", "nsgs_rest") or (method == "newton_trial" and mid_ran):
+                    start = nsgs_own[0]     # NSGS's own iterate (the second trial: at the cap)
                 res = spec.func(target, form, tol=stage_tol, max_iter=stage_max_iter, r0=start,
                                 history=history, time_limit=stage_limit, verbose=verbose,
                                 inner_settings={}, **opts)
@@ -495,6 +537,12 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             err = judge(r)
         if small_first and handoff is not None and r is not None:
             nsgs_own = (r, st, its)     # the hand-off's first NSGS stage (route or here)
+        elif method == "nsgs_mid" and r is not None:
+            nsgs_own = (r, st, nsgs_own[2] + its)
+        if method == "nsgs_mid":
+            mid_ran = 1
+        elif method == "newton_trial":
+            trials += 1
         if method == "nsgs_probe":
             after_far_probe = not min(err, best_err) <= WARM_MAX
         elif method not in COLD_STAGES or err < best_err:
@@ -540,6 +588,6 @@ SPEC = SolverSpec(
 
 __all__ = ["auto_backend", "route", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
            "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS", "HANDOFF_WORK", "TRIAL_STEPS",
-           "TRIAL_STALL",
+           "TRIAL_STALL", "HANDOFF_PREDICT",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
            "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC"]

@@ -27,6 +27,12 @@ error_every : int, default 10
 stall_window : int, default 5000
     Status ``"stalled"`` when the full error has not dropped by 1 % over that
     many sweeps (``0``: never).
+predict_window : int, default 0
+    When positive: the full error is also evaluated every ``predict_window``
+    sweeps, and the run stops (status ``"max_iter"``, before the cap) as soon as
+    its mean linear rate over the last window predicts that ``max_iter`` sweeps
+    will not reach ``tol`` (:func:`~socp_cd.solvers.nsgs_kernels.nsgs_loop`;
+    ``solver="auto"`` uses it to hand a slow NSGS stage over early).  ``0``: off.
 local_tol : float, default 1e-13
     Relative tolerance of the one-contact solvers.
 newton_max_iter : int, default 10; projection_max_iter : int, default 100
@@ -51,8 +57,8 @@ from . import nsgs_route
 from .block_storage import problem_blocks
 from .local_solvers import (KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION, LAW_ASSOCIATED,
                             LAW_COULOMB, LAW_TRESCA)
-from .nsgs_kernels import (STATUS_MAX_ITER, STATUS_NAMES, BlockW, Law,
-                           LocalSolver, Sweeps, full_error, local_parameters, nsgs_loop)
+from .nsgs_kernels import (STATUS_MAX_ITER, STATUS_NAMES, BlockW, Law, LocalSolver, Sweeps,
+                           full_error, local_parameters, nsgs_loop, whole_windows)
 from .options import check_choice, check_int, check_real, check_unknown
 from .result import SolverResult
 from .spec import SolverSpec
@@ -70,6 +76,8 @@ OPTIONS = {
     "seed": "int seed of the shuffled ordering (default 0)",
     "error_every": "full error every that many sweeps (default 10; 0: light-error rule only)",
     "stall_window": "sweeps without 1 % progress before 'stalled' (default 5000; 0: never)",
+    "predict_window": "stop early ('max_iter') when the error's rate over this many sweeps "
+                      "predicts that max_iter sweeps will not reach tol (default 0: off)",
     "local_tol": "relative tolerance of the one-contact solvers (default 1e-13)",
     "newton_max_iter": "one-contact Newton iterations (default 10)",
     "projection_max_iter": "one-contact projection iterations (default 100)",
@@ -117,6 +125,8 @@ def _checked_settings(d, options):
         seed=check_int("seed", _option(options, "seed", 0), minimum=0),
         error_every=check_int("error_every", _option(options, "error_every", 10), minimum=0),
         stall_window=check_int("stall_window", _option(options, "stall_window", 5000), minimum=0),
+        predict_window=check_int("predict_window", _option(options, "predict_window", 0),
+                                 minimum=0),
         loc_tol=check_real("local_tol", _option(options, "local_tol", 1e-13), positive=True),
         newton_maxit=check_int("newton_max_iter", _option(options, "newton_max_iter", 10),
                                minimum=1),
@@ -175,19 +185,24 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                         int(st["newton_maxit"]), int(st["proj_maxit"]))
     info["setup_time"] = time.perf_counter() - t_setup
     t0 = time.perf_counter()
-    done, block = 0, (max_iter if time_limit is None else min(max_iter, TIME_CHECK_SWEEPS))
+    window = int(st["predict_window"])
+    done, block = 0, (max_iter if time_limit is None
+                      else min(max_iter, whole_windows(TIME_CHECK_SWEEPS, window)))
     hist_all = []
+    prev = -1.0             # the rate prediction's error at the end of the last block
     while True:
         sweeps = Sweeps(float(tol), int(block), float(st["omega"]), st["ordering"] == "shuffled",
                         int(st["seed"] + done), int(st["error_every"]), int(st["stall_window"]),
-                        bool(history))
+                        bool(history), window, int(max_iter - done), prev)
         status, iters, err, n_full, n_fail, light, hist = nsgs_loop(d, W, q, law_t, local, sweeps,
                                                                     r, hist)
         if history:
             hist_all.extend(hist[:iters].tolist())
         done += int(iters)
-        if status != STATUS_MAX_ITER or done >= max_iter or time_limit is None:
+        if (status != STATUS_MAX_ITER or done >= max_iter or time_limit is None
+                or iters < block):              # (fewer sweeps: the rate prediction stopped it)
             break
+        prev = err if window and done % window == 0 else -1.0
         if time.perf_counter() - t0 > time_limit:
             status = -1
             break
@@ -198,6 +213,10 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 light_error=float(light), internal_error=float(err))
     status_name = "time_limit" if status == -1 else STATUS_NAMES[status]
     message = _message(status_name, light, err, st["stall_window"], time_limit, done)
+    if status_name == "max_iter" and done < max_iter:
+        message = (f"stopped after {done} of {max_iter} sweeps: the error's rate over the last "
+                   f"{st['predict_window']} sweeps predicts more than {max_iter} to reach tol "
+                   f"(error {err:.3e})")
     if verbose:
         print(f"nsgs: {status_name} after {done} sweeps, error {err:.3e} "
               f"({info['loop_time']:.3g} s)")
@@ -206,7 +225,7 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
 
 
 def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False, stall_window=None,
-                 handoff=(0, 0)):
+                 handoff=(0, 0), predict_window=0):
     """NSGS with its default settings through the compiled route (:mod:`~socp_cd.solvers.nsgs_route`).
 
     ``max_iter`` sweeps (None: :data:`DEFAULT_MAX_ITER`) from ``r0`` (caller's
@@ -214,7 +233,8 @@ def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False, st
     ``time_limit`` is given, with the dispatcher's checks of the answer;
     ``stall_window`` replaces the default one (the option of the same name)
     when given; ``handoff`` ``(sweeps, work)``: ``solver="auto"``'s hand-off
-    cap (:func:`~socp_cd.solvers.nsgs_route.nsgs_checked`; ``(0, 0)``: none).
+    cap (:func:`~socp_cd.solvers.nsgs_route.nsgs_checked`; ``(0, 0)``: none);
+    ``predict_window``: the option of the same name.
 
     Returns
     -------
@@ -231,7 +251,7 @@ def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False, st
         settings = settings[:-1] + (int(stall_window),)
     return nsgs_route.run(problem, settings, tol,
                           DEFAULT_MAX_ITER if max_iter is None else int(max_iter), r0, time_limit,
-                          need_friction, handoff)
+                          need_friction, handoff, int(predict_window))
 
 
 def route(problem, *, tol, max_iter, r0, time_limit):

@@ -95,8 +95,13 @@ BlockW = namedtuple("BlockW", "indptr indices blocks diag")
 Law = namedtuple("Law", "mu g code")
 #: One-contact solver: kind code, per-contact steps and its tolerance and caps.
 LocalSolver = namedtuple("LocalSolver", "kind rhoN rhoT rhoP tol newton_max_iter projection_max_iter")
-#: Sweep settings: tolerance, cap, relaxation, ordering, error policy, recording.
-Sweeps = namedtuple("Sweeps", "tol max_iter omega shuffle seed error_every stall_window record")
+#: Sweep settings: tolerance, cap, relaxation, ordering, error policy, recording, and the
+#: rate prediction (``predict_window`` sweeps, 0: off; ``predict_budget``: the sweeps the
+#: run may still do from the start of this call; ``predict_prev``: the full error at the
+#: end of the window before this call, -1 for none: a run in blocks of whole windows
+#: carries it from one block to the next).
+Sweeps = namedtuple("Sweeps", "tol max_iter omega shuffle seed error_every stall_window record "
+                              "predict_window predict_budget predict_prev")
 
 
 @njit(cache=True)
@@ -118,6 +123,14 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
     scale (:func:`full_errors`, the dispatcher's units-guard measure) must
     both be ``<= tol``; ``error`` is Siconos'.
 
+    Rate prediction (``predict_window = w > 0``): the full error is also
+    evaluated every ``w`` sweeps; from the second such evaluation on, its
+    mean rate over the last ``w`` sweeps, ``c = (e_k / e_{k-w})^(1/w)``,
+    predicts ``k + log(e_k / tol) / log(1 / c)`` sweeps to reach ``tol``
+    (infinitely many when ``c >= 1``); when that exceeds ``predict_budget``
+    the loop stops with ``STATUS_MAX_ITER`` after ``k`` sweeps: the cap would
+    be reached first (``solver="auto"`` hands such an NSGS stage over early).
+
     Returns
     -------
     status, iterations, error, n_full_evaluations, n_local_failures, light_error, hist
@@ -132,6 +145,8 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
     tol, max_iter, omega, shuffle = sweeps.tol, sweeps.max_iter, sweeps.omega, sweeps.shuffle
     seed, error_every, stall_window, record = (sweeps.seed, sweeps.error_every,
                                                sweeps.stall_window, sweeps.record)
+    window, budget = sweeps.predict_window, sweeps.predict_budget
+    window_err = sweeps.predict_prev    # the full error at the previous window's end (-1: none)
     order = np.arange(nc)
     if shuffle:
         np.random.seed(seed)
@@ -189,6 +204,9 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
         full_now = record or light <= light_tol or it == max_iter
         if error_every > 0 and it % error_every == 0:
             full_now = True
+        window_end = window > 0 and it % window == 0
+        if window_end:
+            full_now = True
         if full_now:
             err, stop = full_errors(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u)
             n_full += 1
@@ -213,7 +231,34 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
                 best_iter = it
             elif stall_window > 0 and it - best_iter >= stall_window:
                 return STATUS_STALLED, it, err, n_full, n_fail, light, hist
+            if window_end:
+                if window_err > 0.0 and it < max_iter and predicted_sweeps(
+                        it, window, window_err, err, tol) > budget:
+                    return STATUS_MAX_ITER, it, err, n_full, n_fail, light, hist
+                window_err = err
     return STATUS_MAX_ITER, max_iter, err, n_full, n_fail, light, hist
+
+
+@njit(cache=True)
+def whole_windows(sweeps, window):
+    """The first block of a run in blocks (``sweeps``, doubled from block to block), rounded up
+    to whole windows of the rate prediction (``window``; 0: off), so that every block ends on
+    a window's end and the prediction goes on across blocks as in one run."""
+    if window <= 0:
+        return sweeps
+    return -(-sweeps // window) * window
+
+
+@njit(cache=True)
+def predicted_sweeps(it, window, e_before, e_now, tol):
+    """Sweeps to reach ``tol`` predicted from the mean linear rate of the error over the last
+    ``window`` sweeps (``e_before`` then ``e_now``, after sweep ``it``): ``it + log(e_now /
+    tol) / log(1 / c)``, ``c = (e_now / e_before)^(1 / window)``; ``inf`` when ``c >= 1``."""
+    if not (e_now > 0.0 and e_before > 0.0) or e_now >= e_before:
+        return np.inf
+    if e_now <= tol:
+        return float(it)
+    return it + np.log(e_now / tol) * window / np.log(e_before / e_now)
 
 
 @njit(cache=True)

@@ -44,7 +44,7 @@ from .kernels.cone import LAW_COULOMB, error_parts, relative_error, siconos_erro
 from .kernels.dense import csr_matvec_add
 from .kernels.scaling import GUARD_KEYS, balance_csr, balanced_guard, factor_summary
 from .nsgs_kernels import (STATUS_MAX_ITER, STATUS_NAMES, BlockW, Law, LocalSolver, Sweeps,
-                           local_parameters, nsgs_loop)
+                           local_parameters, nsgs_loop, whole_windows)
 
 #: the route runs on local problems with at most this many contacts (it builds the balanced
 #: copy and the block storage in every call, where the general path keeps them on the
@@ -91,7 +91,8 @@ _N_OUT = _N_STATS + len(GUARD_KEYS)
 @njit(cache=True)
 def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blocked, first_block,
                  kind, loc_tol, newton_max_iter, projection_max_iter, omega, error_every,
-                 stall_window, need_friction, handoff_sweeps, handoff_work, vectors):
+                 stall_window, need_friction, handoff_sweeps, handoff_work, predict_window,
+                 vectors):
     """Balance, NSGS sweeps from ``r0``, map back, and the dispatcher's checks, in one call.
 
     Parameters
@@ -117,6 +118,9 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
         ``max(handoff_sweeps, ceil(handoff_work / nnz(W)))`` sweeps when that is
         fewer than ``max_iter`` (``solver="auto"``'s hand-off,
         :func:`socp_cd.solvers.auto._handoff_cap` is the same rule in Python).
+    predict_window
+        NSGS's option of that name (0: off): stop early when the error's rate
+        predicts that ``max_iter`` (the hand-off's cap) will not reach ``tol``.
     vectors : ndarray (3, m)
         Output, overwritten: rows the balanced iterate ``r~``, ``r = a r~`` and
         ``u = W r + q`` (the data as written).  Passed in, one array: an array
@@ -171,14 +175,17 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     local = LocalSolver(kind, rhoN, rhoT, rhoP, loc_tol, newton_max_iter, projection_max_iter)
     hist = np.full(1, np.nan)
     done = 0
-    block = min(max_iter, first_block) if blocked else max_iter
+    block = min(max_iter, whole_windows(first_block, predict_window)) if blocked else max_iter
+    prev = -1.0             # the rate prediction's error at the end of the last block
     while True:
-        sweeps = Sweeps(tol, block, omega, False, done, error_every, stall_window, False)
+        sweeps = Sweeps(tol, block, omega, False, done, error_every, stall_window, False,
+                        predict_window, max_iter - done, prev)
         status, its, err, n_full, n_fail, light, hist = nsgs_loop(dim, W, q_s, law, local, sweeps,
                                                                   r_s, hist)
         done += its
-        if status != STATUS_MAX_ITER or done >= max_iter or not blocked:
-            break
+        if status != STATUS_MAX_ITER or done >= max_iter or not blocked or its < block:
+            break       # (its < block: the rate prediction stopped the sweeps)
+        prev = err if predict_window > 0 and done % predict_window == 0 else -1.0
         block = min(2 * block, max_iter - done)
     r, u = vectors[1], vectors[2]
     for j in range(m):
@@ -231,7 +238,7 @@ def scaling_record(x) -> dict:
 
 
 def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff=(0, 0),
-        _new=tuple.__new__):
+        predict_window=0, _new=tuple.__new__):
     """Run :func:`nsgs_checked` on a local problem: a :data:`RouteOutcome`, or None.
 
     ``settings``: the NSGS backend's checked settings as the tuple
@@ -242,7 +249,7 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     ``need_friction``, one with an ill-posed contact, an answer that is not
     finite, whose error overflows or whose guard cannot be evaluated (the
     general path reports those).  ``handoff``: ``(sweeps, work)`` of
-    :func:`nsgs_checked` (``(0, 0)``: off).
+    :func:`nsgs_checked` (``(0, 0)``: off); ``predict_window`` as there.
     """
     mu = problem.mu
     indptr, indices, data = problem.csr_parts
@@ -253,7 +260,7 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     code, x = nsgs_checked(
         indptr, indices, data, q, mu, problem.dim, q if r0 is None else r0, r0 is not None, tol,
         max_iter, time_limit is not None, TIME_CHECK_SWEEPS, *settings, need_friction, *handoff,
-        vectors)
+        predict_window, vectors)
     if code < 0 or not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
         return None
     # (tuple.__new__: half the cost of the named tuple's own constructor, per call)
