@@ -395,3 +395,17 @@ def test_our_runs_follow_the_siconos_worker_repeat_rule(monkeypatch):
     task = C.make_tasks([ref], ["nsgs,stall_window=1"], [1e-30])[0]
     kind, out = isolation.solve_payload(task, p, repeat=7)
     assert kind == "ok" and out["calls"] == 1 and out["status"] != "converged"
+
+
+def test_a_short_first_call_is_always_repeated_once(monkeypatch):
+    # past the budget, a first call under REPEAT_SECOND_BELOW still gets a second (warm) one;
+    # one over it does not
+    from socp_cd.bench import isolation
+    ref = _ref(3)
+    task = C.make_tasks([ref], ["nsgs"], [1e-8])[0]
+    monkeypatch.setattr(isolation, "REPEAT_BUDGET", 0.0)
+    kind, out = isolation.solve_payload(task, ref.load(), repeat=50)
+    assert kind == "ok" and out["calls"] == 2
+    monkeypatch.setattr(isolation, "REPEAT_SECOND_BELOW", 0.0)
+    kind, out = isolation.solve_payload(task, ref.load(), repeat=50)
+    assert kind == "ok" and out["calls"] == 1
