@@ -215,10 +215,22 @@ def work_precision_data(records, floor: float = 1e-17) -> dict:
 
 # ------------------------------------------------------------------ rendering
 def _style(solvers):
+    """Line style per solver: ours in distinct colours, every Siconos solver a thin grey
+    line (one legend entry for all), the virtual best Siconos solver black and dashed."""
     import matplotlib.pyplot as plt
     cmap = plt.get_cmap("tab10")
     marks = "osD^v<>ph*"
-    return {s: dict(color=cmap(i % 10), marker=marks[i % len(marks)]) for i, s in enumerate(solvers)}
+    ours = [s for s in solvers if not s.startswith("siconos:")]
+    out = {s: dict(color=cmap(i % 10), marker=marks[i % len(marks)], lw=2.0, ls="-", label=s,
+                   zorder=3) for i, s in enumerate(ours)}
+    grey = [s for s in solvers if s.startswith("siconos:") and s != SICONOS_BEST]
+    for i, s in enumerate(grey):
+        out[s] = dict(color="0.72", marker=".", lw=0.8, ls="-",
+                      label="siconos: each solver" if i == 0 else None, zorder=1)
+    if SICONOS_BEST in solvers:
+        out[SICONOS_BEST] = dict(color="black", marker="x", lw=2.0, ls="--",
+                                 label=f"{SICONOS_BEST} (virtual)", zorder=4)
+    return out
 
 
 def plot_work_precision(records, path, title="Work–precision (tolerance sweep)") -> Path:
@@ -227,6 +239,7 @@ def plot_work_precision(records, path, title="Work–precision (tolerance sweep)
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import matplotlib.ticker  # noqa: F401
+    records = with_virtual_best(records)
     data = work_precision_data(records)
     fams = sorted(data)
     style = _style(sorted({r["solver"] for r in records}))
@@ -237,13 +250,17 @@ def plot_work_precision(records, path, title="Work–precision (tolerance sweep)
         for s, pts in sorted(data[fam].items()):
             t = [p["time"] for p in pts]
             e = [p["error"] for p in pts]
-            ax.plot(t, e, "-", color=style[s]["color"], lw=1.2, alpha=0.8)
+            st = style[s]
+            ax.plot(t, e, ls=st["ls"], color=st["color"], lw=0.6 * st["lw"], alpha=0.8,
+                    zorder=st["zorder"])
             full = [p["solved"] == p["runs"] for p in pts]
+            size = 28 if st["zorder"] > 1 else 8
             ax.scatter([x for x, f in zip(t, full) if f], [y for y, f in zip(e, full) if f],
-                       color=style[s]["color"], marker=style[s]["marker"], s=28, label=s, zorder=3)
+                       color=st["color"], marker=st["marker"], s=size, label=st["label"],
+                       zorder=st["zorder"])
             ax.scatter([x for x, f in zip(t, full) if not f], [y for y, f in zip(e, full) if not f],
-                       facecolors="none", edgecolors=style[s]["color"], marker=style[s]["marker"],
-                       s=28, zorder=3, label=None if any(full) else s)
+                       facecolors="none", edgecolors=st["color"], marker=st["marker"],
+                       s=size, zorder=st["zorder"], label=None if any(full) else st["label"])
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
@@ -293,6 +310,7 @@ def plot_performance_profiles(records, path, presets=None, title="Performance pr
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     presets = PRESETS if presets is None else presets
+    records = with_virtual_best(records)
     solvers = sorted({r["solver"] for r in records})
     style = _style(solvers)
     fig, axes = plt.subplots(1, len(presets), figsize=(5.2 * len(presets), 4.2), squeeze=False)
@@ -306,7 +324,9 @@ def plot_performance_profiles(records, path, presets=None, title="Performance pr
         for s, v in sorted(rho.items()):
             x = np.concatenate([taus, [tmax]])
             y = np.concatenate([v, [v[-1]]])
-            ax.step(x, y, where="post", color=style[s]["color"], label=s, lw=1.5)
+            st = style[s]
+            ax.step(x, y, where="post", color=st["color"], label=st["label"], lw=st["lw"],
+                    ls=st["ls"], zorder=st["zorder"])
         ax.set_xscale("log", base=2)
         ax.set_xlim(1.0, tmax)
         ax.set_ylim(-0.02, 1.02)

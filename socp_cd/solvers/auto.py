@@ -327,7 +327,7 @@ def _predict_window(problem):
     unknowns, where a Newton trial runs the Python loop and a failed early trial costs
     what hundreds of sweeps do."""
     w = HANDOFF_PREDICT
-    if isinstance(w, bool) or not isinstance(w, int) or w < 0:
+    if type(w) is not int or w < 0:         # (a bool is not an int here)
         raise ValueError(f"socp_cd.solvers.auto.HANDOFF_PREDICT must be an int >= 0, got {w!r}")
     return w if problem.m <= newton.COMPILED_LOOP_MAX_M else 0
 
