@@ -380,3 +380,21 @@ def test_plain_call_rejects_what_the_full_checks_reject(kw):
         errors.append((type(exc.value), str(exc.value)))
     assert errors[0] == errors[1]
 
+
+
+def test_no_early_stop_when_the_handoff_cap_does_not_bind(monkeypatch):
+    # max_iter below the hand-off's cap: no hand-off, and no rate prediction either, on both
+    # paths (NSGS runs its max_iter sweeps, as without the hand-off)
+    from socp_cd.solvers import auto
+    m = 6
+    W = np.full((m, m), 1e-4) + np.eye(m) * (1 - 1e-4)
+    W[0, 3] = W[3, 0] = 0.9995
+    q = np.zeros(m)
+    q[0::3], q[1::3] = -1.0, 0.05
+    p = FrictionContactProblem(W, q, 0.3, 3)
+    assert auto._handoff_cap(p, 100) is None and auto._predict_window(p) > 0
+    for kw in (dict(), dict(time_limit=5.0)):
+        a = socp_cd.solve(p, tol=1e-10, max_iter=100, **kw)
+        b = _general(monkeypatch, p, tol=1e-10, max_iter=100, **kw)
+        _same(a, b)
+        assert a.info["path"][0]["iterations"] == 100

@@ -120,7 +120,9 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
         :func:`socp_cd.solvers.auto._handoff_cap` is the same rule in Python).
     predict_window
         NSGS's option of that name (0: off): stop early when the error's rate
-        predicts that ``max_iter`` (the hand-off's cap) will not reach ``tol``.
+        predicts that the hand-off's cap will not reach ``tol``; ignored when the
+        hand-off is on and its cap is not below ``max_iter`` (the general path
+        then runs NSGS without it).
     vectors : ndarray (3, m)
         Output, overwritten: rows the balanced iterate ``r~``, ``r = a r~`` and
         ``u = W r + q`` (the data as written).  Passed in, one array: an array
@@ -150,6 +152,8 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
         cap = max(handoff_sweeps, (handoff_work + nnz - 1) // nnz)
         if cap < max_iter:
             max_iter = cap
+        else:
+            predict_window = 0      # no hand-off: NSGS as without it (no early stop either)
     stats = np.zeros(_N_OUT)
     mu_max = 0.0
     for i in range(nc):
