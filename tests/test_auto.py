@@ -460,12 +460,8 @@ def test_early_handoff_goes_on_to_the_cap_and_tries_again(monkeypatch):
     # NSGS's iterate there, then the rest of NSGS: NSGS's sweeps are those of one run
     import dataclasses
     from socp_cd.solvers import newton, nsgs
-    m = 6           # two strongly coupled contacts: NSGS converges slowly (hundreds of sweeps)
-    W = np.full((m, m), 1e-4) + np.eye(m) * (1 - 1e-4)
-    W[0, 3] = W[3, 0] = 0.9995
-    q = np.zeros(m)
-    q[0::3], q[1::3] = -1.0, 0.05
-    p = socp_cd.FrictionContactProblem(W, q, 0.3, 3)
+    from _cases import coupled_pair
+    p = coupled_pair()      # two strongly coupled contacts: NSGS converges slowly
     monkeypatch.setattr(auto, "HANDOFF_SWEEPS", 60)
     monkeypatch.setattr(auto, "HANDOFF_WORK", 1)
     monkeypatch.setattr(auto, "HANDOFF_PREDICT", 10)

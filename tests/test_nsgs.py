@@ -16,6 +16,8 @@ from socp_cd import FrictionContactProblem, fenchel_young_gap, solve
 from socp_cd.data import shared_problems_dir
 from socp_cd.residuals import feasibility
 
+from _cases import coupled_pair
+
 TOL = 1e-10
 
 
@@ -465,19 +467,9 @@ def test_predicted_sweeps_by_hand():
     assert predicted_sweeps(40, 20, 0.0, 1e-4, 1e-8) == np.inf          # nothing to compare
 
 
-def _slow_problem():
-    # two strongly coupled contacts: NSGS converges linearly, slowly (tests/test_route.py)
-    m = 6
-    W = np.full((m, m), 1e-4) + np.eye(m) * (1 - 1e-4)
-    W[0, 3] = W[3, 0] = 0.9995
-    q = np.zeros(m)
-    q[0::3], q[1::3] = -1.0, 0.05
-    return FrictionContactProblem(W, q, 0.3, 3)
-
-
 @pytest.mark.parametrize("time_limit", [None, 10.0])
 def test_predict_window_stops_a_slow_run_early(time_limit):
-    p = _slow_problem()
+    p = coupled_pair()
     full = solve(p, "nsgs", tol=1e-10, max_iter=300, time_limit=time_limit)
     assert full.status == "max_iter" and full.iterations == 300
     res = solve(p, "nsgs", tol=1e-10, max_iter=300, predict_window=20, time_limit=time_limit)

@@ -22,6 +22,8 @@ from socp_cd.solvers import nsgs_route
 from socp_cd.solvers.kernels.cone import LAW_COULOMB, error_parts, relative_error
 from socp_cd.solvers.kernels.scaling import GUARD_KEYS, balanced_guard
 
+from _cases import coupled_pair
+
 
 def _random(nc, dim, seed, mu=0.5, spread=3.0):
     """A random SPD local problem with contacts of very different stiffness."""
@@ -46,6 +48,7 @@ def _cases():
 
 
 CASES = _cases()
+
 
 
 def _general(monkeypatch, p, **kw):
@@ -328,12 +331,8 @@ def test_handoff_work_term_route_equals_general_path(monkeypatch):
     # the first NSGS stage at the same sweep, with the module's constants, a warm start, a
     # time limit and a max_iter above NSGS's default
     from socp_cd.solvers import auto
-    m = 6
-    W = np.full((m, m), 1e-4) + np.eye(m) * (1 - 1e-4)
-    W[0, 3] = W[3, 0] = 0.9995
-    q = np.zeros(m)
-    q[0::3], q[1::3] = -1.0, 0.05
-    p = FrictionContactProblem(W, q, 0.3, 3)
+    p = coupled_pair()
+    m = p.m
     cap = auto._handoff_cap(p, None)
     assert cap == -(-auto.HANDOFF_WORK // int(p.csr_parts[0][-1])) > auto.HANDOFF_SWEEPS
     stops = set()
@@ -386,12 +385,7 @@ def test_no_early_stop_when_the_handoff_cap_does_not_bind(monkeypatch):
     # max_iter below the hand-off's cap: no hand-off, and no rate prediction either, on both
     # paths (NSGS runs its max_iter sweeps, as without the hand-off)
     from socp_cd.solvers import auto
-    m = 6
-    W = np.full((m, m), 1e-4) + np.eye(m) * (1 - 1e-4)
-    W[0, 3] = W[3, 0] = 0.9995
-    q = np.zeros(m)
-    q[0::3], q[1::3] = -1.0, 0.05
-    p = FrictionContactProblem(W, q, 0.3, 3)
+    p = coupled_pair()
     assert auto._handoff_cap(p, 100) is None and auto._predict_window(p) > 0
     for kw in (dict(), dict(time_limit=5.0)):
         a = socp_cd.solve(p, tol=1e-10, max_iter=100, **kw)
