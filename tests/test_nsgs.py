@@ -491,3 +491,16 @@ def test_predict_window_leaves_a_fast_run_converged():
     assert a.converged and b.converged and b.iterations <= a.iterations
     with pytest.raises(socp_cd.InvalidProblemError, match="predict_window"):
         solve(p, "nsgs", predict_window=-1)
+
+
+def test_next_block_rule():
+    from socp_cd.solvers.nsgs_kernels import STATUS_CONVERGED, STATUS_MAX_ITER, next_block
+    # a full block, sweeps left: twice the block (capped), the window's error carried when
+    # the block ended on a window's end
+    assert next_block(STATUS_MAX_ITER, 20, 20, 40, 1000, 1e-3, 20) == (40, 1e-3)
+    assert next_block(STATUS_MAX_ITER, 20, 20, 30, 1000, 1e-3, 20) == (40, -1.0)
+    assert next_block(STATUS_MAX_ITER, 20, 20, 990, 1000, 1e-3, 0) == (10, -1.0)
+    # over: converged, out of sweeps, or fewer sweeps than the block (the prediction stopped)
+    assert next_block(STATUS_CONVERGED, 5, 20, 25, 1000, 1e-9, 20) == (0, -1.0)
+    assert next_block(STATUS_MAX_ITER, 20, 20, 1000, 1000, 1e-3, 20) == (0, -1.0)
+    assert next_block(STATUS_MAX_ITER, 7, 20, 27, 1000, 1e-3, 20) == (0, -1.0)

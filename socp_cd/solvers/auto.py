@@ -437,7 +437,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     handoff = (_handoff_cap(problem, max_iter) if methods is None and not feats["global"]
                and not feats["frictionless"] and feats["n_contacts"] <= SMALL_NC else None)
     nsgs_own = None               # the hand-off's first NSGS stage: (its iterate, status, sweeps)
-    trials = mid_ran = 0          # the hand-off's trials so far; whether nsgs_mid ran
+    tried = mid_ran = False       # whether the hand-off's trial, and nsgs_mid, have run
     for k, (method, form) in enumerate(order):
         # the first NSGS stage of a small local exact-Coulomb problem runs with the study
         # knobs' settings (SMALL_SWEEPS / SMALL_STALL): when one is set, a different run from
@@ -453,7 +453,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         if (method in ("newton_trial", "nsgs_mid", "nsgs_rest") and methods is None
                 and handoff is None):
             continue    # no hand-off in this call (one contact, or max_iter leaves no sweeps)
-        if method == "newton_trial" and methods is None and trials and not mid_ran:
+        if method == "newton_trial" and methods is None and tried and not mid_ran:
             continue    # a second trial only follows nsgs_mid
         if method == "nsgs_mid":
             # after an early hand-off (the rate prediction stopped NSGS before the cap) whose
@@ -505,8 +505,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 stage_max_iter = min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
             elif small_first and handoff is not None:
                 stage_max_iter = handoff
-                if _predict_window(problem):
-                    opts["predict_window"] = _predict_window(problem)
+                window = _predict_window(problem)
+                if window:
+                    opts["predict_window"] = window
             elif small_first:
                 stage_max_iter = _small_cap(max_iter)
                 if knobs[1] is not None:
@@ -539,10 +540,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             nsgs_own = (r, st, its)     # the hand-off's first NSGS stage (route or here)
         elif method == "nsgs_mid" and r is not None:
             nsgs_own = (r, st, nsgs_own[2] + its)
-        if method == "nsgs_mid":
-            mid_ran = 1
-        elif method == "newton_trial":
-            trials += 1
+        mid_ran = mid_ran or method == "nsgs_mid"
+        tried = tried or method == "newton_trial"
         if method == "nsgs_probe":
             after_far_probe = not min(err, best_err) <= WARM_MAX
         elif method not in COLD_STAGES or err < best_err:

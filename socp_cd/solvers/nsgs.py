@@ -57,8 +57,8 @@ from . import nsgs_route
 from .block_storage import problem_blocks
 from .local_solvers import (KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION, LAW_ASSOCIATED,
                             LAW_COULOMB, LAW_TRESCA)
-from .nsgs_kernels import (STATUS_MAX_ITER, STATUS_NAMES, BlockW, Law, LocalSolver, Sweeps,
-                           full_error, local_parameters, nsgs_loop, whole_windows)
+from .nsgs_kernels import (STATUS_NAMES, BlockW, Law, LocalSolver, Sweeps,
+                           full_error, local_parameters, next_block, nsgs_loop, whole_windows)
 from .options import check_choice, check_int, check_real, check_unknown
 from .result import SolverResult
 from .spec import SolverSpec
@@ -199,14 +199,15 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         if history:
             hist_all.extend(hist[:iters].tolist())
         done += int(iters)
-        if (status != STATUS_MAX_ITER or done >= max_iter or time_limit is None
-                or iters < block):              # (fewer sweeps: the rate prediction stopped it)
+        if time_limit is None:
             break
-        prev = err if window and done % window == 0 else -1.0
+        nxt, prev = next_block(status, int(iters), int(block), done, max_iter, err, window)
+        if not nxt:
+            break
         if time.perf_counter() - t0 > time_limit:
             status = -1
             break
-        block = min(2 * block, max_iter - done)
+        block = nxt
     info["loop_time"] = time.perf_counter() - t0
     info["cpu_time"] = time.process_time() - cpu0
     info.update(full_error_evaluations=int(n_full), local_failures=int(n_fail),

@@ -250,6 +250,19 @@ def whole_windows(sweeps, window):
 
 
 @njit(cache=True)
+def next_block(status, its, block, done, max_iter, err, window):
+    """A run in blocks (the time-limited NSGS backend and the compiled route alike), after a
+    block of ``block`` sweeps that ran ``its`` of them (``done`` in all, the last full error
+    ``err``): ``(sweeps of the next block, the error the rate prediction carries into it)``,
+    ``(0, -1)`` when the run is over (converged, stalled, broken, out of sweeps, or stopped
+    by the rate prediction: fewer sweeps than the block)."""
+    if status != STATUS_MAX_ITER or done >= max_iter or its < block:
+        return 0, -1.0
+    prev = err if window > 0 and done % window == 0 else -1.0
+    return min(2 * block, max_iter - done), prev
+
+
+@njit(cache=True)
 def predicted_sweeps(it, window, e_before, e_now, tol):
     """Sweeps to reach ``tol`` predicted from the mean linear rate of the error over the last
     ``window`` sweeps (``e_before`` then ``e_now``, after sweep ``it``): ``it + log(e_now /

@@ -43,8 +43,8 @@ from .block_storage import csr_to_bsr
 from .kernels.cone import LAW_COULOMB, error_parts, relative_error, siconos_error
 from .kernels.dense import csr_matvec_add
 from .kernels.scaling import GUARD_KEYS, balance_csr, balanced_guard, factor_summary
-from .nsgs_kernels import (STATUS_MAX_ITER, STATUS_NAMES, BlockW, Law, LocalSolver, Sweeps,
-                           local_parameters, nsgs_loop, whole_windows)
+from .nsgs_kernels import (STATUS_NAMES, BlockW, Law, LocalSolver, Sweeps,
+                           local_parameters, next_block, nsgs_loop, whole_windows)
 
 #: the route runs on local problems with at most this many contacts (it builds the balanced
 #: copy and the block storage in every call, where the general path keeps them on the
@@ -187,10 +187,11 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
         status, its, err, n_full, n_fail, light, hist = nsgs_loop(dim, W, q_s, law, local, sweeps,
                                                                   r_s, hist)
         done += its
-        if status != STATUS_MAX_ITER or done >= max_iter or not blocked or its < block:
-            break       # (its < block: the rate prediction stopped the sweeps)
-        prev = err if predict_window > 0 and done % predict_window == 0 else -1.0
-        block = min(2 * block, max_iter - done)
+        if not blocked:
+            break
+        block, prev = next_block(status, its, block, done, max_iter, err, predict_window)
+        if block == 0:
+            break
     r, u = vectors[1], vectors[2]
     for j in range(m):
         r[j] = r_s[j] * a[j]                          # = times_factors(r_s, a)

@@ -331,15 +331,22 @@ def _plain(problem, spec, tol, max_iter, r0, time_limit):
     if r0 is not None:
         r0 = problem.check_reaction(r0, "r0")
     t0 = _time.perf_counter()
-    res = spec.route(problem, tol=tol, max_iter=max_iter, r0=r0, time_limit=time_limit)
-    if res is not None:     # the route ran: its time counts
-        res, resume = _routed(res, spec.name, tol, time_limit, t0)
-        if res is not None:
-            return res
-        return _general(problem, spec, "coulomb", tol, max_iter, r0, False, time_limit, False,
-                        {}, {}, t0, resume, True)
+    res, resume, routed = _try_route(problem, spec, tol, max_iter, r0, time_limit, t0)
+    if res is not None:
+        return res
     return _general(problem, spec, "coulomb", tol, max_iter, r0, False, time_limit, False, {}, {},
-                    t0, None, False)
+                    t0, resume, routed)
+
+
+def _try_route(problem, spec, tol, max_iter, r0, time_limit, t0):
+    """Run ``spec``'s compiled route: ``(result, None, True)`` when its result stands,
+    else ``(None, resume, routed)`` for :func:`_general` (``routed``: the route ran and its
+    time counts; ``resume``: where it stopped, see :func:`_routed`)."""
+    res = spec.route(problem, tol=tol, max_iter=max_iter, r0=r0, time_limit=time_limit)
+    if res is None:
+        return None, None, False
+    res, resume = _routed(res, spec.name, tol, time_limit, t0)
+    return res, resume, True
 
 
 def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 1e-8,
@@ -449,12 +456,9 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
     resume, routed, t0 = None, False, _time.perf_counter()
     if (spec.route is not None and formulation == "coulomb" and not problem.is_global
             and not (options or history or verbose or inner_settings) and crosscheck is None):
-        res = spec.route(problem, tol=tol, max_iter=max_iter, r0=r0, time_limit=time_limit)
+        res, resume, routed = _try_route(problem, spec, tol, max_iter, r0, time_limit, t0)
         if res is not None:
-            routed = True       # its time counts
-            res, resume = _routed(res, name, tol, time_limit, t0)
-            if res is not None:
-                return res
+            return res
     res = _general(problem, spec, formulation, tol, max_iter, r0, history, time_limit, verbose,
                    inner_settings, options, t0, resume, routed)
     if crosscheck is not None:
