@@ -96,7 +96,7 @@ def test_siconos_error_kernel_on_frictionless_contacts(dim):
 
 # ------------------------------------------------------------------ one options contract
 SOLVER_CASES = [("auto", "coulomb", 3), ("nsgs", "coulomb", 3), ("clarabel", "coulomb", 3), ("newton", "coulomb", 3), ("cvxpy", "coulomb", 3),
-                ("proxsuite", "faceted", 3)]
+                ("proxsuite", "faceted", 3), ("projection", "coulomb", 3)]
 
 
 def test_cases_cover_the_table():
@@ -292,7 +292,8 @@ LAYERS = [
      "socp_cd.solvers.polish", "socp_cd.solvers.desaxce", "socp_cd.condensation",
      "socp_cd.solvers.nsgs_route"],
     ["socp_cd.solvers.nsgs", "socp_cd.solvers.newton", "socp_cd.solvers.clarabel_backend",
-     "socp_cd.solvers.cvxpy_backend", "socp_cd.solvers.proxsuite_backend", "socp_cd.solvers.auto"],
+     "socp_cd.solvers.cvxpy_backend", "socp_cd.solvers.proxsuite_backend", "socp_cd.solvers.auto",
+     "socp_cd.solvers.projection"],
     ["socp_cd.solvers.table", "socp_cd.solvers.scaling", "socp_cd.solvers.checks",
      "socp_cd.solvers.registry", "socp_cd.solvers"],
     ["socp_cd.dynamics", "socp_cd.dynamics.*"],

@@ -87,8 +87,12 @@ def test_copies_in_other_units_order_or_duplicated_get_the_default_answer(record
             for v in VARIANTS:
                 r = by[(v, dim, s)]
                 assert r["status"] == base["status"], (v, dim, s, r["status"], base["status"])
-                if v.startswith(("q*", "Wq*")) and not s.startswith("siconos"):
-                    # the backend sees the same balanced problem: the same path
+                if v.startswith(("q*", "Wq*")) and not s.startswith("siconos") \
+                        and s != "projection":
+                    # the backend sees the same balanced problem: the same path (the projection
+                    # method stops just below tol, and Siconos' error in the written units, which
+                    # is not unit-free, refuses that answer in some copies: the dispatcher's
+                    # retry then adds steps there)
                     assert r["iterations"] == base["iterations"], (v, dim, s)
 
 

@@ -45,8 +45,8 @@ _WARM: set = set()
 
 
 def _warm_kernels() -> None:
-    """Load every compiled kernel a solve may reach, once per process: the Newton loops
-    and NSGS kernels (their ``warmup``), every stage of ``solver="auto"`` (forced by its
+    """Load every compiled kernel a solve may reach, once per process: the Newton loops,
+    NSGS and projection kernels (their ``warmup``), every stage of ``solver="auto"`` (forced by its
     ``methods`` option and a tolerance no stage meets) on local 2D and 3D problems, and a
     global one, and a Newton system large enough for the one-BLAS-thread limit.  A forked
     child would load what the parent has not on its first call: the first calls of a
@@ -56,9 +56,10 @@ def _warm_kernels() -> None:
         return
     _WARM.add("kernels")
     from ..problem import GlobalFrictionContactProblem
-    from ..solvers import newton, nsgs
+    from ..solvers import newton, nsgs, projection
     newton.warmup()
     nsgs.warmup()
+    projection.warmup()
     stages = ("nsgs", "newton_trial", "newton", "newton_plain", "newton_plain_cold",
               "nsgs_probe", "clarabel", "clarabel_qp")
     rng = np.random.default_rng(12345)

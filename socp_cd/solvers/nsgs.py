@@ -58,7 +58,7 @@ from .block_storage import problem_blocks
 from .local_solvers import (KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION, LAW_ASSOCIATED,
                             LAW_COULOMB, LAW_TRESCA)
 from .nsgs_kernels import (STATUS_NAMES, BlockW, Law, LocalSolver, Sweeps,
-                           full_error, local_parameters, next_block, nsgs_loop, whole_windows)
+                           full_error, local_parameters, nsgs_loop, timed_next_block, whole_windows)
 from .options import check_choice, check_int, check_real, check_unknown
 from .result import SolverResult
 from .spec import SolverSpec
@@ -201,13 +201,11 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         done += int(iters)
         if time_limit is None:
             break
-        nxt, prev = next_block(status, int(iters), int(block), done, max_iter, err, window)
-        if not nxt:
+        block, prev, spent = timed_next_block(status, int(iters), int(block), done, max_iter, err,
+                                              window, t0, time_limit, time.perf_counter)
+        if not block:
+            status = -1 if spent else status
             break
-        if time.perf_counter() - t0 > time_limit:
-            status = -1
-            break
-        block = nxt
     info["loop_time"] = time.perf_counter() - t0
     info["cpu_time"] = time.process_time() - cpu0
     info.update(full_error_evaluations=int(n_full), local_failures=int(n_fail),

@@ -211,11 +211,7 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
             err, stop = full_errors(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u)
             n_full += 1
             if record:
-                if it > hist.shape[0]:
-                    grown = np.full(2 * hist.shape[0], np.nan)
-                    grown[:hist.shape[0]] = hist
-                    hist = grown
-                hist[it - 1] = err
+                hist = recorded(hist, it, err)
             if not np.isfinite(err):
                 return STATUS_NUMERICAL, it, err, n_full, n_fail, light, hist
             worst = stop if stop > err else err      # (stop >= err unless ||q||, ||u|| < eps)
@@ -247,6 +243,29 @@ def whole_windows(sweeps, window):
     if window <= 0:
         return sweeps
     return -(-sweeps // window) * window
+
+
+@njit(cache=True)
+def recorded(hist, it, err):
+    """``hist`` with ``hist[it - 1] = err`` (a history buffer, grown by doubling when full)."""
+    if it > hist.shape[0]:
+        grown = np.full(2 * hist.shape[0], np.nan)
+        grown[:hist.shape[0]] = hist
+        hist = grown
+    hist[it - 1] = err
+    return hist
+
+
+def timed_next_block(status, its, block, done, max_iter, err, window, started, time_limit, clock):
+    """:func:`next_block` of a run under ``time_limit`` seconds since ``started`` (``clock()``):
+    ``(sweeps of the next block, its prediction error, out of time)``; ``(0, -1, False)``
+    when the run is over, ``(0, -1, True)`` when a next block is due but the time is spent."""
+    nxt, prev = next_block(status, its, block, done, max_iter, err, window)
+    if not nxt:
+        return 0, -1.0, False
+    if clock() - started > time_limit:
+        return 0, -1.0, True
+    return nxt, prev, False
 
 
 @njit(cache=True)
