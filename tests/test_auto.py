@@ -353,14 +353,50 @@ def test_stages_after_a_guard_refusal_aim_lower(monkeypatch):
     spec = dataclasses.replace(newton.SPEC, func=recording)
     for name in ("newton", "newton_plain"):
         monkeypatch.setitem(auto._STAGES, name, (spec, auto._STAGES[name][1]))
+    for retry, second in ((False, "newton_plain"), (True, "newton")):
+        # RETRY_REFUSED: the refused stage itself runs once more from its answer first
+        monkeypatch.setattr(auto, "RETRY_REFUSED", retry)
+        seen.clear()
+        res = socp_cd.solve(p, tol=1e-8)
+        path = res.info["path"]
+        assert [s["method"] for s in path[:2]] == ["newton", second] and res.converged
+        (tol0, r0), (tol1, _) = seen[:2]
+        err0 = path[0]["error"]
+        g0 = auto._Judge(p, "coulomb", {}, 1e-8).guard_value(r0)
+        assert tol0 == 1e-8 and err0 <= 1e-8 < g0
+        assert tol1 == tightened_tolerance(1e-8, err0, max(err0, g0)) < 1e-8
+
+
+def test_a_refused_stage_runs_again_from_its_answer_once(monkeypatch):
+    """RETRY_REFUSED: shared BoxesStack1 — the proximal Newton stage ends within tol by
+    Siconos' error (balanced units) and not by the guard; it runs once more from its answer
+    (warm proximal parameter, tightened tolerance) instead of the plain Newton stages and the
+    fixed point; a stage is retried at most once."""
+    from pathlib import Path
+    from socp_cd.data import shared_problems_dir
+    from socp_cd.solvers import newton
+    p = socp_cd.read_problem(Path(shared_problems_dir()) / "BoxesStack1-i100000-32.hdf5.dat")
     res = socp_cd.solve(p, tol=1e-8)
-    path = res.info["path"]
-    assert [s["method"] for s in path[:2]] == ["newton", "newton_plain"] and res.converged
-    (tol0, r0), (tol1, _) = seen[:2]
-    err0 = path[0]["error"]
-    g0 = auto._Judge(p, "coulomb", {}, 1e-8).guard_value(r0)
-    assert tol0 == 1e-8 and err0 <= 1e-8 < g0
-    assert tol1 == tightened_tolerance(1e-8, err0, max(err0, g0)) < 1e-8
+    methods = [s["method"] for s in res.info["path"]]
+    i = methods.index("newton")
+    assert res.converged and methods[i + 1] == "newton" and i + 2 == len(methods)
+    first, again = res.info["path"][i:i + 2]
+    assert first["error"] <= 1e-8 and again["error"] < first["error"]
+    # every stage refused: the retry happens once, then the chain goes on
+    calls = []
+    real = newton.SPEC.func
+
+    def refused(problem, formulation, **kw):
+        calls.append(kw["tol"])
+        return real(problem, formulation, **kw)
+    monkeypatch.setattr(auto._Judge, "guard_value", lambda self, r: 1.0)
+    import dataclasses
+    monkeypatch.setitem(auto._STAGES, "newton", (dataclasses.replace(newton.SPEC, func=refused),
+                                                 {}))
+    res = socp_cd.solve(p, tol=1e-8, time_limit=5.0)
+    methods = [s["method"] for s in res.info["path"]]
+    pairs = sum(a == b for a, b in zip(methods, methods[1:]))
+    assert pairs == 1
 
 
 def test_handoff_cap_rules(monkeypatch):

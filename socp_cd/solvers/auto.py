@@ -32,8 +32,9 @@ The chain stops at the first stage whose error, recomputed from its ``r``
 (compiled kernel :func:`~socp_cd.solvers.kernels.cone.siconos_error` for the
 local Coulomb law, the NumPy law residual otherwise), meets ``tol`` and whose
 units guard (:func:`socp_cd.residuals.guard`, the dispatcher's second test)
-does too; after a stage that met the first and not the second, the later
-stages aim at the dispatcher's retry tolerance
+does too; after a stage that met the first and not the second, that stage runs
+once more from its answer (:data:`RETRY_REFUSED`) and the later stages aim at
+the dispatcher's retry tolerance
 (:func:`~socp_cd.solvers.options.tightened_tolerance`).  The dispatcher
 recomputes both once more independently.  The returned ``r`` is
 the best iterate of all stages (never worse than any stage).
@@ -122,6 +123,19 @@ TRIAL_STALL = 2
 #: fails, NSGS goes on from its own iterate to the cap (``"nsgs_mid"``) and a second trial
 #: follows there, as without the prediction: a failed early trial costs its steps
 HANDOFF_PREDICT = 20
+#: a stage whose answer meets ``tol`` by the stages' measure and not by the units guard runs
+#: once more, from that answer, aiming at the tightened tolerance (the dispatcher's retry,
+#: :func:`~socp_cd.solvers.options.tightened_tolerance`, done by the chain itself)
+RETRY_REFUSED = True
+#: (measured, not adopted: ``validation/results/auto_chain_tune.md``) on small local problems,
+#: Newton starts afresh (``r = 0``, cold proximal parameter) after NSGS's stages end farther
+#: than ``WARM_MAX``, as after a far probe on larger ones: BoxesStack ×0.13-0.25, PerioBox
+#: ×8-10 and one case lost on the tune split
+FAR_NSGS_COLD = False
+#: (measured, not adopted, same study) rate-prediction window of the hand-off's ``nsgs_rest``
+#: stage (0: off): NSGS going on after a failed trial stopped early when its rate predicted
+#: ``tol`` out of reach; NSGS's rate on PerioBox is not linear: two cases lost
+REST_PREDICT = 0
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
@@ -438,7 +452,11 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                and not feats["frictionless"] and feats["n_contacts"] <= SMALL_NC else None)
     nsgs_own = None               # the hand-off's first NSGS stage: (its iterate, status, sweeps)
     tried = mid_ran = False       # whether the hand-off's trial, and nsgs_mid, have run
-    for k, (method, form) in enumerate(order):
+    retried = False               # whether a refused stage has been run once more
+    k = -1
+    while k + 1 < len(order):     # (a refused stage may be inserted once: RETRY_REFUSED)
+        k += 1
+        method, form = order[k]
         # the first NSGS stage of a small local exact-Coulomb problem runs with the study
         # knobs' settings (SMALL_SWEEPS / SMALL_STALL): when one is set, a different run from
         # NSGS with its defaults (the chain's last stage then)
@@ -514,6 +532,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                     opts["stall_window"] = knobs[1]
             elif method in ("nsgs_mid", "nsgs_rest"):
                 stage_max_iter = rest
+                if method == "nsgs_rest" and REST_PREDICT:
+                    opts["predict_window"] = REST_PREDICT
             elif method == "newton_trial":
                 stage_max_iter = TRIAL_STEPS if max_iter is None else min(max_iter, TRIAL_STEPS)
                 opts["stall_window"] = TRIAL_STALL
@@ -524,6 +544,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 cold = (method in ALWAYS_COLD
                         or (method in COLD_STAGES and not best_err <= WARM_MAX))
                 start = (None if (cold and k > 0) else r0 if after_far_probe else best_r)
+                if method == "newton_trial" and not mid_ran:
+                    start = best_r          # the first trial: from NSGS's iterate, far or not
                 if method in ("nsgs_mid", "nsgs_rest") or (method == "newton_trial" and mid_ran):
                     start = nsgs_own[0]     # NSGS's own iterate (the second trial: at the cap)
                 res = spec.func(target, form, tol=stage_tol, max_iter=stage_max_iter, r0=start,
@@ -542,8 +564,11 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             nsgs_own = (r, st, nsgs_own[2] + its)
         mid_ran = mid_ran or method == "nsgs_mid"
         tried = tried or method == "newton_trial"
-        if method == "nsgs_probe":
+        if method == "nsgs_probe" or (FAR_NSGS_COLD and methods is None
+                                      and method in ("nsgs", "nsgs_mid", "nsgs_rest")):
             after_far_probe = not min(err, best_err) <= WARM_MAX
+        elif method == "newton_trial":
+            pass        # a trial hands the NSGS stages' verdict on to the next stage
         elif method not in COLD_STAGES or err < best_err:
             # (a cold stage that did not improve on a far probe, e.g. the fixed point before
             # Newton on large 2D problems, hands the far-probe rule on to the next stage)
@@ -566,6 +591,10 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             # within tol by the stages' measure, not by the guard: the later stages aim lower,
             # as the dispatcher's retry would (options.tightened_tolerance)
             stage_tol = min(stage_tol, tightened_tolerance(tol, best_err, max(best_err, g)))
+            if RETRY_REFUSED and best_stage == k and not retried and k + 1 < len(order):
+                # this stage's answer was refused: the same stage once more from it (next)
+                order = order[:k + 1] + ((method, form),) + order[k + 1:]
+                retried = True
     if best_r is None:
         best_r = np.zeros(problem.m)
     if status != "converged" and not message:
@@ -589,4 +618,5 @@ __all__ = ["auto_backend", "route", "features", "stage_order", "SPEC", "OPTIONS"
            "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS", "HANDOFF_WORK", "TRIAL_STEPS",
            "TRIAL_STALL", "HANDOFF_PREDICT",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
-           "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC"]
+           "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC", "RETRY_REFUSED",
+           "FAR_NSGS_COLD", "REST_PREDICT"]
