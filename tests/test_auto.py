@@ -172,8 +172,9 @@ def test_exact_coulomb_starts_with_newton_and_orders_by_features():
         # the hand-off's stages (a Newton trial; after an early hand-off whose trial failed,
         # NSGS up to the cap and a second trial; then the rest of NSGS), skipped by the
         # backend when the call's cap leaves no sweeps (test_handoff_stages_follow_the_cap)
-        handoff = (("newton_trial", "coulomb"), ("nsgs_mid", "coulomb"),
-                   ("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
+        handoff = (("newton_trial", "coulomb"), ("newton_trial_cold", "coulomb"),
+                   ("nsgs_mid", "coulomb"), ("newton_trial", "coulomb"),
+                   ("nsgs_rest", "coulomb"))
         expected = (("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),)
         assert order[:len(expected)] == expected
     g = _global(1, n=4, nc=3)            # m = 9 > n = 4: W singular by structure
@@ -433,6 +434,7 @@ def test_failed_trial_hands_nsgs_its_own_iterate_back(monkeypatch):
     monkeypatch.setattr(auto, "HANDOFF_SWEEPS", 2)
     monkeypatch.setattr(auto, "HANDOFF_WORK", 1)
     monkeypatch.setattr(auto, "HANDOFF_PREDICT", 0)       # (the early hand-off: tested below)
+    monkeypatch.setattr(auto, "COLD_TRIAL_STEPS", 0)      # (the cold trial: tested below)
     seen = {}
 
     def spy_nsgs(problem, formulation, **kw):
@@ -501,6 +503,7 @@ def test_early_handoff_goes_on_to_the_cap_and_tries_again(monkeypatch):
     monkeypatch.setattr(auto, "HANDOFF_SWEEPS", 60)
     monkeypatch.setattr(auto, "HANDOFF_WORK", 1)
     monkeypatch.setattr(auto, "HANDOFF_PREDICT", 10)
+    monkeypatch.setattr(auto, "COLD_TRIAL_STEPS", 0)      # (the cold trial: tested below)
     calls = []
 
     def slow_nsgs(problem, formulation, **kw):
@@ -552,3 +555,31 @@ def test_rate_prediction_only_where_a_trial_is_compiled(monkeypatch):
     monkeypatch.setattr(auto, "HANDOFF_PREDICT", -1)
     with pytest.raises(ValueError, match="HANDOFF_PREDICT"):
         auto._predict_window(small)
+
+
+def test_cold_trial_after_a_failed_trial_on_compiled_sizes(monkeypatch):
+    """COLD_TRIAL_STEPS: shared OneObject (23 contacts, m = 69): NSGS hands over, the trial
+    from its iterate fails, plain Newton from r = 0 (at most COLD_TRIAL_STEPS steps, stall
+    window COLD_TRIAL_STALL) solves it: the same steps as that solver call on its own."""
+    from pathlib import Path
+    from socp_cd.data import shared_problems_dir
+    from socp_cd.solvers import newton
+    p = socp_cd.read_problem(Path(shared_problems_dir()) / "OneObject-i1028-138.hdf5.dat")
+    assert p.m <= newton.COMPILED_LOOP_MAX_M
+    res = socp_cd.solve(p, tol=1e-8)
+    methods = [s["method"] for s in res.info["path"]]
+    assert methods == ["nsgs", "newton_trial", "newton_trial_cold"] and res.converged
+    alone = socp_cd.solve(p, "newton", tol=1e-8, policy="plain", max_iter=auto.COLD_TRIAL_STEPS,
+                          stall_window=auto.COLD_TRIAL_STALL)
+    assert res.info["path"][2]["iterations"] == alone.iterations <= auto.COLD_TRIAL_STEPS
+    # off: the chain of session 12 (NSGS goes on)
+    monkeypatch.setattr(auto, "COLD_TRIAL_STEPS", 0)
+    methods = [s["method"] for s in socp_cd.solve(p, tol=1e-8).info["path"]]
+    assert "newton_trial_cold" not in methods and "nsgs_mid" in methods
+    # not above the compiled loop's size, not without a failed first trial
+    monkeypatch.setattr(auto, "COLD_TRIAL_STEPS", 30)
+    big = socp_cd.read_problem(Path(shared_problems_dir()) / "BoxesStack1-i100000-32.hdf5.dat")
+    assert big.m > newton.COMPILED_LOOP_MAX_M
+    assert "newton_trial_cold" not in [s["method"] for s in socp_cd.solve(big).info["path"]]
+    easy = _local(4, 3, 8, mu=0.3)
+    assert [s["method"] for s in socp_cd.solve(easy, history=True).info["path"]] == ["nsgs"]

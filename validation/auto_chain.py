@@ -14,7 +14,12 @@ Session 13's rules (tune split: only the first adopted; ``socp_cd.solvers.auto``
     larger problems);
 ``REST_PREDICT`` (not adopted)
     ``nsgs_rest`` (NSGS going on after a failed trial) stops early when its rate predicts
-    that its sweeps will not reach ``tol`` (a window of that many sweeps; 0: off).
+    that its sweeps will not reach ``tol`` (a window of that many sweeps; 0: off);
+``COLD_TRIAL_STEPS``, ``COLD_TRIAL_STALL``
+    after the hand-off's first trial fails on a problem the compiled Newton loop takes
+    (``m <= newton.COMPILED_LOOP_MAX_M``), plain Newton from ``r = 0`` (Siconos NSN_AC's
+    method) for at most that many steps, stopped after that many without a 10 % drop
+    (OneObject: plain Newton from zero 17 steps, 0.8 ms; the chain without it 6.2 ms).
 
 Each ``--configs`` entry is ``base`` (all three off: session 12's chain), ``all`` (the
 module's defaults) or ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``.  Problems:
@@ -38,14 +43,18 @@ from pathlib import Path
 import numpy as np
 
 import socp_cd
+from socp_cd.bench.campaign import warm_up
 from socp_cd.bench.reports import shifted_geometric_mean
+from socp_cd.bench.tasks import SolverChoice
 from socp_cd.solvers import auto, newton, nsgs
 
 from auto_probe import items, min_wall_time, record, write_csv
 
 OUT = Path(__file__).resolve().parent / "results"
-RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT")
-BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0}
+RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL")
+BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD_TRIAL_STEPS": 0,
+        "COLD_TRIAL_STALL": 10}
+INTS = ("REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 
@@ -59,7 +68,7 @@ def settings(config: str) -> dict:
             name, value = part.split("=")
             if name not in RULES:
                 raise SystemExit(f"unknown rule {name!r}; one of {RULES}")
-            out[name] = int(value) if name == "REST_PREDICT" else bool(int(value))
+            out[name] = int(value) if name in INTS else bool(int(value))
     return out
 
 
@@ -139,14 +148,20 @@ def main(argv=None) -> int:
     ap.add_argument("--tol", type=float, default=1e-8)
     ap.add_argument("--time-limit", type=float, default=1.0)
     ap.add_argument("--sets", nargs="+", default=["shared", "eval"])
+    ap.add_argument("--sim", nargs="*", default=None,
+                    help="simulation collections (folders under validation/) to add, e.g. "
+                         "evalset_sim_small (validation/build_sim_collections.py --small)")
     ap.add_argument("--tag", default="", help="suffix of the output files")
     args = ap.parse_args(argv)
     newton.warmup()
     nsgs.warmup()
-    its = items(args.split, args.max_contacts, 0, sets=tuple(args.sets))
+    sims = [Path(__file__).resolve().parent / f for f in args.sim] if args.sim else None
+    its = items(args.split, args.max_contacts, 0,
+                sets=tuple(args.sets) + (("sim",) if sims else ()), sims=sims)
     print(f"{len(its)} problems", flush=True)
-    run(its[:2], args.configs, 1e-4, None, lambda p: 1)        # JIT and imports warm
-    socp_cd.solve(its[0][2], "clarabel", tol=1e-6)               # (auto's fixed-point stage)
+    for dim in (2, 3):      # every kernel and stage of auto loaded (the campaign's warm-up)
+        warm_up(SolverChoice("auto", "coulomb"), dim)
+    run(its[:2], args.configs, 1e-4, None, lambda p: 1)
     rows = run(its, args.configs, args.tol, args.time_limit,
                lambda p: 10 if p.n_contacts <= 10 else 3)
     OUT.mkdir(exist_ok=True)

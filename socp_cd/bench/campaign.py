@@ -60,7 +60,7 @@ def _warm_kernels() -> None:
     newton.warmup()
     nsgs.warmup()
     projection.warmup()
-    stages = ("nsgs", "newton_trial", "newton", "newton_plain", "newton_plain_cold",
+    stages = ("nsgs", "newton_trial", "newton_trial_cold", "newton", "newton_plain", "newton_plain_cold",
               "nsgs_probe", "clarabel", "clarabel_qp")
     rng = np.random.default_rng(12345)
     for dim in (2, 3):
