@@ -583,3 +583,18 @@ def test_cold_trial_after_a_failed_trial_on_compiled_sizes(monkeypatch):
     assert "newton_trial_cold" not in [s["method"] for s in socp_cd.solve(big).info["path"]]
     easy = _local(4, 3, 8, mu=0.3)
     assert [s["method"] for s in socp_cd.solve(easy, history=True).info["path"]] == ["nsgs"]
+
+
+def test_judge_of_a_global_problem_equals_the_references():
+    """On a global Coulomb problem auto judges its stages with the dispatcher's compiled checks
+    (solvers.checks, the unit factors kept on the problem): equal to the NumPy references."""
+    from socp_cd.residuals import error, guard
+    g = _global(3, n=12, nc=3)
+    rng = np.random.default_rng(4)
+    judge = auto._Judge(g, "coulomb", {}, 1e-8)
+    assert judge.checks is not None
+    for scale in (1e-3, 1.0, 1e3):
+        r = scale * rng.standard_normal(g.m)
+        assert judge(r) == pytest.approx(error(g, r), rel=1e-10)
+        assert judge.guard_value(r) == pytest.approx(guard(g, r)["value"], rel=1e-8)
+    assert judge(np.full(g.m, np.nan)) == np.inf

@@ -69,7 +69,7 @@ import numpy as np
 from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, law_parameters
 from ..residuals import guard
-from . import clarabel_backend, newton, nsgs
+from . import checks, clarabel_backend, newton, nsgs
 from .kernels.cone import siconos_error
 from .kernels.dense import csr_matvec_add
 from .kernels.scaling import GUARD_KEYS, balanced_guard
@@ -77,6 +77,7 @@ from .nsgs_route import (ERROR, INTERNAL_ERROR, MU_MAX, START_ERROR, SWEEPS, ZER
                          guard_record, scaling_record)
 from .options import tightened_tolerance
 from .result import SolverResult
+from .scaling import balanced
 from .spec import SolverSpec
 
 #: the clock of the time budget (a module attribute so tests can drive it)
@@ -247,8 +248,9 @@ _GUARD_VALUE = GUARD_KEYS.index("value")
 
 
 class _Judge:
-    """Stage error of an ``r`` for the law asked for (compiled kernel on local Coulomb problems),
-    and its units-guard value, the dispatcher's second test (:meth:`guard_value`)."""
+    """Stage error of an ``r`` for the law asked for (compiled kernel on local Coulomb problems;
+    on global ones the dispatcher's compiled checks, :mod:`socp_cd.solvers.checks`), and its
+    units-guard value, the dispatcher's second test (:meth:`guard_value`)."""
 
     def __init__(self, problem, formulation, params, tol):
         self.problem, self.formulation, self.params, self.tol = problem, formulation, params, tol
@@ -257,6 +259,21 @@ class _Judge:
             self.q = problem.q
             self.mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
             self.norm_q = float(np.sqrt(np.dot(self.q, self.q)))
+        # a global Coulomb problem reaches auto as written: the dispatcher's own checks, with the
+        # unit factors it keeps on the problem (the NumPy guard cost 250 us a call, on a
+        # one-contact problem more than the Newton stage); None when M is singular
+        self.checks = None
+        if formulation == "coulomb" and problem.is_global:
+            try:
+                balanced(problem)
+                self.checks = checks
+            except InvalidProblemError:
+                pass
+
+    def _global_velocity(self, r):
+        with np.errstate(all="ignore"):
+            u = checks.velocity(self.problem, r)
+        return u if np.all(np.isfinite(u)) else None
 
     def guard_value(self, r) -> float:
         """The units guard's value of ``r`` (:func:`socp_cd.residuals.guard`, the dispatcher's
@@ -273,6 +290,11 @@ class _Judge:
             finite, out = balanced_guard(r, csr_matvec_add(indptr, indices, data, r, self.q),
                                          ones, ones, self.mu, self.problem.dim, self.norm_q)
             return float(out[_GUARD_VALUE]) if finite else np.inf
+        if self.checks is not None:
+            u = self._global_velocity(r)
+            value = np.inf if u is None else float(self.checks.coulomb_guard(self.problem, r,
+                                                                             u)["value"])
+            return value if np.isfinite(value) else np.inf
         with np.errstate(all="ignore"):
             value = float(guard(self.problem, r, law=LAW_RESIDUALS[self.formulation],
                                 **self.params)["value"])
@@ -285,6 +307,9 @@ class _Judge:
             indptr, indices, data = self.problem.csr_parts
             e = siconos_error(r, csr_matvec_add(indptr, indices, data, r, self.q), self.mu,
                               self.problem.dim, self.norm_q)
+        elif self.checks is not None:
+            u = self._global_velocity(r)
+            e = np.inf if u is None else self.checks.coulomb_error(self.problem, r, u)
         else:
             with np.errstate(all="ignore"):
                 e = LAW_RESIDUALS[self.formulation](self.problem, r, None, **self.params)
