@@ -145,6 +145,9 @@ REST_PREDICT = 0
 #: stopped after COLD_TRIAL_STALL steps without a 10 % drop of the error (0: off)
 COLD_TRIAL_STEPS = 30
 COLD_TRIAL_STALL = 10
+#: stall window of the proximal Newton stages (None: the method's default, 50 outer iterations
+#: without a 10 % drop of the error)
+NEWTON_STALL = None
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
@@ -556,6 +559,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             # the warm proximal parameter was 2-5x slower than from the start (auto_probe.md)
             if method == "newton" and best_r is not None and not after_far_probe:
                 opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
+            if method == "newton" and NEWTON_STALL is not None:
+                opts["stall_window"] = NEWTON_STALL
             stage_max_iter = _CAPPED.get(method) if max_iter is None else max_iter
             if method == "nsgs_probe" and PROBE_SWEEPS > 0:  # a probe: at most PROBE_SWEEPS sweeps
                 stage_max_iter = min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
