@@ -173,7 +173,7 @@ def test_exact_coulomb_starts_with_newton_and_orders_by_features():
         # NSGS up to the cap and a second trial; then the rest of NSGS), skipped by the
         # backend when the call's cap leaves no sweeps (test_handoff_stages_follow_the_cap)
         handoff = (("newton_trial", "coulomb"), ("newton_trial_cold", "coulomb"),
-                   ("nsgs_mid", "coulomb"), ("newton_trial", "coulomb"),
+                   ("newton_trial_prox", "coulomb"), ("nsgs_mid", "coulomb"), ("newton_trial", "coulomb"),
                    ("nsgs_rest", "coulomb"))
         expected = (("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),)
         assert order[:len(expected)] == expected
@@ -434,7 +434,8 @@ def test_failed_trial_hands_nsgs_its_own_iterate_back(monkeypatch):
     monkeypatch.setattr(auto, "HANDOFF_SWEEPS", 2)
     monkeypatch.setattr(auto, "HANDOFF_WORK", 1)
     monkeypatch.setattr(auto, "HANDOFF_PREDICT", 0)       # (the early hand-off: tested below)
-    monkeypatch.setattr(auto, "COLD_TRIAL_STEPS", 0)      # (the cold trial: tested below)
+    monkeypatch.setattr(auto, "COLD_TRIAL_STEPS", 0)      # (the cold trials: tested below)
+    monkeypatch.setattr(auto, "COLD_PROX_STEPS", 0)
     seen = {}
 
     def spy_nsgs(problem, formulation, **kw):
@@ -489,7 +490,9 @@ def test_handoff_stages_follow_the_cap():
         else:
             assert first["iterations"] == max_iter
         assert ("newton_trial" in methods) == handed
-        assert ("nsgs_rest" in methods) == handed
+        # the rest of NSGS, unless a cold trial (on m <= 72) met tol first
+        cold_won = res.converged and methods[-1] in ("newton_trial_cold", "newton_trial_prox")
+        assert ("nsgs_rest" in methods or cold_won) == handed
 
 
 def test_early_handoff_goes_on_to_the_cap_and_tries_again(monkeypatch):
@@ -503,7 +506,8 @@ def test_early_handoff_goes_on_to_the_cap_and_tries_again(monkeypatch):
     monkeypatch.setattr(auto, "HANDOFF_SWEEPS", 60)
     monkeypatch.setattr(auto, "HANDOFF_WORK", 1)
     monkeypatch.setattr(auto, "HANDOFF_PREDICT", 10)
-    monkeypatch.setattr(auto, "COLD_TRIAL_STEPS", 0)      # (the cold trial: tested below)
+    monkeypatch.setattr(auto, "COLD_TRIAL_STEPS", 0)      # (the cold trials: tested below)
+    monkeypatch.setattr(auto, "COLD_PROX_STEPS", 0)
     calls = []
 
     def slow_nsgs(problem, formulation, **kw):
@@ -574,10 +578,12 @@ def test_cold_trial_after_a_failed_trial_on_compiled_sizes(monkeypatch):
     assert res.info["path"][2]["iterations"] == alone.iterations <= auto.COLD_TRIAL_STEPS
     # off: the chain of session 12 (NSGS goes on)
     monkeypatch.setattr(auto, "COLD_TRIAL_STEPS", 0)
+    monkeypatch.setattr(auto, "COLD_PROX_STEPS", 0)
     methods = [s["method"] for s in socp_cd.solve(p, tol=1e-8).info["path"]]
     assert "newton_trial_cold" not in methods and "nsgs_mid" in methods
     # not above the compiled loop's size, not without a failed first trial
     monkeypatch.setattr(auto, "COLD_TRIAL_STEPS", 30)
+    monkeypatch.setattr(auto, "COLD_PROX_STEPS", 15)
     big = socp_cd.read_problem(Path(shared_problems_dir()) / "BoxesStack1-i100000-32.hdf5.dat")
     assert big.m > newton.COMPILED_LOOP_MAX_M
     assert "newton_trial_cold" not in [s["method"] for s in socp_cd.solve(big).info["path"]]
@@ -598,3 +604,36 @@ def test_judge_of_a_global_problem_equals_the_references():
         assert judge(r) == pytest.approx(error(g, r), rel=1e-10)
         assert judge.guard_value(r) == pytest.approx(guard(g, r)["value"], rel=1e-8)
     assert judge(np.full(g.m, np.nan)) == np.inf
+
+
+def test_proximal_cold_trial_follows_a_failed_plain_cold_trial(monkeypatch):
+    """COLD_PROX_STEPS: when plain Newton from r = 0 fails too, the proximal method runs from
+    r = 0 for at most COLD_PROX_STEPS outer iterations (stall window COLD_TRIAL_STALL): the same
+    iterations as that call on its own; it meets tol on shared OneObject."""
+    import dataclasses
+    from pathlib import Path
+    from socp_cd.data import shared_problems_dir
+    from socp_cd.solvers import newton
+    p = socp_cd.read_problem(Path(shared_problems_dir()) / "OneObject-i1028-138.hdf5.dat")
+    seen = []
+
+    def failing_plain(problem, formulation, **kw):
+        res = newton.newton_backend(problem, formulation, **dict(kw, max_iter=1))
+        res.status = "stalled"
+        return res
+
+    def spy(problem, formulation, **kw):
+        seen.append((kw["r0"], kw["max_iter"], kw.get("stall_window"), kw.get("policy")))
+        return newton.newton_backend(problem, formulation, **kw)
+    monkeypatch.setitem(auto._STAGES, "newton_trial_cold",
+                        (dataclasses.replace(newton.SPEC, func=failing_plain), {"policy": "plain"}))
+    monkeypatch.setitem(auto._STAGES, "newton_trial_prox",
+                        (dataclasses.replace(newton.SPEC, func=spy), {}))
+    res = socp_cd.solve(p, tol=1e-8, history=True)
+    methods = [s["method"] for s in res.info["path"]]
+    assert methods[:4] == ["nsgs", "newton_trial", "newton_trial_cold", "newton_trial_prox"]
+    assert seen == [(None, auto.COLD_PROX_STEPS, auto.COLD_TRIAL_STALL, None)]
+    alone = socp_cd.solve(p, "newton", tol=1e-8, max_iter=auto.COLD_PROX_STEPS,
+                          stall_window=auto.COLD_TRIAL_STALL)
+    assert res.info["path"][3]["iterations"] == alone.iterations
+    assert res.converged

@@ -21,6 +21,10 @@ Session 13's rules (tune split: only the first adopted; ``socp_cd.solvers.auto``
     method) for at most that many steps, stopped after that many without a 10 % drop
     (OneObject: plain Newton from zero 17 steps, 0.8 ms; the chain without it 6.2 ms).
 
+``COLD_PROX_STEPS``
+    after the cold trial fails too, the proximal Newton method from ``r = 0`` for at most
+    that many outer iterations (box stacks with redundant contacts: plain Newton fails
+    there, the proximal method converges in ~0.5 ms where the chain took 7-10 ms);
 ``NEWTON_STALL``
     the stall window of the proximal Newton stages (None: Newton's default, 50).
 
@@ -56,10 +60,10 @@ from auto_probe import items, min_wall_time, record, write_csv
 
 OUT = Path(__file__).resolve().parent / "results"
 RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL",
-         "NEWTON_STALL")
+         "NEWTON_STALL", "COLD_PROX_STEPS")
 BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD_TRIAL_STEPS": 0,
-        "COLD_TRIAL_STALL": 10, "NEWTON_STALL": None}
-INTS = ("REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL")
+        "COLD_TRIAL_STALL": 10, "NEWTON_STALL": None, "COLD_PROX_STEPS": 0}
+INTS = ("REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 

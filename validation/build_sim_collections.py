@@ -23,7 +23,9 @@ time per collection).
 ``--small`` builds small 3D collections into ``validation/evalset_sim_small/`` (held out
 like the default ones): ``boxes3d-4`` and ``boxes3d-8`` (stacks of 4 and 8 boxes sliding
 down an incline, ``examples/box_stack_incline_above.toml``: 4 redundant contacts per face,
-16 and 32 contacts) and ``pile3d-20`` (20 spheres, ``examples/sphere_pile.toml``).
+16 and 32 contacts) and ``pile3d-20`` (20 spheres, ``examples/sphere_pile.toml``);
+``--small --tune`` other scenes of the same kinds into ``validation/evalset_sim_small_tune/``
+(see :func:`small_runs`).
 
 ``--tune`` builds *other* scenes of the same kinds into
 ``validation/evalset_sim_tune/`` (1 500 disks with packing seed 11, 250
@@ -107,17 +109,18 @@ def main(argv=None) -> int:
                          "validation/evalset_sim_tune)")
     mode = ap.add_mutually_exclusive_group()
     mode.add_argument("--quick", action="store_true")
-    mode.add_argument("--tune", action="store_true", help="the tuning scenes (see above)")
+    ap.add_argument("--tune", action="store_true", help="the tuning scenes (see above)")
     mode.add_argument("--small", action="store_true", help="small 3D collections (see above)")
     ap.add_argument("--only", nargs="*", default=None)
     args = ap.parse_args(argv)
     if args.out is None:
-        args.out = HERE / ("evalset_sim_tune" if args.tune else "evalset_sim_small" if args.small
-                           else "evalset_sim")
+        args.out = HERE / ("evalset_sim_small_tune" if args.small and args.tune
+                           else "evalset_sim_tune" if args.tune
+                           else "evalset_sim_small" if args.small else "evalset_sim")
     args.out.mkdir(parents=True, exist_ok=True)
     runs = []
     if args.small:
-        runs = small_runs(args.out)
+        runs = small_runs(args.out, args.tune)
         return build(runs, args)
     table = QUICK if args.quick else TUNE if args.tune else FULL
     for name, (n, steps, every) in table.items():
@@ -137,8 +140,25 @@ def main(argv=None) -> int:
     return build(runs, args)
 
 
-def small_runs(out: Path) -> list:
-    """The ``--small`` collections: ``(name, scene file, steps, dump every)``."""
+def small_runs(out: Path, tune: bool = False) -> list:
+    """The ``--small`` collections: ``(name, scene file, steps, dump every)``; with ``tune``
+    other scenes of the same kinds (``--small --tune``: stacks of 5 and 6 boxes, 3 boxes on
+    the incline below the friction angle, a 15-sphere pile with another seed), the ones a
+    rule may be chosen on."""
+    if tune:
+        runs = []
+        above = (EXAMPLES / "box_stack_incline_above.toml").read_text()
+        below = (EXAMPLES / "box_stack_incline_below.toml").read_text()
+        for name, text, count in (("boxes3d-tune-5", above, 5), ("boxes3d-tune-6", above, 6),
+                                  ("boxes3d-tune-below-3", below, 3)):
+            scene = out / f"{name}.toml"
+            scene.write_text(text.replace("count = 4", f"count = {count}"))
+            runs.append((name, scene, 1000, 50))
+        scene = out / "pile3d-tune-15.toml"
+        scene.write_text((EXAMPLES / "sphere_pile.toml").read_text()
+                         .replace("count = 300", "count = 15").replace("seed = 1", "seed = 5"))
+        runs.append(("pile3d-tune-15", scene, None, 100))
+        return runs
     runs = []
     stack = (EXAMPLES / "box_stack_incline_above.toml").read_text()
     for count in (4, 8):

@@ -17,7 +17,8 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   predicts that the cap will not reach ``tol`` — to a trial of at most
   :data:`TRIAL_STEPS` plain Newton steps, then, on at most
   ``newton.COMPILED_LOOP_MAX_M`` unknowns, plain Newton from ``r = 0`` for at most
-  :data:`COLD_TRIAL_STEPS` steps (``"newton_trial_cold"``), then going on from its
+  :data:`COLD_TRIAL_STEPS` steps (``"newton_trial_cold"``) and the proximal method from
+  ``r = 0`` for at most :data:`COLD_PROX_STEPS` (``"newton_trial_prox"``), then going on from its
   own iterate when the trials fail: ``"newton_trial"``, after an early hand-off
   ``"nsgs_mid"`` up to the cap and a second trial, then ``"nsgs_rest"``), then the
   proximal semismooth Newton method
@@ -45,7 +46,8 @@ Options
 -------
 methods : sequence of str, optional
     Explicit stage order (names among ``"newton"``, ``"newton_plain"``,
-    ``"newton_plain_cold"``, ``"newton_trial"``, ``"newton_trial_cold"``, ``"nsgs"``,
+    ``"newton_plain_cold"``, ``"newton_trial"``, ``"newton_trial_cold"``,
+    ``"newton_trial_prox"``, ``"nsgs"``,
     ``"nsgs_probe"``,
     ``"clarabel"`` and ``"clarabel_qp"`` (Clarabel on the frictionless QP))
     instead of the feature-based one (no hand-off then).
@@ -145,6 +147,10 @@ REST_PREDICT = 0
 #: stopped after COLD_TRIAL_STALL steps without a 10 % drop of the error (0: off)
 COLD_TRIAL_STEPS = 30
 COLD_TRIAL_STALL = 10
+#: ... and when that fails too, the proximal Newton method from ``r = 0`` for at most this many
+#: outer iterations (same stall window; 0: off): box stacks with redundant contacts, where plain
+#: Newton fails and the proximal method converges (formulations/auto.md, "The cold trials")
+COLD_PROX_STEPS = 15
 #: stall window of the proximal Newton stages (None: the method's default, 50 outer iterations
 #: without a 10 % drop of the error).  Measured, not adopted (validation/results/
 #: auto_chain_{tune,holdout}_stall.md): 30 solved 2 more on tune and lost none, but held out
@@ -159,6 +165,7 @@ _STAGES = {
     "nsgs": (nsgs.SPEC, {}),
     "newton_trial": (newton.SPEC, {"policy": "plain"}),    # + TRIAL_STALL, TRIAL_STEPS
     "newton_trial_cold": (newton.SPEC, {"policy": "plain"}),   # + COLD_TRIAL_* (from r = 0)
+    "newton_trial_prox": (newton.SPEC, {}),     # + COLD_PROX_STEPS, COLD_TRIAL_STALL (r = 0)
     "nsgs_mid": (nsgs.SPEC, {}),
     "nsgs_rest": (nsgs.SPEC, {}),
     "clarabel": (clarabel_backend.SPEC, {}),
@@ -170,17 +177,18 @@ _STAGES = {
 COLD_STAGES = ("clarabel", "clarabel_qp")
 WARM_MAX = 1e-5
 #: stages always started from ``r = 0`` (or the caller's ``r0`` when first)
-ALWAYS_COLD = ("newton_plain_cold", "newton_trial_cold")
+ALWAYS_COLD = ("newton_plain_cold", "newton_trial_cold", "newton_trial_prox")
 #: stages with their own iteration cap (:data:`PLAIN_MAX_ITER`) when ``max_iter`` is None
 _CAPPED = {"newton_plain": PLAIN_MAX_ITER, "newton_plain_cold": PLAIN_MAX_ITER}
 #: share of the remaining budget of the (cheap, trial) plain stages, instead of STAGE_SHARE
 PLAIN_SHARE = 0.25
 _SHARES = {"newton_plain": PLAIN_SHARE, "newton_plain_cold": PLAIN_SHARE,
-           "newton_trial": PLAIN_SHARE, "newton_trial_cold": PLAIN_SHARE}
+           "newton_trial": PLAIN_SHARE, "newton_trial_cold": PLAIN_SHARE,
+           "newton_trial_prox": PLAIN_SHARE}
 
 OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'newton_plain', 'newton_plain_cold', "
-               "'newton_trial', 'newton_trial_cold', 'nsgs', 'nsgs_probe', 'clarabel', 'clarabel_qp' "
+               "'newton_trial', 'newton_trial_cold', 'newton_trial_prox', 'nsgs', 'nsgs_probe', 'clarabel', 'clarabel_qp' "
                "(default: chosen from the problem's features)",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
 }
@@ -230,7 +238,7 @@ def stage_order(problem, formulation, feats) -> tuple:
         # cap for this call (_handoff_cap with the caller's max_iter) leaves no sweeps to hand off
         # (nsgs_mid and the second trial run only after an early hand-off whose trial failed)
         handoff = ((("newton_trial", "coulomb"), ("newton_trial_cold", "coulomb"),
-                    ("nsgs_mid", "coulomb"), ("newton_trial", "coulomb"),
+                    ("newton_trial_prox", "coulomb"), ("nsgs_mid", "coulomb"), ("newton_trial", "coulomb"),
                     ("nsgs_rest", "coulomb"))
                    if HANDOFF_SWEEPS is not None and not last else ())
         return ((("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),) + plain
@@ -508,11 +516,12 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             variant = "at_cap"      # the second trial starts from NSGS's iterate, not the best
         if (method, form, version, variant) in ran:
             continue    # same deterministic method from the same start: nothing to gain
-        if (method in ("newton_trial", "newton_trial_cold", "nsgs_mid", "nsgs_rest")
-                and methods is None and handoff is None):
+        if (method in ("newton_trial", "newton_trial_cold", "newton_trial_prox", "nsgs_mid",
+                       "nsgs_rest") and methods is None and handoff is None):
             continue    # no hand-off in this call (one contact, or max_iter leaves no sweeps)
-        if method == "newton_trial_cold" and methods is None and (
-                not COLD_TRIAL_STEPS or problem.m > newton.COMPILED_LOOP_MAX_M or not tried):
+        if method in ("newton_trial_cold", "newton_trial_prox") and methods is None and (
+                not (COLD_TRIAL_STEPS if method == "newton_trial_cold" else COLD_PROX_STEPS)
+                or problem.m > newton.COMPILED_LOOP_MAX_M or not tried):
             continue    # only after a failed first trial, on a problem the compiled loop takes
         if method == "newton_trial" and methods is None and tried and not mid_ran:
             continue    # a second trial only follows nsgs_mid
@@ -582,9 +591,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             elif method == "newton_trial":
                 stage_max_iter = TRIAL_STEPS if max_iter is None else min(max_iter, TRIAL_STEPS)
                 opts["stall_window"] = TRIAL_STALL
-            elif method == "newton_trial_cold":
-                stage_max_iter = (COLD_TRIAL_STEPS if max_iter is None
-                                  else min(max_iter, COLD_TRIAL_STEPS))
+            elif method in ("newton_trial_cold", "newton_trial_prox"):
+                steps = COLD_TRIAL_STEPS if method == "newton_trial_cold" else COLD_PROX_STEPS
+                stage_max_iter = steps if max_iter is None else min(max_iter, steps)
                 opts["stall_window"] = COLD_TRIAL_STALL
             if form == "tresca":
                 opts["threshold"] = options["threshold"]
@@ -668,4 +677,4 @@ __all__ = ["auto_backend", "route", "features", "stage_order", "SPEC", "OPTIONS"
            "TRIAL_STALL", "HANDOFF_PREDICT",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
            "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC", "RETRY_REFUSED",
-           "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL"]
+           "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS"]
