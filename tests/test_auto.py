@@ -598,7 +598,7 @@ def test_judge_of_a_global_problem_equals_the_references():
     g = _global(3, n=12, nc=3)
     rng = np.random.default_rng(4)
     judge = auto._Judge(g, "coulomb", {}, 1e-8)
-    assert judge.checks is not None
+    assert judge.global_checks
     for scale in (1e-3, 1.0, 1e3):
         r = scale * rng.standard_normal(g.m)
         assert judge(r) == pytest.approx(error(g, r), rel=1e-10)

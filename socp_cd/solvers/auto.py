@@ -47,9 +47,7 @@ Options
 methods : sequence of str, optional
     Explicit stage order (names among ``"newton"``, ``"newton_plain"``,
     ``"newton_plain_cold"``, ``"newton_trial"``, ``"newton_trial_cold"``,
-    ``"newton_trial_prox"``, ``"nsgs"``,
-    ``"nsgs_probe"``,
-    ``"clarabel"`` and ``"clarabel_qp"`` (Clarabel on the frictionless QP))
+    ``"newton_trial_prox"``, ``"nsgs"``, ``"nsgs_probe"``, ``"clarabel"`` and ``"clarabel_qp"`` (Clarabel on the frictionless QP))
     instead of the feature-based one (no hand-off then).
 
 Common options (:mod:`socp_cd.solvers.options`): ``tol``; ``max_iter`` caps
@@ -149,7 +147,8 @@ COLD_TRIAL_STEPS = 30
 COLD_TRIAL_STALL = 10
 #: ... and when that fails too, the proximal Newton method from ``r = 0`` for at most this many
 #: outer iterations (same stall window; 0: off): box stacks with redundant contacts, where plain
-#: Newton fails and the proximal method converges (formulations/auto.md, "The cold trials")
+#: Newton fails and the proximal method converges (formulations/auto.md, "The proximal cold
+#: trial")
 COLD_PROX_STEPS = 15
 #: stall window of the proximal Newton stages (None: the method's default, 50 outer iterations
 #: without a 10 % drop of the error).  Measured, not adopted (validation/results/
@@ -178,6 +177,8 @@ COLD_STAGES = ("clarabel", "clarabel_qp")
 WARM_MAX = 1e-5
 #: stages always started from ``r = 0`` (or the caller's ``r0`` when first)
 ALWAYS_COLD = ("newton_plain_cold", "newton_trial_cold", "newton_trial_prox")
+#: the hand-off's cold trials (run only after a failed first trial, on m <= 72)
+_COLD_TRIALS = ("newton_trial_cold", "newton_trial_prox")
 #: stages with their own iteration cap (:data:`PLAIN_MAX_ITER`) when ``max_iter`` is None
 _CAPPED = {"newton_plain": PLAIN_MAX_ITER, "newton_plain_cold": PLAIN_MAX_ITER}
 #: share of the remaining budget of the (cheap, trial) plain stages, instead of STAGE_SHARE
@@ -188,8 +189,8 @@ _SHARES = {"newton_plain": PLAIN_SHARE, "newton_plain_cold": PLAIN_SHARE,
 
 OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'newton_plain', 'newton_plain_cold', "
-               "'newton_trial', 'newton_trial_cold', 'newton_trial_prox', 'nsgs', 'nsgs_probe', 'clarabel', 'clarabel_qp' "
-               "(default: chosen from the problem's features)",
+               "'newton_trial', 'newton_trial_cold', 'newton_trial_prox', 'nsgs', 'nsgs_probe', "
+               "'clarabel', 'clarabel_qp' (default: chosen from the problem's features)",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
 }
 
@@ -238,8 +239,8 @@ def stage_order(problem, formulation, feats) -> tuple:
         # cap for this call (_handoff_cap with the caller's max_iter) leaves no sweeps to hand off
         # (nsgs_mid and the second trial run only after an early hand-off whose trial failed)
         handoff = ((("newton_trial", "coulomb"), ("newton_trial_cold", "coulomb"),
-                    ("newton_trial_prox", "coulomb"), ("nsgs_mid", "coulomb"), ("newton_trial", "coulomb"),
-                    ("nsgs_rest", "coulomb"))
+                    ("newton_trial_prox", "coulomb"), ("nsgs_mid", "coulomb"),
+                    ("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
                    if HANDOFF_SWEEPS is not None and not last else ())
         return ((("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),) + plain
                 + (("clarabel", "coulomb"), ("newton", "coulomb")) + last)
@@ -274,12 +275,12 @@ class _Judge:
             self.norm_q = float(np.sqrt(np.dot(self.q, self.q)))
         # a global Coulomb problem reaches auto as written: the dispatcher's own checks, with the
         # unit factors it keeps on the problem (the NumPy guard cost 250 us a call, on a
-        # one-contact problem more than the Newton stage); None when M is singular
-        self.checks = None
+        # one-contact problem more than the Newton stage); not when M is singular
+        self.global_checks = False
         if formulation == "coulomb" and problem.is_global:
             try:
                 balanced(problem)
-                self.checks = checks
+                self.global_checks = True
             except InvalidProblemError:
                 pass
 
@@ -303,10 +304,10 @@ class _Judge:
             finite, out = balanced_guard(r, csr_matvec_add(indptr, indices, data, r, self.q),
                                          ones, ones, self.mu, self.problem.dim, self.norm_q)
             return float(out[_GUARD_VALUE]) if finite else np.inf
-        if self.checks is not None:
+        if self.global_checks:
             u = self._global_velocity(r)
-            value = np.inf if u is None else float(self.checks.coulomb_guard(self.problem, r,
-                                                                             u)["value"])
+            value = np.inf if u is None else float(checks.coulomb_guard(self.problem, r,
+                                                                        u)["value"])
             return value if np.isfinite(value) else np.inf
         with np.errstate(all="ignore"):
             value = float(guard(self.problem, r, law=LAW_RESIDUALS[self.formulation],
@@ -320,9 +321,9 @@ class _Judge:
             indptr, indices, data = self.problem.csr_parts
             e = siconos_error(r, csr_matvec_add(indptr, indices, data, r, self.q), self.mu,
                               self.problem.dim, self.norm_q)
-        elif self.checks is not None:
+        elif self.global_checks:
             u = self._global_velocity(r)
-            e = np.inf if u is None else self.checks.coulomb_error(self.problem, r, u)
+            e = np.inf if u is None else checks.coulomb_error(self.problem, r, u)
         else:
             with np.errstate(all="ignore"):
                 e = LAW_RESIDUALS[self.formulation](self.problem, r, None, **self.params)
@@ -392,6 +393,11 @@ def _predict_window(problem):
     if type(w) is not int or w < 0:         # (a bool is not an int here)
         raise ValueError(f"socp_cd.solvers.auto.HANDOFF_PREDICT must be an int >= 0, got {w!r}")
     return w if problem.m <= newton.COMPILED_LOOP_MAX_M else 0
+
+
+def _cold_steps(method):
+    """Step cap of a cold trial stage (:data:`COLD_TRIAL_STEPS`, :data:`COLD_PROX_STEPS`; 0: off)."""
+    return COLD_TRIAL_STEPS if method == "newton_trial_cold" else COLD_PROX_STEPS
 
 
 def _small_cap(max_iter):
@@ -516,12 +522,11 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             variant = "at_cap"      # the second trial starts from NSGS's iterate, not the best
         if (method, form, version, variant) in ran:
             continue    # same deterministic method from the same start: nothing to gain
-        if (method in ("newton_trial", "newton_trial_cold", "newton_trial_prox", "nsgs_mid",
-                       "nsgs_rest") and methods is None and handoff is None):
+        if (method in ("newton_trial", "nsgs_mid", "nsgs_rest") + _COLD_TRIALS
+                and methods is None and handoff is None):
             continue    # no hand-off in this call (one contact, or max_iter leaves no sweeps)
-        if method in ("newton_trial_cold", "newton_trial_prox") and methods is None and (
-                not (COLD_TRIAL_STEPS if method == "newton_trial_cold" else COLD_PROX_STEPS)
-                or problem.m > newton.COMPILED_LOOP_MAX_M or not tried):
+        if method in _COLD_TRIALS and methods is None and (
+                not _cold_steps(method) or problem.m > newton.COMPILED_LOOP_MAX_M or not tried):
             continue    # only after a failed first trial, on a problem the compiled loop takes
         if method == "newton_trial" and methods is None and tried and not mid_ran:
             continue    # a second trial only follows nsgs_mid
@@ -591,8 +596,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             elif method == "newton_trial":
                 stage_max_iter = TRIAL_STEPS if max_iter is None else min(max_iter, TRIAL_STEPS)
                 opts["stall_window"] = TRIAL_STALL
-            elif method in ("newton_trial_cold", "newton_trial_prox"):
-                steps = COLD_TRIAL_STEPS if method == "newton_trial_cold" else COLD_PROX_STEPS
+            elif method in _COLD_TRIALS:
+                steps = _cold_steps(method)
                 stage_max_iter = steps if max_iter is None else min(max_iter, steps)
                 opts["stall_window"] = COLD_TRIAL_STALL
             if form == "tresca":

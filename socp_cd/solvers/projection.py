@@ -91,12 +91,12 @@ def _settings(options) -> dict:
     return s
 
 
-def check(problem, options, inner_settings) -> None:
-    """Reject ``inner_settings`` and bad option values before any work."""
+def check(problem, options, inner_settings) -> dict:
+    """Reject ``inner_settings`` and bad option values before any work; the checked settings."""
     if inner_settings:
         raise UnsupportedError("solver 'projection': inner_settings does not apply "
                                "(its settings are the solver options)")
-    _settings(options)
+    return _settings(options)
 
 
 def mean_diagonal(indptr, indices, data) -> float:
@@ -113,8 +113,7 @@ def projection_backend(problem, formulation, *, tol, max_iter=None, r0=None, his
                        **options) -> SolverResult:
     """Projection backend for :func:`socp_cd.solve` (see the module docstring for options)."""
     check_unknown("projection", options, OPTIONS)
-    check(problem, options, inner_settings)
-    st = _settings(options)
+    st = check(problem, options, inner_settings)
     t0, cpu0 = time.perf_counter(), time.process_time()
     max_iter = DEFAULT_MAX_ITER if max_iter is None else int(max_iter)
     nc, d = problem.n_contacts, problem.dim
