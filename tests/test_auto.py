@@ -581,12 +581,14 @@ def test_cold_trial_after_a_failed_trial_on_compiled_sizes(monkeypatch):
     monkeypatch.setattr(auto, "COLD_PROX_STEPS", 0)
     methods = [s["method"] for s in socp_cd.solve(p, tol=1e-8).info["path"]]
     assert "newton_trial_cold" not in methods and "nsgs_mid" in methods
-    # not above the compiled loop's size, not without a failed first trial
+    # not above COLD_MAX_M unknowns (OneObject, m = 69, against a bound of 60), not without a
+    # failed first trial
     monkeypatch.setattr(auto, "COLD_TRIAL_STEPS", 30)
     monkeypatch.setattr(auto, "COLD_PROX_STEPS", 15)
-    big = socp_cd.read_problem(Path(shared_problems_dir()) / "BoxesStack1-i100000-32.hdf5.dat")
-    assert big.m > newton.COMPILED_LOOP_MAX_M
-    assert "newton_trial_cold" not in [s["method"] for s in socp_cd.solve(big).info["path"]]
+    monkeypatch.setattr(auto, "COLD_MAX_M", 60)
+    methods = [s["method"] for s in socp_cd.solve(p, tol=1e-8).info["path"]]
+    assert "newton_trial" in methods and not set(auto._COLD_TRIALS) & set(methods)
+    monkeypatch.setattr(auto, "COLD_MAX_M", 150)
     easy = _local(4, 3, 8, mu=0.3)
     assert [s["method"] for s in socp_cd.solve(easy, history=True).info["path"]] == ["nsgs"]
 
@@ -637,3 +639,93 @@ def test_proximal_cold_trial_follows_a_failed_plain_cold_trial(monkeypatch):
                           stall_window=auto.COLD_TRIAL_STALL)
     assert res.info["path"][3]["iterations"] == alone.iterations
     assert res.converged
+
+
+def _rounds_setup(monkeypatch, factor, clock=None, cost=0.0):
+    """An order ("nsgs", "newton") twice of fake stages, each returning ``r`` full of an
+    error ``factor`` times the best so far (the judge reads the error off ``r[0]``); rounds
+    of the same two stages; no compiled route."""
+    monkeypatch.setattr(auto, "SMALL_NC", 0)
+    monkeypatch.setattr(auto, "PROBE_SWEEPS", 0)
+    monkeypatch.setattr(auto, "stage_order", lambda problem, formulation, feats:
+                        (("nsgs", "coulomb"), ("newton", "coulomb")) * 2)
+    monkeypatch.setattr(auto, "ROUND", ("nsgs", "newton"))
+    monkeypatch.setattr(auto._Judge, "__call__",
+                        lambda self, r: np.inf if r is None else float(r[0]))
+    monkeypatch.setattr(auto._Judge, "guard_value", lambda self, r: float(r[0]))
+    if clock is not None:
+        monkeypatch.setattr(auto, "_clock", lambda: clock[0])
+    state = {"err": 1.0, "calls": 0}
+
+    def stage(problem, formulation, *, tol, max_iter, r0, history, time_limit, verbose,
+              inner_settings, **options):
+        state["calls"] += 1
+        state["err"] *= factor
+        if clock is not None:
+            clock[0] += cost
+        return SolverResult(r=np.full(problem.m, state["err"]), status="max_iter", iterations=1)
+    spec = SolverSpec("fake", stage, ("coulomb",), global_native=("coulomb",))
+    for name in ("nsgs", "newton"):
+        monkeypatch.setitem(auto._STAGES, name, (spec, {}))
+    return state
+
+
+@pytest.mark.parametrize("factor,gain,rounds", [(0.6, 2.0, 5), (0.8, 2.0, 0), (0.8, 1.5, 5)])
+def test_rounds_go_on_while_they_cut_the_error(monkeypatch, factor, gain, rounds):
+    """After the order, rounds of ROUND run while each cuts the best error by ROUND_GAIN
+    (two stages at x0.6: x0.36 a round; at x0.8: x0.64, not a halving), at most MAX_ROUNDS."""
+    monkeypatch.setattr(auto, "MAX_ROUNDS", 5)
+    monkeypatch.setattr(auto, "ROUND_GAIN", gain)
+    _rounds_setup(monkeypatch, factor)
+    res = socp_cd.solve(_local(3, 3, 1), tol=1e-30)
+    assert res.info.get("rounds", 0) == rounds
+    assert len(res.info["path"]) == 4 + 2 * rounds
+    assert res.status != "converged" and res.error > 1e-30
+
+
+def test_rounds_stop_when_a_round_does_not_cut_the_error(monkeypatch):
+    # each stage halves the error until the best is 1e-3, then returns worse iterates: the
+    # round after that runs (the order cut the error) and no round follows it
+    monkeypatch.setattr(auto, "MAX_ROUNDS", 10)
+    monkeypatch.setattr(auto, "ROUND_GAIN", 2.0)
+    state = _rounds_setup(monkeypatch, 0.5)
+    real = auto._STAGES["nsgs"][0].func
+
+    def floor(problem, formulation, **kw):
+        res = real(problem, formulation, **kw)
+        if state["err"] < 1e-3:
+            res.r = np.full(problem.m, 1.0)     # worse than the best
+        return res
+    spec = SolverSpec("fake", floor, ("coulomb",), global_native=("coulomb",))
+    for name in ("nsgs", "newton"):
+        monkeypatch.setitem(auto._STAGES, name, (spec, {}))
+    res = socp_cd.solve(_local(3, 3, 1), tol=1e-30)
+    errors = [s["error"] for s in res.info["path"]]
+    # stages 1-9 halve the error (the order's 4, rounds 1 and 2, round 3's first); stage 10
+    # (round 3) is worse; round 3 halved the best, so round 4 runs: its first stage is worse,
+    # its second (Newton from the same best iterate as stage 10) is skipped: no round 5
+    assert min(errors) == 2.0 ** -9 and errors.index(2.0 ** -9) == 8
+    assert len(errors) == 11 and res.info["rounds"] == 4
+
+
+def test_rounds_respect_the_time_budget(monkeypatch):
+    clock = [0.0]
+    monkeypatch.setattr(auto, "MAX_ROUNDS", 50)
+    _rounds_setup(monkeypatch, 0.5, clock=clock, cost=1.0)
+    res = socp_cd.solve(_local(3, 3, 1), tol=1e-30, time_limit=6.5)
+    assert res.status == "time_limit"
+    assert clock[0] <= 7.0 and len(res.info["path"]) == 7 and res.info["rounds"] == 2
+
+
+def test_rounds_leave_a_solved_problem_alone(monkeypatch):
+    """A problem the stage order solves never reaches a round: the same path with the rounds
+    on and off (the study validation/auto_rounds.py reruns only the order's misses)."""
+    probs = [_local(5, 3, s, mu=mu, rank_deficient=rd) for s, mu, rd in
+             ((0, 0.5, False), (1, 2.0, False), (2, 0.3, True))]
+    paths = {}
+    for most in (0, 8):
+        monkeypatch.setattr(auto, "MAX_ROUNDS", most)
+        paths[most] = [[(s["method"], s["iterations"], s["error"])
+                        for s in socp_cd.solve(p, tol=1e-10).info["path"]] for p in probs]
+    assert paths[0] == paths[8]
+    assert all(socp_cd.solve(p, tol=1e-10).converged for p in probs)

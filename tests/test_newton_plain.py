@@ -59,13 +59,20 @@ def test_plain_newton_solves_the_rank_deficient_block():
     assert res.info["plain_steps"] == res.iterations
 
 
-def test_auto_plain_stage_solves_what_the_previous_chain_did_not():
+@pytest.mark.parametrize("cold_max_m", [72, 150])
+def test_auto_plain_stage_solves_what_the_previous_chain_did_not(monkeypatch, cold_max_m):
+    # the plain policy solves it: as the stage after the first Newton stage when the cold
+    # trials do not run on its size (session 13's bound, 72), else as the plain cold trial
+    from socp_cd.solvers import auto
+    monkeypatch.setattr(auto, "COLD_MAX_M", cold_max_m)
     p = _capsule_block()
+    assert 72 < p.m <= 150
     before = socp_cd.solve(p, "auto", tol=TOL, methods=PREVIOUS_SMALL_CHAIN)
     assert not before.converged and not _solved(p, before)
     res = socp_cd.solve(p, "auto", tol=TOL)
     assert res.converged and _solved(p, res)
-    assert "newton_plain" in [s["method"] for s in res.info["path"]]
+    solver = "newton_plain" if cold_max_m < p.m else "newton_trial_cold"
+    assert res.info["path"][-1]["method"] == solver
     # never worse than a stage it tried (stage errors in the dispatcher's balanced units)
     best = min(s["error"] for s in res.info["path"])
     assert res.info["guard"]["balanced_siconos"] <= best * (1 + 1e-3)

@@ -28,6 +28,17 @@ Session 13's rules (tune split: only the first adopted; ``socp_cd.solvers.auto``
 ``NEWTON_STALL``
     the stall window of the proximal Newton stages (None: Newton's default, 50).
 
+Session 14's:
+
+``COLD_MAX_M``
+    the cold trials run on problems of at most that many unknowns (session 13: 72, where the
+    Newton loop is compiled; the held-out 8-box stacks, 30 contacts, m = 90, ran the rest of
+    NSGS's 1000 sweeps after a failed trial: 12 ms where Newton alone took 2.5 ms);
+``PREDICT_MAX_M``
+    the hand-off's rate prediction on problems of at most that many unknowns (session 12: 72);
+``MAX_ROUNDS``
+    rounds after the order (``validation/auto_rounds.py`` measures them; here 0 in ``base``).
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``) or ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``.  Problems:
@@ -60,10 +71,13 @@ from auto_probe import items, min_wall_time, record, write_csv
 
 OUT = Path(__file__).resolve().parent / "results"
 RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL",
-         "NEWTON_STALL", "COLD_PROX_STEPS")
+         "NEWTON_STALL", "COLD_PROX_STEPS", "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS")
 BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD_TRIAL_STEPS": 0,
-        "COLD_TRIAL_STALL": 10, "NEWTON_STALL": None, "COLD_PROX_STEPS": 0}
-INTS = ("REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS")
+        "COLD_TRIAL_STALL": 10, "NEWTON_STALL": None, "COLD_PROX_STEPS": 0,
+        "COLD_MAX_M": newton.COMPILED_LOOP_MAX_M, "PREDICT_MAX_M": newton.COMPILED_LOOP_MAX_M,
+        "MAX_ROUNDS": 0}
+INTS = ("REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
+        "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 

@@ -21,9 +21,11 @@ dumps (used by a test).  Writes ``DIR/collections.md`` (contacts and wall
 time per collection).
 
 ``--small`` builds small 3D collections into ``validation/evalset_sim_small/`` (held out
-like the default ones): ``boxes3d-4`` and ``boxes3d-8`` (stacks of 4 and 8 boxes sliding
-down an incline, ``examples/box_stack_incline_above.toml``: 4 redundant contacts per face,
-16 and 32 contacts) and ``pile3d-20`` (20 spheres, ``examples/sphere_pile.toml``);
+like the default ones): ``boxes3d-4``, ``boxes3d-8`` and ``boxes3d-12`` (stacks of 4, 8
+and 12 boxes sliding down an incline, ``examples/box_stack_incline_above.toml``: 4 redundant
+contacts per face, 16, 32 and 48 contacts), ``boxes3d-below-6`` (6 boxes at rest on the
+incline, ``examples/box_stack_incline_below.toml``) and ``pile3d-20`` (20 spheres,
+``examples/sphere_pile.toml``);
 ``--small --tune`` other scenes of the same kinds into ``validation/evalset_sim_small_tune/``
 (see :func:`small_runs`).
 
@@ -141,16 +143,20 @@ def main(argv=None) -> int:
 
 
 def small_runs(out: Path, tune: bool = False) -> list:
-    """The ``--small`` collections: ``(name, scene file, steps, dump every)``; with ``tune``
-    other scenes of the same kinds (``--small --tune``: stacks of 5 and 6 boxes, 3 boxes on
-    the incline below the friction angle, a 15-sphere pile with another seed), the ones a
-    rule may be chosen on."""
+    """The ``--small`` collections: ``(name, scene file, steps, dump every)``: stacks of 4, 8
+    and 12 boxes sliding down the incline, 6 boxes at rest on it (below the friction angle), a
+    20-sphere pile; with ``tune`` other scenes of the same kinds (``--small --tune``: stacks
+    of 5, 6 and 10 boxes, 3 and 7 boxes below the friction angle, a 15-sphere pile with
+    another seed), the ones a rule may be chosen on."""
     if tune:
         runs = []
         above = (EXAMPLES / "box_stack_incline_above.toml").read_text()
         below = (EXAMPLES / "box_stack_incline_below.toml").read_text()
         for name, text, count in (("boxes3d-tune-5", above, 5), ("boxes3d-tune-6", above, 6),
-                                  ("boxes3d-tune-below-3", below, 3)):
+                                  ("boxes3d-tune-below-3", below, 3),
+                                  # session 14: stacks of more than 72 unknowns (m = 3 nc)
+                                  ("boxes3d-tune-10", above, 10),
+                                  ("boxes3d-tune-below-7", below, 7)):
             scene = out / f"{name}.toml"
             scene.write_text(text.replace("count = 4", f"count = {count}"))
             runs.append((name, scene, 1000, 50))
@@ -161,10 +167,14 @@ def small_runs(out: Path, tune: bool = False) -> list:
         return runs
     runs = []
     stack = (EXAMPLES / "box_stack_incline_above.toml").read_text()
-    for count in (4, 8):
+    for count in (4, 8, 12):        # (12: built in session 14, after the rules were chosen)
         scene = out / f"boxes3d-{count}.toml"
         scene.write_text(stack.replace("count = 4", f"count = {count}"))
         runs.append((f"boxes3d-{count}", scene, 1000, 50))
+    scene = out / "boxes3d-below-6.toml"
+    scene.write_text((EXAMPLES / "box_stack_incline_below.toml").read_text()
+                     .replace("count = 4", "count = 6"))
+    runs.append(("boxes3d-below-6", scene, 1000, 50))
     scene = out / "pile3d-20.toml"
     scene.write_text((EXAMPLES / "sphere_pile.toml").read_text().replace("count = 300",
                                                                           "count = 20"))

@@ -16,7 +16,7 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   at the end of a window of :data:`HANDOFF_PREDICT` sweeps after which its rate
   predicts that the cap will not reach ``tol`` — to a trial of at most
   :data:`TRIAL_STEPS` plain Newton steps, then, on at most
-  ``newton.COMPILED_LOOP_MAX_M`` unknowns, plain Newton from ``r = 0`` for at most
+  :data:`COLD_MAX_M` unknowns, plain Newton from ``r = 0`` for at most
   :data:`COLD_TRIAL_STEPS` steps (``"newton_trial_cold"``) and the proximal method from
   ``r = 0`` for at most :data:`COLD_PROX_STEPS` (``"newton_trial_prox"``), then going on from its
   own iterate when the trials fail: ``"newton_trial"``, after an early hand-off
@@ -29,7 +29,10 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   :data:`LARGE_2D_NC` contacts run the fixed point right after the probe, before
   Newton; larger or global problems: Newton, then — ordered by friction
   range and dimension — NSGS and the fixed point, then Newton again from the
-  best iterate when an earlier stage improved it.
+  best iterate when an earlier stage improved it.  When the order runs out without
+  meeting ``tol`` on the exact law, *rounds* of :data:`ROUND` follow from the best iterate
+  while each cuts the best error by :data:`ROUND_GAIN` (at most :data:`MAX_ROUNDS`, within
+  the time budget; ``info["rounds"]``).
 
 The chain stops at the first stage whose error, recomputed from its ``r``
 (compiled kernel :func:`~socp_cd.solvers.kernels.cone.siconos_error` for the
@@ -145,6 +148,15 @@ REST_PREDICT = 0
 #: stopped after COLD_TRIAL_STALL steps without a 10 % drop of the error (0: off)
 COLD_TRIAL_STEPS = 30
 COLD_TRIAL_STALL = 10
+#: the cold trials run on problems of at most this many unknowns (``m = dim * n_contacts``;
+#: session 13: newton.COMPILED_LOOP_MAX_M = 72, where the whole Newton loop is compiled; 150
+#: chosen on the tune split, 300 lost a case and cost PerioBox x3-12:
+#: validation/results/auto_chain_tune_coldm.md, formulations/auto.md "Cold trials on larger
+#: problems")
+COLD_MAX_M = 150
+#: the hand-off's rate prediction (HANDOFF_PREDICT) on problems of at most this many unknowns
+#: (300 measured on the tune split: no change, not adopted)
+PREDICT_MAX_M = newton.COMPILED_LOOP_MAX_M
 #: ... and when that fails too, the proximal Newton method from ``r = 0`` for at most this many
 #: outer iterations (same stall window; 0: off): box stacks with redundant contacts, where plain
 #: Newton fails and the proximal method converges (formulations/auto.md, "The proximal cold
@@ -155,6 +167,17 @@ COLD_PROX_STEPS = 15
 #: auto_chain_{tune,holdout}_stall.md): 30 solved 2 more on tune and lost none, but held out
 #: it won 2 (Capsules, time-limited) and lost 2 (BoxesStack1, PerioBox)
 NEWTON_STALL = None
+#: when the stage order ends without meeting ``tol`` on the exact Coulomb law and the best
+#: error fell by at least ROUND_GAIN over the last ``len(ROUND)`` stages run, the chain goes on
+#: with one more *round* of these stages from the best iterate, and again after each round
+#: that cut the best error by that factor, at most MAX_ROUNDS rounds (0: off) and never past
+#: the time budget: on manufactured Capsules cases the last stages were still cutting the
+#: error by 10-30x when the order ran out with 80-90 % of a 10 s budget unspent
+#: (formulations/auto.md, "Rounds"; chosen on the tune split,
+#: validation/results/auto_rounds_tune.md: 1 s 115 -> 116 of 128 solved, 10 s 116 -> 118)
+ROUND = ("nsgs", "newton", "clarabel", "newton")
+ROUND_GAIN = 1.1
+MAX_ROUNDS = 8
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
@@ -392,7 +415,7 @@ def _predict_window(problem):
     w = HANDOFF_PREDICT
     if type(w) is not int or w < 0:         # (a bool is not an int here)
         raise ValueError(f"socp_cd.solvers.auto.HANDOFF_PREDICT must be an int >= 0, got {w!r}")
-    return w if problem.m <= newton.COMPILED_LOOP_MAX_M else 0
+    return w if problem.m <= PREDICT_MAX_M else 0
 
 
 def _cold_steps(method):
@@ -466,6 +489,19 @@ def route(problem, *, tol, max_iter, r0, time_limit):
                                  x[ZERO_ERROR] <= tol)
 
 
+def _round_gain(bests, since) -> bool:
+    """Whether one more round (:data:`ROUND`) follows: the best error (``bests``: after each
+    stage run) fell by at least :data:`ROUND_GAIN` over the last round (``since``: the length
+    of ``bests`` when it began; a round whose stages were all skipped, their start unchanged,
+    ends the rounds) or, before the first round (``since`` None), over the last ``len(ROUND)``
+    stages run (over all of them but the first when fewer ran)."""
+    if since is None:
+        since = max(0, len(bests) - 1 - len(ROUND)) + 1
+    if since < 1 or len(bests) <= since - 1 or len(bests) == since or not np.isfinite(bests[-1]):
+        return False
+    return bests[-1] * ROUND_GAIN <= bests[since - 1]
+
+
 def _explicit_order(methods, formulation):
     order = []
     for m in methods:
@@ -507,8 +543,18 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     nsgs_own = None               # the hand-off's first NSGS stage: (its iterate, status, sweeps)
     tried = mid_ran = False       # whether the hand-off's trial, and nsgs_mid, have run
     retried = False               # whether a refused stage has been run once more
+    # rounds: bests is the best error after each stage run, since its length when the last
+    # round began (None before the first)
+    rounds, bests, since = 0, [], None
     k = -1
-    while k + 1 < len(order):     # (a refused stage may be inserted once: RETRY_REFUSED)
+    while True:     # (a refused stage may be inserted once: RETRY_REFUSED; rounds appended)
+        if k + 1 >= len(order):
+            if not (methods is None and formulation == "coulomb" and not feats["frictionless"]
+                    and rounds < MAX_ROUNDS and _round_gain(bests, since)
+                    and (time_limit is None or _clock() - t_start < time_limit)):
+                break
+            order = order + tuple((m, "coulomb") for m in ROUND)
+            rounds, since = rounds + 1, len(bests)
         k += 1
         method, form = order[k]
         # the first NSGS stage of a small local exact-Coulomb problem runs with the study
@@ -526,7 +572,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 and methods is None and handoff is None):
             continue    # no hand-off in this call (one contact, or max_iter leaves no sweeps)
         if method in _COLD_TRIALS and methods is None and (
-                not _cold_steps(method) or problem.m > newton.COMPILED_LOOP_MAX_M or not tried):
+                not _cold_steps(method) or problem.m > COLD_MAX_M or not tried):
             continue    # only after a failed first trial, on a problem the compiled loop takes
         if method == "newton_trial" and methods is None and tried and not mid_ran:
             continue    # a second trial only follows nsgs_mid
@@ -639,6 +685,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         path.append({"method": method, "formulation": form, "iterations": its, "time": dt,
                      "error": err, "status": st})
         iterations += its
+        bests.append(min(err, best_err))
         if history and res is not None and res.history:
             hist.extend(res.history)
         if err < best_err:
@@ -665,6 +712,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     if verbose:
         print("auto: " + " -> ".join(f"{s['method']}({s['error']:.1e})" for s in path))
     info = {"path": path, "features": feats, "best_stage": best_stage}
+    if rounds:
+        info["rounds"] = rounds
     return SolverResult(r=best_r, v=best_v, status=status, iterations=iterations, history=hist,
                         info=info, message=message)
 
@@ -682,4 +731,5 @@ __all__ = ["auto_backend", "route", "features", "stage_order", "SPEC", "OPTIONS"
            "TRIAL_STALL", "HANDOFF_PREDICT",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
            "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC", "RETRY_REFUSED",
-           "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS"]
+           "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
+           "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M"]
