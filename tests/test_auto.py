@@ -715,6 +715,26 @@ def test_rounds_respect_the_time_budget(monkeypatch):
     res = socp_cd.solve(_local(3, 3, 1), tol=1e-30, time_limit=6.5)
     assert res.status == "time_limit"
     assert clock[0] <= 7.0 and len(res.info["path"]) == 7 and res.info["rounds"] == 2
+    # the budget spent exactly when a round would begin: time_limit too, no round started
+    clock[0] = 0.0
+    res = socp_cd.solve(_local(3, 3, 1), tol=1e-30, time_limit=6.0)
+    assert res.status == "time_limit" and len(res.info["path"]) == 6 and res.info["rounds"] == 1
+
+
+def test_a_round_does_not_rerun_a_stage_that_starts_cold(monkeypatch):
+    """The fixed point starts from r = 0 while the best error is above WARM_MAX: a round's
+    fixed point would repeat the order's, so it is skipped; the round's other stages run."""
+    monkeypatch.setattr(auto, "MAX_ROUNDS", 1)
+    _rounds_setup(monkeypatch, 0.5)
+    monkeypatch.setattr(auto, "stage_order", lambda problem, formulation, feats:
+                        (("nsgs", "coulomb"), ("clarabel", "coulomb"), ("newton", "coulomb"),
+                         ("nsgs", "coulomb")))
+    monkeypatch.setattr(auto, "ROUND", ("nsgs", "clarabel", "newton"))
+    monkeypatch.setitem(auto._STAGES, "clarabel", auto._STAGES["nsgs"])
+    res = socp_cd.solve(_local(3, 3, 1), tol=1e-30)
+    methods = [s["method"] for s in res.info["path"]]
+    assert res.info["rounds"] == 1 and min(s["error"] for s in res.info["path"]) > auto.WARM_MAX
+    assert methods == ["nsgs", "clarabel", "newton", "nsgs", "nsgs", "newton"]
 
 
 def test_rounds_leave_a_solved_problem_alone(monkeypatch):

@@ -72,7 +72,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--split", choices=("tune", "holdout"), required=True)
     ap.add_argument("--time-limit", type=float, nargs="+", default=[1.0])
-    ap.add_argument("--configs", nargs="+", default=["2/nsgs+newton+clarabel+newton/8"])
+    ap.add_argument("--configs", nargs="+", default=["1.1/nsgs+newton+clarabel+newton/8"])
     ap.add_argument("--tag", default="")
     args = ap.parse_args(argv)
     warm_up(SolverChoice("auto", "coulomb"), 3)

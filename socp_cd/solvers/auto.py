@@ -31,8 +31,8 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   range and dimension — NSGS and the fixed point, then Newton again from the
   best iterate when an earlier stage improved it.  When the order runs out without
   meeting ``tol`` on the exact law, *rounds* of :data:`ROUND` follow from the best iterate
-  while each cuts the best error by :data:`ROUND_GAIN` (at most :data:`MAX_ROUNDS`, within
-  the time budget; ``info["rounds"]``).
+  (a stage that starts from ``r = 0`` runs once) while each cuts the best error by
+  :data:`ROUND_GAIN` (at most :data:`MAX_ROUNDS`, within the time budget; ``info["rounds"]``).
 
 The chain stops at the first stage whose error, recomputed from its ``r``
 (compiled kernel :func:`~socp_cd.solvers.kernels.cone.siconos_error` for the
@@ -126,7 +126,7 @@ TRIAL_STALL = 2
 #: ... and NSGS hands over earlier, at the end of any window of this many sweeps after which
 #: the error's mean rate over the window predicts that the hand-off's sweeps will not reach
 #: ``tol`` (NSGS's option ``predict_window``; 0: off), on problems of at most
-#: ``newton.COMPILED_LOOP_MAX_M`` unknowns (a compiled, cheap trial); when that early trial
+#: PREDICT_MAX_M unknowns (a compiled, cheap trial); when that early trial
 #: fails, NSGS goes on from its own iterate to the cap (``"nsgs_mid"``) and a second trial
 #: follows there, as without the prediction: a failed early trial costs its steps
 HANDOFF_PREDICT = 20
@@ -200,7 +200,7 @@ COLD_STAGES = ("clarabel", "clarabel_qp")
 WARM_MAX = 1e-5
 #: stages always started from ``r = 0`` (or the caller's ``r0`` when first)
 ALWAYS_COLD = ("newton_plain_cold", "newton_trial_cold", "newton_trial_prox")
-#: the hand-off's cold trials (run only after a failed first trial, on m <= 72)
+#: the hand-off's cold trials (run only after a failed first trial, on m <= COLD_MAX_M)
 _COLD_TRIALS = ("newton_trial_cold", "newton_trial_prox")
 #: stages with their own iteration cap (:data:`PLAIN_MAX_ITER`) when ``max_iter`` is None
 _CAPPED = {"newton_plain": PLAIN_MAX_ITER, "newton_plain_cold": PLAIN_MAX_ITER}
@@ -489,6 +489,14 @@ def route(problem, *, tol, max_iter, r0, time_limit):
                                  x[ZERO_ERROR] <= tol)
 
 
+def _starts_cold(method, k, best_err) -> bool:
+    """Whether stage ``k`` (``method``) starts from ``r = 0`` (the first stage starts from the
+    caller's ``r0``): :data:`ALWAYS_COLD`, or :data:`COLD_STAGES` while the best error is above
+    :data:`WARM_MAX`."""
+    return k > 0 and (method in ALWAYS_COLD
+                      or (method in COLD_STAGES and not best_err <= WARM_MAX))
+
+
 def _round_gain(bests, since) -> bool:
     """Whether one more round (:data:`ROUND`) follows: the best error (``bests``: after each
     stage run) fell by at least :data:`ROUND_GAIN` over the last round (``since``: the length
@@ -550,9 +558,11 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     while True:     # (a refused stage may be inserted once: RETRY_REFUSED; rounds appended)
         if k + 1 >= len(order):
             if not (methods is None and formulation == "coulomb" and not feats["frictionless"]
-                    and rounds < MAX_ROUNDS and _round_gain(bests, since)
-                    and (time_limit is None or _clock() - t_start < time_limit)):
+                    and rounds < MAX_ROUNDS and _round_gain(bests, since)):
                 break
+            if time_limit is not None and _clock() - t_start >= time_limit:
+                status, message = "time_limit", f"time budget {time_limit:g} s spent"
+                break       # (a round would follow: the budget, not the methods, ran out)
             order = order + tuple((m, "coulomb") for m in ROUND)
             rounds, since = rounds + 1, len(bests)
         k += 1
@@ -566,14 +576,17 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         variant = "small_first" if small_first and knobs != (None, None) else ""
         if method == "newton_trial" and mid_ran:
             variant = "at_cap"      # the second trial starts from NSGS's iterate, not the best
-        if (method, form, version, variant) in ran:
+        # a stage started from r = 0 (or the caller's r0) has the same start whatever the best
+        # iterate: keyed without its version (a round's fixed point after a cold one: skipped)
+        key = (method, form, None if _starts_cold(method, k, best_err) else version, variant)
+        if key in ran:
             continue    # same deterministic method from the same start: nothing to gain
         if (method in ("newton_trial", "nsgs_mid", "nsgs_rest") + _COLD_TRIALS
                 and methods is None and handoff is None):
             continue    # no hand-off in this call (one contact, or max_iter leaves no sweeps)
         if method in _COLD_TRIALS and methods is None and (
                 not _cold_steps(method) or problem.m > COLD_MAX_M or not tried):
-            continue    # only after a failed first trial, on a problem the compiled loop takes
+            continue    # only after a failed first trial, on at most COLD_MAX_M unknowns
         if method == "newton_trial" and methods is None and tried and not mid_ran:
             continue    # a second trial only follows nsgs_mid
         if method == "nsgs_mid":
@@ -593,7 +606,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 rest = (nsgs.DEFAULT_MAX_ITER if max_iter is None else max_iter) - nsgs_own[2]
             if rest is None or rest <= 0:
                 continue
-        ran.add((method, form, version, variant))
+        ran.add(key)
         target = problem
         if k == 0 and resume is not None and (method, form) == (resume["stage"]["method"],
                                                                 "coulomb"):
@@ -650,9 +663,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 opts["threshold"] = options["threshold"]
             t0 = _clock()
             try:
-                cold = (method in ALWAYS_COLD
-                        or (method in COLD_STAGES and not best_err <= WARM_MAX))
-                start = (None if (cold and k > 0) else r0 if after_far_probe else best_r)
+                start = (None if _starts_cold(method, k, best_err)
+                         else r0 if after_far_probe else best_r)
                 if method == "newton_trial" and not mid_ran:
                     start = best_r          # the first trial: from NSGS's iterate, far or not
                 if method in ("nsgs_mid", "nsgs_rest") or (method == "newton_trial" and mid_ran):
