@@ -279,11 +279,14 @@ def test_hybrid_converges_where_the_proximal_loop_stalls():
     p = _rank_deficient_asymmetric(24)
     W = p.W.toarray() if sp.issparse(p.W) else np.asarray(p.W)
     assert np.linalg.matrix_rank(W + W.T) == 36 < p.m and p.asymmetry > 1e-3
-    a = socp_cd.solve(p, "newton", tol=1e-8, policy="prox")
-    b = socp_cd.solve(p, "newton", tol=1e-8, policy="hybrid")
+    # (with session 13's cold proximal parameter, alpha0 = 1; the default 0.1 of session 14
+    # solves this draw with the proximal loop too)
+    a = socp_cd.solve(p, "newton", tol=1e-8, policy="prox", alpha0=1.0)
+    b = socp_cd.solve(p, "newton", tol=1e-8, policy="hybrid", alpha0=1.0)
     assert not a.converged and socp_cd.error(p, a.r) > 1e-6
     assert b.converged and socp_cd.error(p, b.r) <= 1e-8
     assert b.info["plain_steps"] > 0
+    assert socp_cd.solve(p, "newton", tol=1e-8, policy="prox").converged
 
 
 @pytest.mark.parametrize("seed", [3, 24])

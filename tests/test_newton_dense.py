@@ -23,7 +23,9 @@ from socp_cd.solvers import newton as nt
 from socp_cd.solvers.kernels.cone import project_cone_stacked
 
 #: settings of a cold solve (newton_backend's defaults) and of the polish (newton_polish)
-COLD = dict(alpha0=1.0, alpha_min=1e-10, inner_max_iter=10, stall_window=50)
+COLD = dict(alpha0=nt.COLD_ALPHA0, alpha_min=1e-10, inner_max_iter=10, stall_window=50)
+#: session 13's cold start (alpha0 = 1): the twins held equal there too
+COLD_1 = dict(COLD, alpha0=1.0)
 WARM = dict(COLD, alpha0=nt.WARM_ALPHA0)
 #: shared problems with m <= COMPILED_LOOP_MAX_M (1-23 contacts; global ones condensed)
 SMALL_SHARED = ["FrictionContact3D_1c.dat", "FrictionContact3D_RR_1c.dat", "Rover11035.dat",
@@ -87,6 +89,7 @@ def test_twin_equals_python_loop_on_shared_problems(name):
     r1 = a[1] * (1.0 + 1e-3 * rng.standard_normal(p.m))
     _assert_equal(*_both(p, r1, 1e-12, max_iter=15, **WARM))
     _assert_equal(*_both(p, np.zeros(p.m), 1e-14, max_iter=2, rho="split"))
+    _assert_equal(*_both(p, np.zeros(p.m), 1e-10, **COLD_1))
 
 
 @pytest.mark.parametrize("dim", [2, 3])

@@ -37,7 +37,11 @@ Session 14's:
 ``PREDICT_MAX_M``
     the hand-off's rate prediction on problems of at most that many unknowns (session 12: 72);
 ``MAX_ROUNDS``
-    rounds after the order (``validation/auto_rounds.py`` measures them; here 0 in ``base``).
+    rounds after the order (``validation/auto_rounds.py`` measures them; here 0 in ``base``);
+``COLD_ALPHA0``
+    ``newton.COLD_ALPHA0``, the Newton method's relative proximal parameter when it starts
+    from afar (the default of its ``alpha0`` option; ``auto``'s first Newton stage of larger
+    problems and its proximal cold trial).
 
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
@@ -71,18 +75,22 @@ from auto_probe import items, min_wall_time, record, write_csv
 
 OUT = Path(__file__).resolve().parent / "results"
 RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL",
-         "NEWTON_STALL", "COLD_PROX_STEPS", "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS")
+         "NEWTON_STALL", "COLD_PROX_STEPS", "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS",
+         "COLD_ALPHA0")
+#: rules that are constants of another module than auto's
+MODULE_OF = {"COLD_ALPHA0": newton}
+FLOATS = ("COLD_ALPHA0",)
 BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD_TRIAL_STEPS": 0,
         "COLD_TRIAL_STALL": 10, "NEWTON_STALL": None, "COLD_PROX_STEPS": 0,
         "COLD_MAX_M": newton.COMPILED_LOOP_MAX_M, "PREDICT_MAX_M": newton.COMPILED_LOOP_MAX_M,
-        "MAX_ROUNDS": 0}
+        "MAX_ROUNDS": 0, "COLD_ALPHA0": 1.0}
 INTS = ("REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 
 #: the module's defaults, read once at import (run() changes the module's values per setting)
-DEFAULTS = {k: getattr(auto, k) for k in RULES}
+DEFAULTS = {k: getattr(MODULE_OF.get(k, auto), k) for k in RULES}
 
 
 def settings(config: str) -> dict:
@@ -98,7 +106,8 @@ def settings(config: str) -> dict:
             name, value = part.split("=")
             if name not in RULES:
                 raise SystemExit(f"unknown rule {name!r}; one of {RULES}")
-            out[name] = int(value) if name in INTS else bool(int(value))
+            out[name] = (float(value) if name in FLOATS else int(value) if name in INTS
+                         else bool(int(value)))
     return out
 
 
@@ -108,7 +117,7 @@ def run(its, configs, tol, time_limit, repeats_for):
         for fam, cid, p in its:
             for c in configs:
                 for k, v in settings(c).items():
-                    setattr(auto, k, v)
+                    setattr(MODULE_OF.get(k, auto), k, v)
                 dt, res = min_wall_time(p, lambda t: socp_cd.solve(
                     t, "auto", tol=tol, time_limit=time_limit), repeats_for(p))
                 rows.append(record(fam, cid, p, tol, dt, res, config=c))
@@ -117,7 +126,7 @@ def run(its, configs, tol, time_limit, repeats_for):
                 for r in rows if r["case"] == cid), flush=True)
     finally:
         for k, v in DEFAULTS.items():
-            setattr(auto, k, v)
+            setattr(MODULE_OF.get(k, auto), k, v)
     return rows
 
 

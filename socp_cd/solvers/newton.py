@@ -26,7 +26,7 @@ larger ones run Newton on the saddle-point system ``M v = H r + f``,
 
 Options (``socp_cd.solve(problem, solver="newton", **options)``)
 -----------------------------------------------------------------
-alpha0 : float, default 1
+alpha0 : float, default 0.1 (``COLD_ALPHA0``)
     Initial proximal parameter, relative to the mean diagonal scale of ``W``
     (``Hᵀ M⁻¹ H`` estimated from ``H`` and ``diag(M)`` for global problems).
 alpha_min : float, default 1e-10
@@ -135,7 +135,7 @@ SPLU_OPTIONS = types.MappingProxyType({"permc_spec": "COLAMD", "diag_pivot_thres
                                        "options": {"SymmetricMode": True}})
 #: solver-specific options (the common ones are in :mod:`socp_cd.solvers.options`)
 OPTIONS = {
-    "alpha0": "initial proximal parameter relative to the diagonal scale of W (default 1)",
+    "alpha0": "initial proximal parameter relative to the diagonal scale of W (default 0.1)",
     "alpha_min": "relative floor of the proximal parameter (default 1e-10)",
     "inner_max_iter": "Newton steps per proximal subproblem (default 10)",
     "linear_solver": "'auto' (default), 'dense' (LAPACK LU) or 'splu' (SuperLU)",
@@ -816,7 +816,7 @@ def _settings(problem, options, inner_settings=None) -> dict:
     def get(name, default):
         v = options.get(name)
         return default if v is None else v
-    alpha0 = check_real("alpha0", get("alpha0", 1.0), positive=True)
+    alpha0 = check_real("alpha0", get("alpha0", COLD_ALPHA0), positive=True)
     alpha_min = check_real("alpha_min", get("alpha_min", 1e-10), minimum=0.0, maximum=alpha0)
     return dict(alpha0=alpha0, alpha_min=alpha_min,
                 inner_max_iter=check_int("inner_max_iter", get("inner_max_iter", 10), minimum=1),
@@ -865,6 +865,11 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
 
 
 # --------------------------------------------------------------------------- as a polish
+#: default relative proximal parameter of a start from afar (the ``alpha0`` option); 1 until
+#: session 14, 0.1 chosen on the tune split (validation/results/auto_chain_tune_alpha.md:
+#: 2 more solved, none lost; 0.01 lost one) and checked once held out (formulations/auto.md,
+#: "Newton's cold proximal parameter")
+COLD_ALPHA0 = 0.1
 #: the polish names :func:`resolve_polish` knows
 POLISH_NAMES = ("newton",)
 #: relative proximal parameter of a warm start near a solution (polish, later stages
@@ -962,5 +967,5 @@ def warmup() -> float:
 
 
 __all__ = ["newton_backend", "BlockJacobian", "prox_newton", "newton_polish", "resolve_polish", "POLISH_NAMES",
-           "WARM_ALPHA0", "velocity_relative_error", "POLICIES", "warmup",
+           "WARM_ALPHA0", "COLD_ALPHA0", "velocity_relative_error", "POLICIES", "warmup",
            "DEFAULT_MAX_ITER", "OPTIONS", "SPEC"]
