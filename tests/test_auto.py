@@ -749,3 +749,37 @@ def test_rounds_leave_a_solved_problem_alone(monkeypatch):
                         for s in socp_cd.solve(p, tol=1e-10).info["path"]] for p in probs]
     assert paths[0] == paths[8]
     assert all(socp_cd.solve(p, tol=1e-10).converged for p in probs)
+
+
+def test_a_stage_slow_to_stop_does_not_start_when_its_last_run_exceeds_the_time_left(
+        monkeypatch):
+    """SLOW_TO_STOP (Clarabel: its clock is read between interior-point iterations): under a
+    budget, the fixed point does not start again when its run in this call took longer than
+    all the time left; other stages still run."""
+    clock = [0.0]
+    monkeypatch.setattr(auto, "_clock", lambda: clock[0])
+    monkeypatch.setattr(auto._Judge, "__call__",
+                        lambda self, r: np.inf if r is None else float(r[0]))
+    monkeypatch.setattr(auto._Judge, "guard_value", lambda self, r: float(r[0]))
+    log = []
+
+    def stage(name, cost, err):
+        def func(problem, formulation, *, tol, max_iter, r0, history, time_limit, verbose,
+                 inner_settings, **options):
+            log.append(name)
+            clock[0] += cost
+            return SolverResult(r=np.full(problem.m, err(len(log))), status="max_iter",
+                                iterations=1)
+        return SolverSpec(name, func, ("coulomb",), global_native=("coulomb",))
+    # the fixed point: 1 s a run; Newton: instant, each run a little better
+    monkeypatch.setitem(auto._STAGES, "clarabel", (stage("clarabel", 1.0, lambda n: 1e-7), {}))
+    monkeypatch.setitem(auto._STAGES, "newton", (stage("newton", 0.0, lambda n: 1e-7 / n), {}))
+    methods = ("clarabel", "newton", "clarabel", "newton")
+    p = _local(3, 3, 1)
+    res = socp_cd.solve(p, tol=1e-30, time_limit=1.5, methods=methods)
+    assert log == ["clarabel", "newton", "newton"] and res.status == "time_limit"
+    # with time for it, the second fixed point runs
+    log.clear()
+    clock[0] = 0.0
+    socp_cd.solve(p, tol=1e-30, time_limit=10.0, methods=methods)
+    assert log == ["clarabel", "newton", "clarabel", "newton"]
