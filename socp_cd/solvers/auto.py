@@ -510,9 +510,9 @@ def _round_gain(bests, since) -> bool:
     ends the rounds) or, before the first round (``since`` None), over the last ``len(ROUND)``
     stages run (over all of them but the first when fewer ran)."""
     if since is None:
-        since = max(0, len(bests) - 1 - len(ROUND)) + 1
-    if since < 1 or len(bests) <= since - 1 or len(bests) == since or not np.isfinite(bests[-1]):
-        return False
+        since = max(1, len(bests) - len(ROUND))
+    if len(bests) <= since or not np.isfinite(bests[-1]):
+        return False        # (no stage ran since: a skipped round, or a one-stage order)
     return bests[-1] * ROUND_GAIN <= bests[since - 1]
 
 
@@ -586,7 +586,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             variant = "at_cap"      # the second trial starts from NSGS's iterate, not the best
         # a stage started from r = 0 (or the caller's r0) has the same start whatever the best
         # iterate: keyed without its version (a round's fixed point after a cold one: skipped)
-        key = (method, form, None if _starts_cold(method, k, best_err) else version, variant)
+        cold = _starts_cold(method, k, best_err)
+        key = (method, form, None if cold else version, variant)
         if key in ran:
             continue    # same deterministic method from the same start: nothing to gain
         if (method in ("newton_trial", "nsgs_mid", "nsgs_rest") + _COLD_TRIALS
@@ -675,8 +676,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 opts["threshold"] = options["threshold"]
             t0 = _clock()
             try:
-                start = (None if _starts_cold(method, k, best_err)
-                         else r0 if after_far_probe else best_r)
+                start = None if cold else r0 if after_far_probe else best_r
                 if method == "newton_trial" and not mid_ran:
                     start = best_r          # the first trial: from NSGS's iterate, far or not
                 if method in ("nsgs_mid", "nsgs_rest") or (method == "newton_trial" and mid_ran):

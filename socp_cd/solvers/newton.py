@@ -94,6 +94,11 @@ from .result import SolverResult
 from .spec import SolverSpec
 
 DEFAULT_MAX_ITER = 200
+#: default relative proximal parameter of a start from afar (the ``alpha0`` option); 1 until
+#: session 14, 0.1 chosen on the tune split (validation/results/auto_chain_tune_alpha.md:
+#: 2 more solved, none lost; 0.01 lost one) and checked once held out (formulations/auto.md,
+#: "Newton's cold proximal parameter")
+COLD_ALPHA0 = 0.1
 #: local problems up to this size use the dense Newton matrix
 DENSE_MAX_M = 600
 DENSE_ALWAYS_M = 120
@@ -865,11 +870,6 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
 
 
 # --------------------------------------------------------------------------- as a polish
-#: default relative proximal parameter of a start from afar (the ``alpha0`` option); 1 until
-#: session 14, 0.1 chosen on the tune split (validation/results/auto_chain_tune_alpha.md:
-#: 2 more solved, none lost; 0.01 lost one) and checked once held out (formulations/auto.md,
-#: "Newton's cold proximal parameter")
-COLD_ALPHA0 = 0.1
 #: the polish names :func:`resolve_polish` knows
 POLISH_NAMES = ("newton",)
 #: relative proximal parameter of a warm start near a solution (polish, later stages
