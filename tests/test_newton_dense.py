@@ -72,9 +72,13 @@ def test_dispatch_rules():
     with pytest.raises(UnsupportedError):      # the twin keeps no history
         nt.prox_newton(system, mu, np.zeros(p.m), tol=1e-10, max_iter=5, time_limit=None,
                        history=True, compiled=True, **COLD)
-    big = manufactured(25, 3, 0.5, seed=0)         # m = 75 > COMPILED_LOOP_MAX_M
-    assert not nt._LocalSystem(big, "auto").compiled
+    assert system.lapack is None                   # the written-out LU
+    big = manufactured(25, 3, 0.5, seed=0)         # m = 75 > COMPILED_LU_MAX_M: LAPACK's LU
+    system = nt._LocalSystem(big, "auto")
+    assert system.compiled and system.lapack is not None
     assert not nt._LocalSystem(p, "splu").compiled
+    huge = manufactured(210, 3, 0.5, seed=0)       # m = 630 > DENSE_MAX_M
+    assert not nt._LocalSystem(huge, "dense").compiled
 
 
 @pytest.mark.parametrize("name", SMALL_SHARED)
@@ -95,9 +99,11 @@ def test_twin_equals_python_loop_on_shared_problems(name):
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("structure", ["tree", "redundant"])
 @pytest.mark.parametrize("mu", [0.0, 0.3, 2.0])
-def test_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu):
-    """Mixes of separated/stick/slide/grazing contacts; "redundant": rank-deficient W."""
-    nc = 24 if dim == 3 else 36                    # m = 72 = COMPILED_LOOP_MAX_M
+@pytest.mark.parametrize("m", [72, 90])
+def test_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu, m):
+    """Mixes of separated/stick/slide/grazing contacts; "redundant": rank-deficient W;
+    m = 72 = COMPILED_LU_MAX_M (written-out LU), 90 (LAPACK's)."""
+    nc = m // dim
     for seed, mix in enumerate([(0.25, 0.35, 0.3, 0.1), (0.0, 0.0, 0.0, 1.0),
                                 (0.0, 0.0, 1.0, 0.0), (0.5, 0.0, 0.0, 0.5)]):
         p = manufactured(nc, dim, mu, structure=structure, mix=mix, seed=seed)
@@ -245,10 +251,12 @@ def test_plain_twin_equals_python_loop_on_shared_problems(name):
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("structure", ["tree", "redundant"])
 @pytest.mark.parametrize("mu", [0.0, 0.3, 2.0])
-def test_plain_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu):
+@pytest.mark.parametrize("m", [72, 90])
+def test_plain_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu, m):
     """Stick / slide / separated / grazing mixes; "redundant": rank-deficient W, where plain
-    steps meet singular Newton matrices (the regularized retry) and failing line searches."""
-    nc = 24 if dim == 3 else 36
+    steps meet singular Newton matrices (the regularized retry) and failing line searches;
+    the written-out LU (m = 72) and LAPACK's (90)."""
+    nc = m // dim
     for seed, mix in enumerate([(0.25, 0.35, 0.3, 0.1), (0.0, 0.0, 0.0, 1.0),
                                 (0.0, 0.0, 1.0, 0.0), (0.5, 0.0, 0.0, 0.5)]):
         p = manufactured(nc, dim, mu, structure=structure, mix=mix, seed=seed)
@@ -262,13 +270,17 @@ def test_plain_twin_equals_python_loop_on_manufactured_problems(dim, structure, 
 def test_plain_twin_counts_failed_line_searches_like_the_python_loop():
     # rank-deficient W and a mass ratio of 1e6: plain steps whose 30 halvings all fail
     # (then the full step is taken) occur, and the twin counts them as the reference does
-    seen_ls = 0
+    seen_ls = seen_retry = 0
     for seed in range(6):
         p = manufactured(20, 3, 1.0, structure="redundant", mass_ratio=1e6, seed=seed)
         a, b = _both(p, np.zeros(p.m), 1e-14, max_iter=40, policy="plain", **PLAIN)
         _assert_equal(a, b)
         seen_ls += a[4]["line_search_failures"]
-    assert seen_ls > 0
+        # a singular Newton matrix is retried regularized once; the run's later steps are
+        # regularized at once (no second factorization per step)
+        assert a[4]["factorizations"] <= a[4]["newton_steps"] + 1
+        seen_retry += a[4]["factorizations"] > a[4]["newton_steps"]
+    assert seen_ls > 0 and seen_retry > 0
 
 
 def test_plain_twin_time_limit_chunks_like_the_python_loop(monkeypatch):
@@ -307,3 +319,43 @@ def test_warmup_runs_both_twins(monkeypatch):
     assert nt.warmup() > 0.0
     assert {(n, d) for n, d in calls} == {(n, d) for n in ("prox_newton_dense",
                                                           "plain_newton_dense") for d in (2, 3)}
+
+
+# --------------------------------------------------------------------------- dense solves
+@pytest.mark.parametrize("n", [5, 40, 90, 150])
+def test_both_lus_of_dense_solve_agree_and_report_singular_matrices(n):
+    """The written-out LU and LAPACK's (kernels/dense.py: dense_solve) give the same
+    solution, and both call a matrix singular when a pivot falls below PIVOT_TOL of its
+    largest entry (LAPACK's: below n eps when larger, numpy's rank tolerance): an exact zero
+    column, and a rank-deficient matrix built in floating point (rounding leaves a pivot of
+    ~1e-17 at n = 5, ~2e-14 at n = 90 and 150, where LAPACK alone returns a huge, finite
+    "solution")."""
+    from socp_cd.solvers.kernels.dense import LAPACK_LU, dense_solve
+    rng = np.random.default_rng(n)
+    A = rng.standard_normal((n, n)) + n * np.eye(n)
+    b = rng.standard_normal(n)
+    x1, ok1 = dense_solve(A.copy(), b.copy(), None)
+    x2, ok2 = dense_solve(A, b, LAPACK_LU)
+    assert ok1 and ok2
+    np.testing.assert_allclose(x2, np.linalg.solve(A, b), rtol=1e-10)
+    np.testing.assert_allclose(x1, x2, rtol=1e-10)
+    B = rng.standard_normal((n, n - 1))
+    S = B @ rng.standard_normal((n - 1, n))      # rank n - 1
+    Z = A.copy()
+    Z[:, 0] = 0.0                                # an exact zero column
+    assert not dense_solve(Z.copy(), b.copy(), None)[1]
+    assert not dense_solve(Z, b, LAPACK_LU)[1]
+    # LAPACK's verdict on S is scipy's LU's pivot against the tolerance (the same getrf)
+    import scipy.linalg as sla
+    from socp_cd.solvers.kernels.dense import PIVOT_TOL
+    pivot = np.min(np.abs(np.diag(sla.lu_factor(S)[0]))) / np.abs(S).max()
+    tol = max(PIVOT_TOL, n * np.finfo(float).eps)
+    assert dense_solve(S, b, LAPACK_LU)[1] == (pivot > tol)
+    if n <= 90:         # (rounding left pivots of 2e-17 ... 4e-15 here; 7e-14 at n = 150)
+        assert pivot <= tol
+    if n <= 5:
+        assert not dense_solve(S.copy(), b.copy(), None)[1]
+    bad = A.copy()
+    bad[1, 2] = np.nan
+    assert not dense_solve(bad.copy(), b.copy(), None)[1]
+    assert not dense_solve(bad, b, LAPACK_LU)[1]

@@ -43,6 +43,14 @@ Session 14's:
     from afar (the default of its ``alpha0`` option; ``auto``'s first Newton stage of larger
     problems and its proximal cold trial).
 
+Session 15's:
+
+``COMPILED_LOOP_MAX_M``
+    ``newton.COMPILED_LOOP_MAX_M``: dense local systems of at most that many unknowns run
+    the compiled Newton loop (session 13/14: 72, larger ones the Python loop with LAPACK
+    through scipy; session 15: every dense system, LAPACK called from the compiled loop
+    above 72 unknowns).
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``) or ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``.  Problems:
@@ -76,16 +84,16 @@ from auto_probe import items, min_wall_time, record, write_csv
 OUT = Path(__file__).resolve().parent / "results"
 RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL",
          "NEWTON_STALL", "COLD_PROX_STEPS", "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS",
-         "COLD_ALPHA0")
+         "COLD_ALPHA0", "COMPILED_LOOP_MAX_M")
 #: rules that are constants of another module than auto's
-MODULE_OF = {"COLD_ALPHA0": newton}
+MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton}
 FLOATS = ("COLD_ALPHA0",)
 BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD_TRIAL_STEPS": 0,
         "COLD_TRIAL_STALL": 10, "NEWTON_STALL": None, "COLD_PROX_STEPS": 0,
-        "COLD_MAX_M": newton.COMPILED_LOOP_MAX_M, "PREDICT_MAX_M": newton.COMPILED_LOOP_MAX_M,
-        "MAX_ROUNDS": 0, "COLD_ALPHA0": 1.0}
+        "COLD_MAX_M": 72, "PREDICT_MAX_M": 72, "MAX_ROUNDS": 0, "COLD_ALPHA0": 1.0,
+        "COMPILED_LOOP_MAX_M": 72}
 INTS = ("REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
-        "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS")
+        "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 

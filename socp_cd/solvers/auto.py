@@ -143,7 +143,7 @@ FAR_NSGS_COLD = False
 #: stage (0: off): NSGS going on after a failed trial stopped early when its rate predicted
 #: ``tol`` out of reach; NSGS's rate on PerioBox is not linear: two cases lost
 REST_PREDICT = 0
-#: after the hand-off's first trial fails on a problem of at most ``newton.COMPILED_LOOP_MAX_M``
+#: after the hand-off's first trial fails on a problem of at most COLD_MAX_M
 #: unknowns, plain Newton from ``r = 0`` (Siconos NSN_AC's method) for at most this many steps,
 #: stopped after COLD_TRIAL_STALL steps without a 10 % drop of the error (0: off)
 COLD_TRIAL_STEPS = 30
@@ -155,8 +155,9 @@ COLD_TRIAL_STALL = 10
 #: problems")
 COLD_MAX_M = 150
 #: the hand-off's rate prediction (HANDOFF_PREDICT) on problems of at most this many unknowns
-#: (300 measured on the tune split: no change, not adopted)
-PREDICT_MAX_M = newton.COMPILED_LOOP_MAX_M
+#: (newton.COMPILED_LOOP_MAX_M of session 13, the compiled trials' bound then; 300 measured on
+#: the tune split: no change, not adopted)
+PREDICT_MAX_M = 72
 #: ... and when that fails too, the proximal Newton method from ``r = 0`` for at most this many
 #: outer iterations (same stall window; 0: off): box stacks with redundant contacts, where plain
 #: Newton fails and the proximal method converges (formulations/auto.md, "The proximal cold
@@ -208,6 +209,8 @@ SLOW_TO_STOP = ("clarabel", "clarabel_qp")
 ALWAYS_COLD = ("newton_plain_cold", "newton_trial_cold", "newton_trial_prox")
 #: the hand-off's cold trials (run only after a failed first trial, on m <= COLD_MAX_M)
 _COLD_TRIALS = ("newton_trial_cold", "newton_trial_prox")
+#: stages of the Newton method: a refused answer of one is retried as ``"newton"`` (warm)
+_NEWTON_FAMILY = tuple(name for name, (spec, _) in _STAGES.items() if spec is newton.SPEC)
 #: stages with their own iteration cap (:data:`PLAIN_MAX_ITER`) when ``max_iter`` is None
 _CAPPED = {"newton_plain": PLAIN_MAX_ITER, "newton_plain_cold": PLAIN_MAX_ITER}
 #: share of the remaining budget of the (cheap, trial) plain stages, instead of STAGE_SHARE
@@ -415,9 +418,9 @@ def _handoff_cap(problem, max_iter):
 
 def _predict_window(problem):
     """The hand-off's rate-prediction window for ``problem`` (:data:`HANDOFF_PREDICT`,
-    checked: an int >= 0): 0 on problems of more than ``newton.COMPILED_LOOP_MAX_M``
-    unknowns, where a Newton trial runs the Python loop and a failed early trial costs
-    what hundreds of sweeps do."""
+    checked: an int >= 0): 0 on problems of more than :data:`PREDICT_MAX_M` unknowns,
+    where (until session 15) a Newton trial ran the Python loop and a failed early trial
+    cost what hundreds of sweeps do."""
     w = HANDOFF_PREDICT
     if type(w) is not int or w < 0:         # (a bool is not an int here)
         raise ValueError(f"socp_cd.solvers.auto.HANDOFF_PREDICT must be an int >= 0, got {w!r}")
@@ -727,8 +730,11 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             # as the dispatcher's retry would (options.tightened_tolerance)
             stage_tol = min(stage_tol, tightened_tolerance(tol, best_err, max(best_err, g)))
             if RETRY_REFUSED and best_stage == k and not retried and k + 1 < len(order):
-                # this stage's answer was refused: the same stage once more from it (next)
-                order = order[:k + 1] + ((method, form),) + order[k + 1:]
+                # this stage's answer was refused: the same stage once more from it (next);
+                # a Newton-family stage as the warm proximal Newton method (a trial's or a
+                # cold stage's rerun would start elsewhere, or be skipped as already run)
+                again = "newton" if method in _NEWTON_FAMILY else method
+                order = order[:k + 1] + ((again, form),) + order[k + 1:]
                 retried = True
     if short and status != "converged":
         status, message = "time_limit", short       # the budget, not the methods, ran out

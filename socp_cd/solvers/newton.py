@@ -12,13 +12,13 @@ Newton steps with an Armijo line search on ``½||F_alpha||²``; ``alpha`` shrink
 after outer iterations that cut the error and grows after those that do not.
 Equations: ``formulations/newton.md``.
 
-Local problems: the Newton matrix is assembled densely (compiled kernel,
-LAPACK LU) when ``W`` is small or dense, otherwise as a sparse matrix
-factorized by SuperLU; up to ``m = COMPILED_LU_MAX_M`` (72) the LU is compiled
-too and the whole proximal loop runs compiled
+Local problems: the Newton matrix is assembled densely (compiled kernel)
+when ``W`` is small or dense, otherwise as a sparse matrix factorized by
+SuperLU; on a dense system the whole proximal loop runs compiled
 (:mod:`socp_cd.solvers.kernels.newton_dense`, bit-identical to the Python loop
 of :func:`prox_newton`, which stays the reference and the path of every other
-case).  Global problems are registered as native: small ones
+case), its LU written out up to ``m = COMPILED_LU_MAX_M`` (72) and LAPACK's
+above.  Global problems are registered as native: small ones
 are condensed here (``W = Hᵀ M⁻¹ H`` by sparse solves, cheaper as measured),
 larger ones run Newton on the saddle-point system ``M v = H r + f``,
 ``u = Hᵀ v + w`` with unknowns ``(v, r)``, one sparse LU per Newton step and
@@ -86,7 +86,8 @@ from ..errors import UnsupportedError
 from .block_storage import block_csr_arrays
 from .kernels import newton_dense as nd
 from .kernels.cone import project_cone_stacked, siconos_error
-from .kernels.dense import csr_to_dense, lu_solve, matvec, matvec_into
+from .kernels.dense import (LAPACK_LU, NAIVE_LU_MAX_N, PIVOT_TOL, csr_to_dense, dense_solve,
+                            matvec, matvec_into)
 from .kernels.newton_ac import ac_blocks, block_jacobian, block_rho_dense, dense_jacobian
 from .options import check_choice, check_int, check_real
 from .polish import associated_polish
@@ -110,13 +111,17 @@ DENSE_MIN_FILL = 0.1
 #: loop below): faster than LAPACK through scipy's wrappers up to m = 72 even with
 #: every entry of W non-zero (x0.7 at m = 72, x1.3 at m = 90); with the sparsity
 #: of a contact graph (zero multipliers skipped) up to m = 180.
-COMPILED_LU_MAX_M = 72
+COMPILED_LU_MAX_M = NAIVE_LU_MAX_N
 #: dense local systems this small run the whole proximal loop compiled
-#: (:func:`socp_cd.solvers.kernels.newton_dense.prox_newton_dense`, policy "prox",
-#: no history); the Python loop of :func:`prox_newton` is its reference.  Equal to
-#: :data:`COMPILED_LU_MAX_M`: both loops then factorize with the same compiled LU and
-#: the twin reproduces the reference's iterates bit for bit.
-COMPILED_LOOP_MAX_M = COMPILED_LU_MAX_M
+#: (:func:`socp_cd.solvers.kernels.newton_dense.prox_newton_dense`, policy "prox" or
+#: "plain", no history); the Python loop of :func:`prox_newton` is its reference.  Both
+#: loops factorize with the same :func:`~.kernels.dense.dense_solve` (written-out LU up to
+#: COMPILED_LU_MAX_M, LAPACK called from compiled code above), so the twin reproduces the
+#: reference's iterates bit for bit.  Until session 15 equal to COMPILED_LU_MAX_M (72),
+#: larger dense systems running the Python loop with LAPACK through scipy's wrappers:
+#: every dense system now (``DENSE_MAX_M``), measured in
+#: ``validation/results/newton_compiled_lapack.md``
+COMPILED_LOOP_MAX_M = DENSE_MAX_M
 #: with a time limit the compiled loops run in chunks of outer iterations, the clock read
 #: between chunks; a chunk holds as many outer iterations as fit in about this many
 #: multiply-adds of LU factorizations (``inner_max_iter * m³ / 3`` per outer iteration; the
@@ -188,9 +193,11 @@ def _blas_controller():
 
 
 def _one_blas_thread(system):
-    """Context limiting BLAS to one thread (a no-op for tiny or compiled systems: no BLAS)."""
+    """Context limiting BLAS to one thread (a no-op for tiny systems and compiled ones with
+    the written-out LU: no BLAS)."""
     m = system.m
-    if m < SINGLE_THREAD_MIN_M or getattr(system, "compiled", False):
+    if m < SINGLE_THREAD_MIN_M or (getattr(system, "compiled", False)
+                                   and m <= COMPILED_LU_MAX_M):
         return contextlib.nullcontext()
     return _blas_controller().limit(limits=1, user_api="blas")
 
@@ -261,8 +268,10 @@ class _LocalSystem:
                 self.m <= DENSE_MAX_M and int(indptr[-1]) / float(self.m * self.m) >= DENSE_MIN_FILL)
             linear_solver = "dense" if dense_kind else "splu"
         self.kind = linear_solver
-        #: small dense system: compiled mat-vecs and LU (and the compiled loop)
-        self.compiled = self.kind == "dense" and self.m <= COMPILED_LU_MAX_M
+        #: dense system: compiled mat-vecs and solves (and the compiled loop); the LU of
+        #: dense_solve (None: written out)
+        self.compiled = self.kind == "dense" and self.m <= COMPILED_LOOP_MAX_M
+        self.lapack = None if self.m <= COMPILED_LU_MAX_M else LAPACK_LU
         given = dense if self.compiled else None
         if given is not None:
             self.q = given[1]
@@ -313,16 +322,19 @@ class _LocalSystem:
         self.factorizations += 1
         if self.compiled:
             dense_jacobian(Dr, Du, self.W, alpha, self.d, self.J)
-            dr, ok = lu_solve(self.J, -F)          # compiled: no LAPACK-wrapper overhead
+            dr, ok = dense_solve(self.J, -F, self.lapack)   # compiled: no wrapper overhead
             if not ok:
                 raise _SingularStep("singular Newton matrix")
         elif self.kind == "dense":
             dense_jacobian(Dr, Du, self.W, alpha, self.d, self.J)
+            # (dense_solve's pivot test of LAPACK's LU)
+            tiny = 1e-300 + max(PIVOT_TOL, self.m * np.finfo(float).eps) * np.max(np.abs(self.J))
             try:
                 lu = sla.lu_factor(self.J, overwrite_a=True, check_finite=False)
             except (ValueError, sla.LinAlgError) as exc:
                 raise _SingularStep(str(exc)) from None
-            if not np.all(np.isfinite(lu[0].diagonal())) or np.min(np.abs(lu[0].diagonal())) == 0:
+            piv = np.abs(lu[0].diagonal())
+            if not np.all(np.isfinite(piv)) or not np.min(piv) > tiny:
                 raise _SingularStep("singular Newton matrix")
             dr = sla.lu_solve(lu, -F, check_finite=False)
         else:
@@ -463,7 +475,7 @@ def _system_rho(system, strategy):
 
 
 def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch, *, nonmonotone,
-                reg=0.0):
+                reg=0.0, reg_first=False):
     """One plain semismooth Newton step (no proximal shift) on the Alart–Curnier equation.
 
     Direction ``(Dr + Du W) dr = -F(r, u)``; steps ``t = 1, ½, ¼, ...``.
@@ -477,21 +489,27 @@ def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch, *, non
       halvings until ``½||F(r + t dr)||² <= (1 - 2 m1 t) ½||F||²``
       (``m1 = GOLDSTEIN_M1``); when none satisfies it the *full* step is taken
       (the caller keeps the best iterate).  ``None`` only when the regularized
-      matrix is singular too.
+      matrix is singular too.  With ``reg_first`` (after a step of the run needed
+      ``reg``: the caller's ``regularized``) the regularized matrix is factorized
+      first, without the unregularized try: on rank-deficient ``W`` (box stacks
+      with redundant contacts) every step's matrix was singular and half of the
+      factorizations were spent finding it out again.
 
     Returns
     -------
     tuple or None
-        ``(r, u, backtracks, line_search_ok)``.
+        ``(r, u, backtracks, line_search_ok, regularized)``.
     """
     nF = ac_blocks(r, u, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
     if nF == 0.0:
-        return r, u, 0, True
+        return r, u, 0, True, reg_first
+    regularized = reg_first and nonmonotone
     try:
-        dr, du = system.direction(r, Dr, Du, 0.0, F)
+        dr, du = system.direction(r, Dr, Du, reg if regularized else 0.0, F)
     except _SingularStep:
-        if not nonmonotone:
+        if not nonmonotone or regularized:
             return None
+        regularized = True
         try:
             dr, du = system.direction(r, Dr, Du, reg, F)
         except _SingularStep:
@@ -505,12 +523,12 @@ def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch, *, non
         if (nFt * nFt <= (1.0 - 2.0 * GOLDSTEIN_M1 * t) * nF * nF if nonmonotone
                 else nFt <= PLAIN_DECREASE * nF):
             system.accept(t)
-            return rt, ut, bt, True
+            return rt, ut, bt, True, regularized
         t *= 0.5
     if not nonmonotone:
         return None
     system.accept(1.0)
-    return r + dr, u + du, trials, False
+    return r + dr, u + du, trials, False, regularized
 
 
 def velocity_relative_error(err, r, u, norm_q):
@@ -595,6 +613,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     Du = np.empty((nc, d, d))
     branch = np.empty(nc, dtype=np.int64)
     plain_only = policy == "plain"
+    regularized = False     # a plain step of this run needed PLAIN_REGULARIZATION
 
     def error_of(r, u):
         e = siconos_error(r, u, mu, d, system.norm_q)
@@ -623,12 +642,13 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         br0 = None
         if plain_only:
             step = _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch,
-                               nonmonotone=True, reg=PLAIN_REGULARIZATION * wscale)
+                               nonmonotone=True, reg=PLAIN_REGULARIZATION * wscale,
+                               reg_first=regularized)
             if step is None:
                 n_singular += 1
                 status = "numerical_error"
                 break
-            r, u, bt, ls_ok = step
+            r, u, bt, ls_ok, regularized = step
             plain, solved, sub_ok = True, True, ls_ok
             alpha_used = 0.0
             n_plain += 1
@@ -641,7 +661,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
                                nonmonotone=False)
             plain_on = step is not None     # off until the proximal loop progresses
             if step is not None:
-                r, u, bt, _ = step
+                r, u, bt, _, _ = step
                 plain, solved = True, True
                 n_plain += 1
                 n_newton += 1
@@ -777,11 +797,11 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
     if plain:
         loop = nd.plain_newton_dense
         rest = (PLAIN_REGULARIZATION * wscale, int(stall_window), GOLDSTEIN_M1, _MAX_BACKTRACK,
-                r, best_r, fstate, istate)
+                r, best_r, fstate, istate, system.lapack)
     else:
         loop = nd.prox_newton_dense
         rest = (alpha_min * wscale, _ALPHA_MAX * wscale, int(inner_max_iter), int(stall_window),
-                _ARMIJO, _MAX_BACKTRACK, NONMONOTONE, r, best_r, fstate, istate)
+                _ARMIJO, _MAX_BACKTRACK, NONMONOTONE, r, best_r, fstate, istate, system.lapack)
     if time_limit is None:
         loop(*args, int(max_iter), *rest)
         status = _TWIN_STATUS[int(istate[nd.I_STATUS])]
@@ -950,19 +970,21 @@ def warmup() -> float:
 
     Both twins (:func:`~.kernels.newton_dense.prox_newton_dense`,
     :func:`~.kernels.newton_dense.plain_newton_dense`) on tiny dense problems in 2D and
-    3D, with and without a time limit.  A benchmark calls it before timing: otherwise
+    3D, with and without a time limit, with the written-out LU and with LAPACK's
+    (:func:`~.kernels.dense.dense_solve`).  A benchmark calls it before timing: otherwise
     the first solve that reaches a twin pays its compilation (``solver="auto"`` reaches
     the plain one only when its first Newton stage misses ``tol``).
     """
     from ..problem import FrictionContactProblem
     t0 = time.perf_counter()
     for d in (2, 3):
-        W = np.eye(2 * d) + 0.1
-        prob = FrictionContactProblem(W, -np.ones(2 * d), 0.3, d)
-        for policy in ("prox", "plain"):
-            for limit in (None, 1.0):
-                newton_backend(prob, "coulomb", tol=1e-14, max_iter=2, time_limit=limit,
-                               policy=policy)
+        for nc in (2, COMPILED_LU_MAX_M // d + 1):
+            W = np.eye(nc * d) + 0.1
+            prob = FrictionContactProblem(W, -np.ones(nc * d), 0.3, d)
+            for policy in ("prox", "plain"):
+                for limit in (None, 1.0):
+                    newton_backend(prob, "coulomb", tol=1e-14, max_iter=2, time_limit=limit,
+                                   policy=policy)
     return time.perf_counter() - t0
 
 

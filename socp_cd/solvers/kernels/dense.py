@@ -1,21 +1,31 @@
-"""Dense linear algebra of small problems, compiled without BLAS/LAPACK (numba).
+"""Dense linear algebra of small problems, compiled (numba), mostly without BLAS/LAPACK.
 
 The Delassus operator ``W`` of a problem with a few contacts is formed densely
 once; mat-vecs, LU solves with partial pivoting, the symmetric/skew split and
 the condensation of a small global problem are written out here instead of
 calling BLAS/LAPACK: at these sizes it costs about the same, and it cannot fall
 into multithreaded-OpenBLAS oversubscription, which on a loaded machine turns
-a 0.2 ms ``162 x 162`` solve into 50-100 ms.
+a 0.2 ms ``162 x 162`` solve into 50-100 ms.  Above :data:`NAIVE_LU_MAX_N`
+unknowns :func:`dense_solve` calls LAPACK (the ``getrf``/``getrs`` of scipy's
+LAPACK) from compiled code, where the blocked LU
+is 3-7x faster than the loop of :func:`lu_solve_many` on a full matrix; the
+caller limits BLAS to one thread around it.
 
 :func:`dense_error` is Siconos' relative error with ``u = W r + q``
 recomputed, through :func:`socp_cd.solvers.kernels.cone.law_error`.
 """
 from __future__ import annotations
 
+import ctypes
+
 import numpy as np
 from numba import njit
+from numba.extending import get_cython_function_address
 
 from .cone import law_error
+
+#: relative pivot below which a matrix counts as singular (both LUs of :func:`dense_solve`)
+PIVOT_TOL = 1e-15
 
 
 @njit(cache=True)
@@ -44,7 +54,7 @@ def lu_solve_many(A, B):
             a = abs(A[i, j])
             if a > scale:
                 scale = a
-    tiny = 1e-300 + 1e-15 * scale
+    tiny = 1e-300 + PIVOT_TOL * scale
     for c in range(n):
         p = c
         amax = abs(A[c, c])
@@ -88,6 +98,82 @@ def lu_solve(A, b):
     """Solve ``A x = b`` (in place, ``A`` destroyed); returns ``(x, ok)``."""
     X, ok = lu_solve_many(A, b.reshape(b.shape[0], 1).copy())
     return X[:, 0].copy(), ok
+
+
+#: :func:`dense_solve` uses the written-out LU up to this order, LAPACK above.  The loop
+#: skips zero multipliers: on the sparsity of a contact graph it matched LAPACK (single
+#: thread) up to ~100 unknowns, on a full matrix it was 3x slower at 84 and 5x at 150
+#: (formulations/newton.md, "The dense LU")
+NAIVE_LU_MAX_N = 72
+
+
+def _lapack_functions():
+    """``(getrf, getrs)``: LAPACK's double-precision LU factorization and solve from
+    ``scipy.linalg.cython_lapack`` (scipy's LAPACK, the one ``scipy.linalg.lu_factor``
+    calls), as ctypes functions that compiled code takes as arguments (numba cannot cache
+    a function that holds a ctypes pointer as a global)."""
+    ptr = ctypes.c_void_p
+    getrf = ctypes.CFUNCTYPE(None, *(ptr,) * 6)(
+        get_cython_function_address("scipy.linalg.cython_lapack", "dgetrf"))
+    getrs = ctypes.CFUNCTYPE(None, *(ptr,) * 9)(
+        get_cython_function_address("scipy.linalg.cython_lapack", "dgetrs"))
+    return getrf, getrs
+
+
+#: the ``lapack`` argument of :func:`dense_solve` above :data:`NAIVE_LU_MAX_N` unknowns
+LAPACK_LU = _lapack_functions()
+
+
+@njit(cache=True)
+def _lapack_solve(A, b, lapack):
+    """Solve ``A x = b`` by LAPACK's ``getrf``/``getrs`` (``A`` kept); ``(x, ok)`` as
+    :func:`lu_solve`, singular when a pivot is at most ``max(PIVOT_TOL, n eps) max|A|``."""
+    getrf, getrs = lapack
+    n = A.shape[0]
+    F = np.empty((n, n))            # A in column-major order, as LAPACK reads it
+    scale = 0.0
+    for i in range(n):
+        for j in range(n):
+            a = A[i, j]
+            F[j, i] = a
+            if not np.isfinite(a):
+                return np.zeros(n), False
+            if abs(a) > scale:
+                scale = abs(a)
+    dims = np.array([n, 1, 0], dtype=np.int32)      # n, nrhs, info
+    piv = np.empty(n, dtype=np.int32)
+    getrf(dims.ctypes, dims.ctypes, F.ctypes, dims.ctypes, piv.ctypes, dims[2:].ctypes)
+    if dims[2] < 0:
+        return np.zeros(n), False
+    # the rank tolerance of numpy's matrix_rank, n eps (rounding leaves a pivot of about that
+    # size on a singular matrix: 2e-14 at n = 90), never below the written-out LU's
+    tiny = 1e-300 + max(PIVOT_TOL, n * 2.220446049250313e-16) * scale
+    for i in range(n):
+        if not (abs(F[i, i]) > tiny):     # (F's diagonal is U's)
+            return np.zeros(n), False
+    x = b.copy()
+    trans = np.array([78], dtype=np.uint8)      # "N"
+    getrs(trans.ctypes, dims.ctypes, dims[1:].ctypes, F.ctypes, dims.ctypes, piv.ctypes,
+          x.ctypes, dims.ctypes, dims[2:].ctypes)
+    for k in range(n):
+        if not np.isfinite(x[k]):
+            return x, False
+    return x, True
+
+
+@njit(cache=True)
+def dense_solve(A, b, lapack):
+    """Solve ``A x = b``: :func:`lu_solve` (``A`` destroyed) when ``lapack`` is None,
+    else LAPACK (``lapack``: :data:`LAPACK_LU`; ``A`` kept).  Returns ``(x, ok)``; ``ok``
+    is False on a pivot below ``PIVOT_TOL max|A|`` (LAPACK: ``max(PIVOT_TOL, n eps)
+    max|A|``, numpy's rank tolerance; the matrix counts as singular: the caller
+    regularizes or gives up) or a non-finite solution.
+
+    Callers pass ``None`` up to :data:`NAIVE_LU_MAX_N` unknowns (numba compiles the two
+    cases apart; a ctypes argument costs ~1 µs a call)."""
+    if lapack is None:
+        return lu_solve(A, b)
+    return _lapack_solve(A, b, lapack)
 
 
 @njit(cache=True)
@@ -211,5 +297,6 @@ def matvec(A, x):
     return out
 
 
-__all__ = ["csr_to_dense", "dense_error", "dense_condense", "dense_split", "matvec", "lu_solve", "lu_solve_many", "normal_matrix",
-           "matvec_into"]
+__all__ = ["csr_to_dense", "dense_error", "dense_condense", "dense_split", "dense_solve", "matvec",
+           "lu_solve", "lu_solve_many", "normal_matrix", "matvec_into", "NAIVE_LU_MAX_N",
+           "LAPACK_LU", "PIVOT_TOL"]

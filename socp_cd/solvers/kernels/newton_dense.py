@@ -1,14 +1,14 @@
 """The proximal-point semismooth Newton loop on a small dense ``W``, compiled (numba).
 
 The compiled twin of :func:`socp_cd.solvers.newton.prox_newton` (policy
-``"prox"``, no history) for a dense local problem ``u = W r + q`` small enough
-for the compiled LU (``m <= COMPILED_LU_MAX_M`` of :mod:`socp_cd.solvers.newton`).
+``"prox"``, no history) for a dense local problem ``u = W r + q``
+(``m <= COMPILED_LOOP_MAX_M`` of :mod:`socp_cd.solvers.newton`).
 The Python function is the reference and the path of every other case
 (sparse or global systems, ``policy="hybrid"``, ``history=True``);
 ``tests/test_newton_dense.py`` holds the two equal (same status, same number of
 outer iterations, same counters, same ``r``).  Both call the same kernels in
 the same order (:func:`~.newton_ac.ac_blocks`, :func:`~.newton_ac.dense_jacobian`,
-:func:`~.dense.lu_solve`, :func:`~.dense.matvec_into`,
+:func:`~.dense.dense_solve`, :func:`~.dense.matvec_into`,
 :func:`~.cone.siconos_error`), so the iterates agree to the last bit; what the
 twin removes is the interpreter and the small temporaries of the loop body
 (~35 µs per inner Newton step on a 1-contact problem).
@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from .cone import project_cone_stacked, siconos_error
-from .dense import lu_solve, matvec, matvec_into
+from .dense import dense_solve, matvec, matvec_into
 from .newton_ac import ac_blocks, dense_jacobian
 
 #: run status codes (``RUNNING`` after the last chunk means the budget ran out)
@@ -40,7 +40,9 @@ FSTATE = 4
 #: the last 10 % drop of the best error, then the counters of ``prox_newton``'s info
 (I_STARTED, I_STATUS, I_IT, I_BEST_IT, I_NEWTON, I_BACKTRACK, I_LS_FAIL, I_SINGULAR,
  I_REJECTED, I_FACTORIZATIONS) = range(10)
-ISTATE = 10
+#: ... and (plain policy) whether a step of the run needed the regularization
+I_REGULARIZED = 10
+ISTATE = 11
 
 
 def new_state(alpha):
@@ -123,7 +125,7 @@ def _store(istate, fstate, status, it, best_it, n_newton, n_backtrack, n_ls_fail
 @njit(cache=True)
 def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_max,
                       inner_max_iter, stall_window, armijo, max_backtrack, nonmonotone,
-                      r, best_r, fstate, istate):
+                      r, best_r, fstate, istate, lapack):
     """Run outer proximal iterations until ``it_end``, convergence, stall or a non-finite error.
 
     Parameters
@@ -147,6 +149,8 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
         Current and best iterate, updated in place (``r`` is the start on the first call).
     fstate, istate : ndarray
         Run state (:func:`new_state`), updated in place.
+    lapack : None or tuple
+        The LU of :func:`~.dense.dense_solve` (None: the written-out one).
 
     Notes
     -----
@@ -182,7 +186,7 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
             dense_jacobian(Dr, Du, W, alpha, d, J)
             for k in range(m):
                 mF[k] = -F[k]
-            dr, ok = lu_solve(J, mF)
+            dr, ok = dense_solve(J, mF, lapack)
             if not ok:
                 n_singular += 1
                 sub_ok = False
@@ -265,20 +269,21 @@ def velocity_error(err, r, u, norm_q):
 
 
 @njit(cache=True)
-def _plain_direction(W, Dr, Du, F, d, reg, J, mF):
+def _plain_direction(W, Dr, Du, F, d, reg, J, mF, lapack, reg_first):
     """``(dr, W dr, ok, factorizations)`` of ``(Dr + Du (W + reg I)) dr = -F``: first
-    ``reg = 0``, then, when that matrix is singular, ``reg`` (the reference's retry)."""
+    ``reg = 0``, then, when that matrix is singular, ``reg`` (the reference's retry); with
+    ``reg_first`` ``reg`` at once, no retry."""
     m = F.shape[0]
     for k in range(m):
         mF[k] = -F[k]
-    dense_jacobian(Dr, Du, W, 0.0, d, J)
-    dr, ok = lu_solve(J, mF)
+    dense_jacobian(Dr, Du, W, reg if reg_first else 0.0, d, J)
+    dr, ok = dense_solve(J, mF, lapack)
     n_fact = 1
-    if not ok:
+    if not ok and not reg_first:
         for k in range(m):
             mF[k] = -F[k]
         dense_jacobian(Dr, Du, W, reg, d, J)
-        dr, ok = lu_solve(J, mF)
+        dr, ok = dense_solve(J, mF, lapack)
         n_fact = 2
     if not ok:
         return dr, dr, False, n_fact
@@ -287,21 +292,22 @@ def _plain_direction(W, Dr, Du, F, d, reg, J, mF):
 
 @njit(cache=True)
 def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stall_window,
-                       m1, max_backtrack, r, best_r, fstate, istate):
+                       m1, max_backtrack, r, best_r, fstate, istate, lapack):
     """Plain (nonmonotone) semismooth Newton steps until ``it_end``, convergence or stall.
 
     The compiled twin of :func:`socp_cd.solvers.newton.prox_newton` with
     ``policy="plain"`` (Siconos NSN_AC's globalization, ``formulations/newton.md``
     §8), same iterates and counters: per step the Newton direction of the
-    Alart–Curnier equation (a singular matrix retried with ``W + reg I``; a
-    second failure ends the run with ``NUMERICAL_ERROR``), halvings of ``t``
+    Alart–Curnier equation (a singular matrix retried with ``W + reg I``, and the
+    run's later steps regularized at once; a failure of the regularized matrix ends
+    the run with ``NUMERICAL_ERROR``), halvings of ``t``
     until ``½||F(r + t dr)||² <= (1 - 2 m1 t) ½||F(r)||²``, at most
     ``max_backtrack`` of them, else the full step; the error is Siconos'
     re-normalized by the velocity scale (:func:`velocity_error`); the best
     iterate is kept in ``best_r``; stalled after ``stall_window`` steps
     without a 10 % drop of the best error.  ``fstate``, ``istate``: as
     :func:`prox_newton_dense` (``F_ALPHA`` unused; every step counts in
-    ``I_NEWTON``).
+    ``I_NEWTON``), and ``lapack``.
     """
     m = r.shape[0]
     nc = mu.shape[0]
@@ -316,8 +322,11 @@ def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stal
         bt = 0
         ls_ok = True
         if nF != 0.0:
-            dr, du, ok, nf = _plain_direction(W, Dr, Du, F, d, reg, J, mF)
+            dr, du, ok, nf = _plain_direction(W, Dr, Du, F, d, reg, J, mF, lapack,
+                                              istate[I_REGULARIZED] != 0)
             n_fact += nf
+            if nf == 2:
+                istate[I_REGULARIZED] = 1
             if not ok:
                 n_singular += 1
                 status = NUMERICAL_ERROR

@@ -1,0 +1,140 @@
+"""The compiled Newton loop on every dense system, LAPACK's LU called from it (issue #10, session 15).
+
+Until session 14 ``newton.COMPILED_LOOP_MAX_M`` was 72: larger dense local systems ran
+the Python loop with LAPACK through scipy's wrappers.  Session 15 runs the compiled loop
+on every dense system (``COMPILED_LOOP_MAX_M = DENSE_MAX_M``), its LU written out up to
+``kernels.dense.NAIVE_LU_MAX_N = 72`` unknowns and LAPACK's ``getrf``/``getrs`` above
+(:func:`socp_cd.solvers.kernels.dense.dense_solve`).  This script measures
+
+1. one LU solve, written-out vs LAPACK (one BLAS thread), on ``W + I`` of real box-stack
+   problems (the Newton matrix has ``W``'s sparsity) and on full random matrices;
+2. ``solve(p, "newton")`` and ``solve(p, "auto")`` (tol 1e-8, time limit 1 s, a new
+   problem object per call, min of 5 after a warm-up) on the box stacks of more than 72
+   unknowns of the *tune* simulation collection (``build_sim_collections.py --small
+   --tune``), with ``COMPILED_LOOP_MAX_M`` set back to 72 (the Python loop above; the
+   session's other changes kept) and at its new value.
+
+The held-out check of the change is ``auto_chain.py --split holdout`` (README).  Usage::
+
+    .venv/bin/python validation/newton_compiled_lapack.py
+
+Writes ``validation/results/newton_compiled_lapack.md``.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+import socp_cd
+from socp_cd.bench.reports import shifted_geometric_mean
+from socp_cd.solvers import newton as nt
+from socp_cd.solvers import nsgs
+from socp_cd.solvers.kernels.dense import LAPACK_LU, dense_solve
+
+HERE = Path(__file__).resolve().parent
+OUT = HERE / "results" / "newton_compiled_lapack.md"
+TUNE = HERE / "evalset_sim_small_tune"
+
+
+def _min_time(f, repeats=30):
+    f()
+    best = np.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        f()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def _box_stacks():
+    files = sorted(TUNE.glob("boxes3d-*/*.hdf5"))
+    if not files:
+        raise SystemExit(f"no box stacks under {TUNE}: run validation/build_sim_collections.py "
+                         "--small --tune first")
+    return [(f, socp_cd.read_problem(f)) for f in files]
+
+
+def lu_table(stacks):
+    rows, seen = [], set()
+    with nt._blas_controller().limit(limits=1, user_api="blas"):
+        for f, p in stacks:
+            if p.m <= 60 or p.m in seen:
+                continue
+            seen.add(p.m)
+            A = p.W.toarray() + np.eye(p.m)
+            rows.append((f"{f.parent.name}/{f.name[:32]}", p.m, p.W.nnz / p.m ** 2, A))
+        rng = np.random.default_rng(0)
+        for n in (84, 150, 300):
+            rows.append(("full random", n, 1.0, rng.standard_normal((n, n)) + n * np.eye(n)))
+        out = []
+        for name, n, fill, A in sorted(rows, key=lambda r: (r[2] == 1.0, r[1])):
+            b = np.ones(n)
+            t_w = _min_time(lambda: dense_solve(A.copy(), b.copy(), None))
+            t_l = _min_time(lambda: dense_solve(A, b, LAPACK_LU))
+            out.append(f"| {name} | {n} | {fill:.2f} | {t_w * 1e6:.0f} | {t_l * 1e6:.0f} | "
+                       f"{t_w / t_l:.2f} |")
+    return out
+
+
+def _solve_time(f, **kw):
+    probs = [socp_cd.read_problem(f) for _ in range(6)]
+    res = socp_cd.solve(probs[0], tol=1e-8, time_limit=1.0, **kw)
+    best = np.inf
+    for q in probs[1:]:
+        t0 = time.perf_counter()
+        res = socp_cd.solve(q, tol=1e-8, time_limit=1.0, **kw)
+        best = min(best, time.perf_counter() - t0)
+    return best, res
+
+
+def solve_table(stacks):
+    saved = nt.COMPILED_LOOP_MAX_M
+    lines, times = [], {}
+    try:
+        for f, p in stacks:
+            if p.m <= nt.COMPILED_LU_MAX_M:
+                continue
+            cells = []
+            for solver in ("newton", "auto"):
+                for bound in (72, saved):
+                    nt.COMPILED_LOOP_MAX_M = bound
+                    t, res = _solve_time(f, solver=solver)
+                    times.setdefault((solver, bound), []).append(t if res.converged else 1.0)
+                    cells.append(f"{t * 1e3:.2f}{'' if res.converged else ' ✗'}")
+            lines.append(f"| {f.parent.name}/{f.name[:34]} | {p.m} | " + " | ".join(cells) + " |")
+    finally:
+        nt.COMPILED_LOOP_MAX_M = saved
+    sgm = {k: shifted_geometric_mean(v, 0.01) for k, v in times.items()}
+    lines.append(f"| **sgm (10 ms shift), {len(lines)} problems** | | "
+                 + " | ".join(f"**{sgm[s, b] * 1e3:.2f}**" for s in ("newton", "auto")
+                              for b in (72, saved)) + " |")
+    return lines, saved
+
+
+def main() -> int:
+    nt.warmup()
+    nsgs.warmup()
+    stacks = _box_stacks()
+    lu = lu_table(stacks)
+    solves, bound = solve_table(stacks)
+    text = [
+        "# The compiled Newton loop with LAPACK's LU (session 15)", "",
+        "Generated by `validation/newton_compiled_lapack.py` (see its docstring). Shared 2-core "
+        "machine: min of repeats.", "",
+        "## One LU solve (µs, one BLAS thread), `A = W + I`", "",
+        "| matrix | n | fill | written-out | LAPACK | ratio |", "|---|---:|---:|---:|---:|---:|",
+        *lu, "",
+        f"## Whole solves (ms), tune box stacks with m > 72: `COMPILED_LOOP_MAX_M` 72 vs {bound}",
+        "", "✗: not converged (charged 1 s in the sgm).", "",
+        f"| problem | m | newton, 72 | newton, {bound} | auto, 72 | auto, {bound} |",
+        "|---|---:|---:|---:|---:|---:|", *solves, ""]
+    OUT.parent.mkdir(exist_ok=True)
+    OUT.write_text("\n".join(text))
+    print("\n".join(text))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
