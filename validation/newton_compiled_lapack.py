@@ -33,19 +33,11 @@ from socp_cd.solvers import newton as nt
 from socp_cd.solvers import nsgs
 from socp_cd.solvers.kernels.dense import LAPACK_LU, dense_solve
 
+from newton_loop_threshold import min_time
+
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "results" / "newton_compiled_lapack.md"
 TUNE = HERE / "evalset_sim_small_tune"
-
-
-def _min_time(f, repeats=30):
-    f()
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        f()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def _box_stacks():
@@ -71,8 +63,8 @@ def lu_table(stacks):
         out = []
         for name, n, fill, A in sorted(rows, key=lambda r: (r[2] == 1.0, r[1])):
             b = np.ones(n)
-            t_w = _min_time(lambda: dense_solve(A.copy(), b.copy(), None))
-            t_l = _min_time(lambda: dense_solve(A, b, LAPACK_LU))
+            t_w = min_time(lambda: dense_solve(A.copy(), b.copy(), None), 30)
+            t_l = min_time(lambda: dense_solve(A, b, LAPACK_LU), 30)
             out.append(f"| {name} | {n} | {fill:.2f} | {t_w * 1e6:.0f} | {t_l * 1e6:.0f} | "
                        f"{t_w / t_l:.2f} |")
     return out

@@ -1,5 +1,9 @@
 """Up to which size should the Newton solver run its compiled loop and compiled LU?
 
+(Session 11's study.  Since session 15 the compiled loop runs on every dense system and
+calls LAPACK's LU above 72 unknowns: ``validation/newton_compiled_lapack.py``.  Setting
+both constants as below still compares the Python loop with the written-out LU forced.)
+
 ``socp_cd.solvers.newton`` runs the whole proximal Newton loop compiled
 (:mod:`socp_cd.solvers.kernels.newton_dense`) on dense local systems with
 ``m <= COMPILED_LOOP_MAX_M`` (= ``COMPILED_LU_MAX_M``: the Python loop then
@@ -46,7 +50,8 @@ def _set(threshold):
     nt.COMPILED_LOOP_MAX_M = threshold
 
 
-def _min_time(f, repeats):
+def min_time(f, repeats):
+    """Min wall time of ``repeats`` calls of ``f`` after one warm-up call."""
     f()
     best = np.inf
     for _ in range(repeats):
@@ -73,10 +78,10 @@ def compare(p, repeats):
         for setting, thr in (("old", OLD), ("compiled", 10 ** 6)):
             _set(thr)
             res = socp_cd.solve(p, "newton", tol=TOL, linear_solver="dense")
-            t = _min_time(lambda: socp_cd.solve(p, "newton", tol=TOL, linear_solver="dense"),
+            t = min_time(lambda: socp_cd.solve(p, "newton", tol=TOL, linear_solver="dense"),
                           repeats)
             w = _warm_run(p, r0)
-            tw = _min_time(lambda: _warm_run(p, r0), repeats)
+            tw = min_time(lambda: _warm_run(p, r0), repeats)
             for kind, secs, its in (("cold", t, res.iterations), ("warm", tw, w[2])):
                 old = out.get((kind, setting), (np.inf, its))
                 out[kind, setting] = (min(old[0], secs), its)
