@@ -10,6 +10,7 @@ from socp_cd.errors import InvalidProblemError, UnsupportedError
 from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem
 from socp_cd.residuals import contact_scales
 from socp_cd.solvers import auto
+from socp_cd.solvers import newton as nt
 from socp_cd.solvers.result import SolverResult
 from socp_cd.solvers.spec import SolverSpec
 
@@ -162,8 +163,9 @@ def test_frictionless_asymmetric_goes_to_the_lcp():
 def test_exact_coulomb_starts_with_newton_and_orders_by_features():
     lo, hi = _local(auto.SMALL_NC + 1, 3, 8, mu=0.3), _local(auto.SMALL_NC + 1, 3, 8, mu=2.0)
     f_lo, f_hi = auto.features(lo, "coulomb"), auto.features(hi, "coulomb")
-    def main(order):        # the plain Newton stages and the NSGS probe are tested apart
-        return [m for m, _ in order if not m.startswith("newton_plain") and m != "nsgs_probe"]
+    def main(order):        # the plain Newton stages, the cold alternative and the probe: apart
+        return [m for m, _ in order if not m.startswith("newton_plain")
+                and m not in ("nsgs_probe", "newton_cold_alt")]
     assert main(auto.stage_order(lo, "coulomb", f_lo))[:3] == ["newton", "nsgs", "clarabel"]
     assert main(auto.stage_order(hi, "coulomb", f_hi))[:3] == ["newton", "clarabel", "nsgs"]
     for nc in (1, 4):                   # small: NSGS first (one contact: one local solve)
@@ -199,8 +201,26 @@ def test_plain_newton_stages_follow_the_first_newton_stage():
               _local(4, 3, 8, mu=0.3), _global(1)):
         names = [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
         k = names.index("newton")
-        assert names[k:k + 3] == ["newton", "newton_plain", "newton_plain_cold"]
+        assert names[k:k + 4] == ["newton", "newton_plain", "newton_plain_cold",
+                                  "newton_cold_alt"]
         assert names[-1] == "newton"
+
+
+def test_cold_alternative_starts_from_zero_with_its_proximal_parameter(monkeypatch):
+    # "newton_cold_alt": the proximal method from r = 0 with alpha0 = ALT_ALPHA0 (session 13's
+    # default), after the order's Newton stages, which start warm or with COLD_ALPHA0
+    p = _local(4, 3, 2)
+    log = []
+    monkeypatch.setitem(auto._STAGES, "nsgs", (_recording_stage(log, "nsgs", np.ones(p.m)), {}))
+    monkeypatch.setitem(auto._STAGES, "newton_cold_alt",
+                        (_recording_stage(log, "alt", np.zeros(p.m)), {}))
+    socp_cd.solve(p, "auto", tol=1e-14, methods=("nsgs", "newton_cold_alt"))
+    assert [e["name"] for e in log] == ["nsgs", "alt"]
+    assert log[1]["r0"] is None and log[1]["options"]["alpha0"] == auto.ALT_ALPHA0
+    assert auto.ALT_ALPHA0 != nt.COLD_ALPHA0
+    monkeypatch.setattr(auto, "ALT_ALPHA0", None)           # None: not in the order
+    names = [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
+    assert "newton_cold_alt" not in names
 
 
 def test_cold_plain_stage_starts_from_zero_and_plain_stages_are_capped(monkeypatch):

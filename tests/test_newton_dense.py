@@ -325,37 +325,34 @@ def test_warmup_runs_both_twins(monkeypatch):
 @pytest.mark.parametrize("n", [5, 40, 90, 150])
 def test_both_lus_of_dense_solve_agree_and_report_singular_matrices(n):
     """The written-out LU and LAPACK's (kernels/dense.py: dense_solve) give the same
-    solution, and both call a matrix singular when a pivot falls below PIVOT_TOL of its
-    largest entry (LAPACK's: below n eps when larger, numpy's rank tolerance): an exact zero
-    column, and a rank-deficient matrix built in floating point (rounding leaves a pivot of
-    ~1e-17 at n = 5, ~2e-14 at n = 90 and 150, where LAPACK alone returns a huge, finite
-    "solution")."""
-    from socp_cd.solvers.kernels.dense import LAPACK_LU, dense_solve
+    solution.  Singular: the written-out LU on a pivot below PIVOT_TOL of the largest
+    entry; LAPACK with ``strict`` the same (its verdict is scipy's LU's pivot against
+    PIVOT_TOL: the same getrf), without it an exact zero pivot only (scipy's test)."""
+    import scipy.linalg as sla
+    from socp_cd.solvers.kernels.dense import LAPACK_LU, PIVOT_TOL, dense_solve
     rng = np.random.default_rng(n)
     A = rng.standard_normal((n, n)) + n * np.eye(n)
     b = rng.standard_normal(n)
-    x1, ok1 = dense_solve(A.copy(), b.copy(), None)
-    x2, ok2 = dense_solve(A, b, LAPACK_LU)
+    x1, ok1 = dense_solve(A.copy(), b.copy(), None, True)
+    x2, ok2 = dense_solve(A, b, LAPACK_LU, True)
     assert ok1 and ok2
     np.testing.assert_allclose(x2, np.linalg.solve(A, b), rtol=1e-10)
     np.testing.assert_allclose(x1, x2, rtol=1e-10)
-    B = rng.standard_normal((n, n - 1))
-    S = B @ rng.standard_normal((n - 1, n))      # rank n - 1
     Z = A.copy()
-    Z[:, 0] = 0.0                                # an exact zero column
-    assert not dense_solve(Z.copy(), b.copy(), None)[1]
-    assert not dense_solve(Z, b, LAPACK_LU)[1]
-    # LAPACK's verdict on S is scipy's LU's pivot against the tolerance (the same getrf)
-    import scipy.linalg as sla
-    from socp_cd.solvers.kernels.dense import PIVOT_TOL
+    Z[:, 0] = 0.0                                # an exact zero column: singular for all
+    assert not dense_solve(Z.copy(), b.copy(), None, False)[1]
+    for strict in (True, False):
+        assert not dense_solve(Z, b, LAPACK_LU, strict)[1]
+    # rank n - 1 in floating point: rounding leaves a tiny, non-zero pivot
+    S = rng.standard_normal((n, n - 1)) @ rng.standard_normal((n - 1, n))
     pivot = np.min(np.abs(np.diag(sla.lu_factor(S)[0]))) / np.abs(S).max()
-    tol = max(PIVOT_TOL, n * np.finfo(float).eps)
-    assert dense_solve(S, b, LAPACK_LU)[1] == (pivot > tol)
-    if n <= 90:         # (rounding left pivots of 2e-17 ... 4e-15 here; 7e-14 at n = 150)
-        assert pivot <= tol
+    assert 0.0 < pivot < 1e-12
+    assert dense_solve(S, b, LAPACK_LU, True)[1] == (pivot > PIVOT_TOL)
+    assert dense_solve(S, b, LAPACK_LU, False)[1]      # a huge, finite "solution"
     if n <= 5:
-        assert not dense_solve(S.copy(), b.copy(), None)[1]
+        assert pivot <= PIVOT_TOL
+        assert not dense_solve(S.copy(), b.copy(), None, False)[1]
     bad = A.copy()
     bad[1, 2] = np.nan
-    assert not dense_solve(bad.copy(), b.copy(), None)[1]
-    assert not dense_solve(bad, b, LAPACK_LU)[1]
+    assert not dense_solve(bad.copy(), b.copy(), None, True)[1]
+    assert not dense_solve(bad, b, LAPACK_LU, False)[1]

@@ -50,6 +50,9 @@ Session 15's:
     the compiled Newton loop (session 13/14: 72, larger ones the Python loop with LAPACK
     through scipy; session 15: every dense system, LAPACK called from the compiled loop
     above 72 unknowns).
+``ALT_ALPHA0``
+    after the plain stages, the proximal Newton method once more from ``r = 0`` with this
+    relative proximal parameter (``"newton_cold_alt"``; None: off).
 
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
@@ -84,14 +87,14 @@ from auto_probe import items, min_wall_time, record, write_csv
 OUT = Path(__file__).resolve().parent / "results"
 RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL",
          "NEWTON_STALL", "COLD_PROX_STEPS", "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS",
-         "COLD_ALPHA0", "COMPILED_LOOP_MAX_M")
+         "COLD_ALPHA0", "COMPILED_LOOP_MAX_M", "ALT_ALPHA0")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton}
-FLOATS = ("COLD_ALPHA0",)
+FLOATS = ("COLD_ALPHA0", "ALT_ALPHA0")
 BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD_TRIAL_STEPS": 0,
         "COLD_TRIAL_STALL": 10, "NEWTON_STALL": None, "COLD_PROX_STEPS": 0,
         "COLD_MAX_M": 72, "PREDICT_MAX_M": 72, "MAX_ROUNDS": 0, "COLD_ALPHA0": 1.0,
-        "COMPILED_LOOP_MAX_M": 72}
+        "COMPILED_LOOP_MAX_M": 72, "ALT_ALPHA0": None}
 INTS = ("REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
@@ -114,7 +117,7 @@ def settings(config: str) -> dict:
             name, value = part.split("=")
             if name not in RULES:
                 raise SystemExit(f"unknown rule {name!r}; one of {RULES}")
-            out[name] = (float(value) if name in FLOATS else int(value) if name in INTS
+            out[name] = (None if value == "None" else float(value) if name in FLOATS else int(value) if name in INTS
                          else bool(int(value)))
     return out
 

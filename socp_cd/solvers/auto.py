@@ -22,7 +22,9 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   own iterate when the trials fail: ``"newton_trial"``, after an early hand-off
   ``"nsgs_mid"`` up to the cap and a second trial, then ``"nsgs_rest"``), then the
   proximal semismooth Newton method
-  (:mod:`socp_cd.solvers.newton`), the Clarabel De Saxcé fixed point and
+  (:mod:`socp_cd.solvers.newton`), plain Newton steps from its iterate and from
+  ``r = 0``, the proximal method from ``r = 0`` with the proximal parameter
+  :data:`ALT_ALPHA0` (``"newton_cold_alt"``), the Clarabel De Saxcé fixed point and
   Newton again; larger local problems: an NSGS *probe* of at most
   :data:`PROBE_SWEEPS` sweeps first (then Newton starts afresh unless the probe
   came within :data:`WARM_MAX`); 2D local problems of more than
@@ -50,7 +52,8 @@ Options
 methods : sequence of str, optional
     Explicit stage order (names among ``"newton"``, ``"newton_plain"``,
     ``"newton_plain_cold"``, ``"newton_trial"``, ``"newton_trial_cold"``,
-    ``"newton_trial_prox"``, ``"nsgs"``, ``"nsgs_probe"``, ``"clarabel"`` and ``"clarabel_qp"`` (Clarabel on the frictionless QP))
+    ``"newton_trial_prox"``, ``"newton_cold_alt"``, ``"nsgs"``, ``"nsgs_probe"``, ``"clarabel"``
+    and ``"clarabel_qp"`` (Clarabel on the frictionless QP))
     instead of the feature-based one (no hand-off then).
 
 Common options (:mod:`socp_cd.solvers.options`): ``tol``; ``max_iter`` caps
@@ -177,6 +180,11 @@ NEWTON_STALL = None
 #: (formulations/auto.md, "Rounds"; chosen on the tune split,
 #: validation/results/auto_rounds_tune.md: 1 s 115 -> 116 of 128 solved, 10 s 116 -> 118)
 ROUND = ("nsgs", "newton", "clarabel", "newton")
+#: after the plain stages of the exact-Coulomb order, the proximal Newton method once more
+#: from ``r = 0`` with this relative proximal parameter (``"newton_cold_alt"``; None: off):
+#: session 13's default, 1, where the order's Newton stages start warm or with
+#: ``newton.COLD_ALPHA0`` (0.1 since session 14: more cases solved, not the same ones)
+ALT_ALPHA0 = 1.0
 ROUND_GAIN = 1.1
 MAX_ROUNDS = 8
 #: stage name -> (spec, solver-specific options passed to it)
@@ -189,6 +197,7 @@ _STAGES = {
     "newton_trial": (newton.SPEC, {"policy": "plain"}),    # + TRIAL_STALL, TRIAL_STEPS
     "newton_trial_cold": (newton.SPEC, {"policy": "plain"}),   # + COLD_TRIAL_* (from r = 0)
     "newton_trial_prox": (newton.SPEC, {}),     # + COLD_PROX_STEPS, COLD_TRIAL_STALL (r = 0)
+    "newton_cold_alt": (newton.SPEC, {}),       # + alpha0 = ALT_ALPHA0 (r = 0)
     "nsgs_mid": (nsgs.SPEC, {}),
     "nsgs_rest": (nsgs.SPEC, {}),
     "clarabel": (clarabel_backend.SPEC, {}),
@@ -206,7 +215,7 @@ WARM_MAX = 1e-5
 #: all the time left (the refused stage's retry overran a 1 s budget by 4 s)
 SLOW_TO_STOP = ("clarabel", "clarabel_qp")
 #: stages always started from ``r = 0`` (or the caller's ``r0`` when first)
-ALWAYS_COLD = ("newton_plain_cold", "newton_trial_cold", "newton_trial_prox")
+ALWAYS_COLD = ("newton_plain_cold", "newton_trial_cold", "newton_trial_prox", "newton_cold_alt")
 #: the hand-off's cold trials (run only after a failed first trial, on m <= COLD_MAX_M)
 _COLD_TRIALS = ("newton_trial_cold", "newton_trial_prox")
 #: stages of the Newton method: a refused answer of one is retried as ``"newton"`` (warm)
@@ -221,7 +230,8 @@ _SHARES = {"newton_plain": PLAIN_SHARE, "newton_plain_cold": PLAIN_SHARE,
 
 OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'newton_plain', 'newton_plain_cold', "
-               "'newton_trial', 'newton_trial_cold', 'newton_trial_prox', 'nsgs', 'nsgs_probe', "
+               "'newton_trial', 'newton_trial_cold', 'newton_trial_prox', 'newton_cold_alt', "
+               "'nsgs', 'nsgs_probe', "
                "'clarabel', 'clarabel_qp' (default: chosen from the problem's features)",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
 }
@@ -263,6 +273,8 @@ def stage_order(problem, formulation, feats) -> tuple:
     # right after the first (proximal) Newton stage: plain nonmonotone Newton steps from
     # its iterate, then from r = 0 (Siconos NSN_AC's method; formulations/auto.md)
     plain = (("newton_plain", "coulomb"), ("newton_plain_cold", "coulomb"))
+    if ALT_ALPHA0 is not None:
+        plain = plain + (("newton_cold_alt", "coulomb"),)
     if feats["n_contacts"] <= SMALL_NC and not feats["global"]:
         # small local problems: NSGS first (one contact: one call of its local solver);
         # it costs a fraction of Newton's set-up and factorizations (formulations/auto.md)
@@ -650,8 +662,10 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             # the warm proximal parameter was 2-5x slower than from the start (auto_probe.md)
             if method == "newton" and best_r is not None and not after_far_probe:
                 opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
-            if method == "newton" and NEWTON_STALL is not None:
+            if method in ("newton", "newton_cold_alt") and NEWTON_STALL is not None:
                 opts["stall_window"] = NEWTON_STALL
+            if method == "newton_cold_alt":
+                opts["alpha0"] = float(ALT_ALPHA0)
             stage_max_iter = _CAPPED.get(method) if max_iter is None else max_iter
             if method == "nsgs_probe" and PROBE_SWEEPS > 0:  # a probe: at most PROBE_SWEEPS sweeps
                 stage_max_iter = min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
@@ -765,4 +779,5 @@ __all__ = ["auto_backend", "route", "features", "stage_order", "SPEC", "OPTIONS"
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
            "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC", "RETRY_REFUSED",
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
-           "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP"]
+           "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
+           "ALT_ALPHA0"]

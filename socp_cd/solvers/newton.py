@@ -317,18 +317,20 @@ class _LocalSystem:
             return u
         return self.W @ r + self.q
 
-    def direction(self, r, Dr, Du, alpha, F):
-        """Solve ``(Dr + Du (W + alpha I)) dr = -F``; returns ``(dr, W dr)``."""
+    def direction(self, r, Dr, Du, alpha, F, strict=False):
+        """Solve ``(Dr + Du (W + alpha I)) dr = -F``; returns ``(dr, W dr)``.  ``strict``: a
+        dense LAPACK LU calls the matrix singular on a pivot below ``PIVOT_TOL`` of its
+        largest entry, not only on a zero one (:func:`~.kernels.dense.dense_solve`)."""
         self.factorizations += 1
         if self.compiled:
             dense_jacobian(Dr, Du, self.W, alpha, self.d, self.J)
-            dr, ok = dense_solve(self.J, -F, self.lapack)   # compiled: no wrapper overhead
+            dr, ok = dense_solve(self.J, -F, self.lapack, strict)   # no wrapper overhead
             if not ok:
                 raise _SingularStep("singular Newton matrix")
         elif self.kind == "dense":
             dense_jacobian(Dr, Du, self.W, alpha, self.d, self.J)
-            # (dense_solve's pivot test of LAPACK's LU)
-            tiny = 1e-300 + max(PIVOT_TOL, self.m * np.finfo(float).eps) * np.max(np.abs(self.J))
+            # (dense_solve's pivot test)
+            tiny = 1e-300 + PIVOT_TOL * np.max(np.abs(self.J)) if strict else 0.0
             try:
                 lu = sla.lu_factor(self.J, overwrite_a=True, check_finite=False)
             except (ValueError, sla.LinAlgError) as exc:
@@ -392,7 +394,8 @@ class _GlobalSystem:
         self.v = self.problem.global_velocity(r)
         return self.HT @ self.v + self.w
 
-    def direction(self, r, Dr, Du, alpha, F):
+    def direction(self, r, Dr, Du, alpha, F, strict=False):
+        """As :meth:`_LocalSystem.direction` (``strict`` unused: SuperLU's own test)."""
         self.factorizations += 1
         ind, ptr = self._bsr_index
         shape = (self.m, self.m)
@@ -489,29 +492,30 @@ def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch, *, non
       halvings until ``½||F(r + t dr)||² <= (1 - 2 m1 t) ½||F||²``
       (``m1 = GOLDSTEIN_M1``); when none satisfies it the *full* step is taken
       (the caller keeps the best iterate).  ``None`` only when the regularized
-      matrix is singular too.  With ``reg_first`` (after a step of the run needed
-      ``reg``: the caller's ``regularized``) the regularized matrix is factorized
-      first, without the unregularized try: on rank-deficient ``W`` (box stacks
-      with redundant contacts) every step's matrix was singular and half of the
-      factorizations were spent finding it out again.
+      matrix is singular too.  With ``reg_first`` (the caller's ``regularized``:
+      the last retry that worked was the regularized matrix) the two shifts are
+      tried in the other order: on rank-deficient ``W`` (box stacks with redundant
+      contacts) every step's matrix was singular, and half of the factorizations
+      were spent finding that out again.
 
     Returns
     -------
     tuple or None
-        ``(r, u, backtracks, line_search_ok, regularized)``.
+        ``(r, u, backtracks, line_search_ok, regularized)``: ``regularized`` for the
+        next step (flipped when the second shift was the one that worked).
     """
     nF = ac_blocks(r, u, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
     if nF == 0.0:
         return r, u, 0, True, reg_first
     regularized = reg_first and nonmonotone
     try:
-        dr, du = system.direction(r, Dr, Du, reg if regularized else 0.0, F)
+        dr, du = system.direction(r, Dr, Du, reg if regularized else 0.0, F, strict=True)
     except _SingularStep:
-        if not nonmonotone or regularized:
+        if not nonmonotone:
             return None
-        regularized = True
+        regularized = not regularized
         try:
-            dr, du = system.direction(r, Dr, Du, reg, F)
+            dr, du = system.direction(r, Dr, Du, reg if regularized else 0.0, F)
         except _SingularStep:
             return None
     trials = _MAX_BACKTRACK if nonmonotone else _PLAIN_BACKTRACK + 1

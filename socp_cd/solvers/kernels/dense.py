@@ -125,9 +125,10 @@ LAPACK_LU = _lapack_functions()
 
 
 @njit(cache=True)
-def _lapack_solve(A, b, lapack):
+def _lapack_solve(A, b, lapack, strict):
     """Solve ``A x = b`` by LAPACK's ``getrf``/``getrs`` (``A`` kept); ``(x, ok)`` as
-    :func:`lu_solve`, singular when a pivot is at most ``max(PIVOT_TOL, n eps) max|A|``."""
+    :func:`lu_solve`, with the same pivot test when ``strict``, else singular on an exact
+    zero pivot only (``scipy.linalg.lu_factor``'s test)."""
     getrf, getrs = lapack
     n = A.shape[0]
     F = np.empty((n, n))            # A in column-major order, as LAPACK reads it
@@ -145,9 +146,7 @@ def _lapack_solve(A, b, lapack):
     getrf(dims.ctypes, dims.ctypes, F.ctypes, dims.ctypes, piv.ctypes, dims[2:].ctypes)
     if dims[2] < 0:
         return np.zeros(n), False
-    # the rank tolerance of numpy's matrix_rank, n eps (rounding leaves a pivot of about that
-    # size on a singular matrix: 2e-14 at n = 90), never below the written-out LU's
-    tiny = 1e-300 + max(PIVOT_TOL, n * 2.220446049250313e-16) * scale
+    tiny = 1e-300 + PIVOT_TOL * scale if strict else 0.0
     for i in range(n):
         if not (abs(F[i, i]) > tiny):     # (F's diagonal is U's)
             return np.zeros(n), False
@@ -162,18 +161,26 @@ def _lapack_solve(A, b, lapack):
 
 
 @njit(cache=True)
-def dense_solve(A, b, lapack):
+def dense_solve(A, b, lapack, strict):
     """Solve ``A x = b``: :func:`lu_solve` (``A`` destroyed) when ``lapack`` is None,
     else LAPACK (``lapack``: :data:`LAPACK_LU`; ``A`` kept).  Returns ``(x, ok)``; ``ok``
-    is False on a pivot below ``PIVOT_TOL max|A|`` (LAPACK: ``max(PIVOT_TOL, n eps)
-    max|A|``, numpy's rank tolerance; the matrix counts as singular: the caller
-    regularizes or gives up) or a non-finite solution.
+    is False on a singular matrix (the caller regularizes or gives up) or a non-finite
+    solution.  Singular: a pivot below ``PIVOT_TOL max|A|`` (the written-out LU always;
+    LAPACK when ``strict``, else an exact zero pivot, scipy's test).
+
+    Which pivots rounding leaves on a singular matrix depends on the algorithm and the
+    size (~1e-17 of the largest entry on a rank-deficient 5 x 5, up to 7e-14 on a
+    150 x 150 one, which LAPACK then "solves"), so no relative test is right everywhere:
+    the plain Newton step asks ``strict`` of its first factorization, to be sent to the
+    regularized retry on the singular matrices of box stacks, and not of the retry, which
+    must not fail where scipy's test had let a usable step through (formulations/newton.md
+    §5, "The dense LU").
 
     Callers pass ``None`` up to :data:`NAIVE_LU_MAX_N` unknowns (numba compiles the two
     cases apart; a ctypes argument costs ~1 µs a call)."""
     if lapack is None:
         return lu_solve(A, b)
-    return _lapack_solve(A, b, lapack)
+    return _lapack_solve(A, b, lapack, strict)
 
 
 @njit(cache=True)

@@ -186,7 +186,7 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
             dense_jacobian(Dr, Du, W, alpha, d, J)
             for k in range(m):
                 mF[k] = -F[k]
-            dr, ok = dense_solve(J, mF, lapack)
+            dr, ok = dense_solve(J, mF, lapack, False)
             if not ok:
                 n_singular += 1
                 sub_ok = False
@@ -272,18 +272,19 @@ def velocity_error(err, r, u, norm_q):
 def _plain_direction(W, Dr, Du, F, d, reg, J, mF, lapack, reg_first):
     """``(dr, W dr, ok, factorizations)`` of ``(Dr + Du (W + reg I)) dr = -F``: first
     ``reg = 0``, then, when that matrix is singular, ``reg`` (the reference's retry); with
-    ``reg_first`` ``reg`` at once, no retry."""
+    ``reg_first`` the two shifts in the other order.  The first factorization's pivot test
+    is strict, the retry's not (:func:`~.dense.dense_solve`)."""
     m = F.shape[0]
     for k in range(m):
         mF[k] = -F[k]
     dense_jacobian(Dr, Du, W, reg if reg_first else 0.0, d, J)
-    dr, ok = dense_solve(J, mF, lapack)
+    dr, ok = dense_solve(J, mF, lapack, True)
     n_fact = 1
-    if not ok and not reg_first:
+    if not ok:
         for k in range(m):
             mF[k] = -F[k]
-        dense_jacobian(Dr, Du, W, reg, d, J)
-        dr, ok = dense_solve(J, mF, lapack)
+        dense_jacobian(Dr, Du, W, 0.0 if reg_first else reg, d, J)
+        dr, ok = dense_solve(J, mF, lapack, False)
         n_fact = 2
     if not ok:
         return dr, dr, False, n_fact
@@ -299,8 +300,9 @@ def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stal
     ``policy="plain"`` (Siconos NSN_AC's globalization, ``formulations/newton.md``
     §8), same iterates and counters: per step the Newton direction of the
     Alart–Curnier equation (a singular matrix retried with ``W + reg I``, and the
-    run's later steps regularized at once; a failure of the regularized matrix ends
-    the run with ``NUMERICAL_ERROR``), halvings of ``t``
+    run's later steps regularized first, the unregularized matrix their retry, until
+    that retry is the one that works; when both are singular the run ends with
+    ``NUMERICAL_ERROR``), halvings of ``t``
     until ``½||F(r + t dr)||² <= (1 - 2 m1 t) ½||F(r)||²``, at most
     ``max_backtrack`` of them, else the full step; the error is Siconos'
     re-normalized by the velocity scale (:func:`velocity_error`); the best
@@ -325,8 +327,8 @@ def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stal
             dr, du, ok, nf = _plain_direction(W, Dr, Du, F, d, reg, J, mF, lapack,
                                               istate[I_REGULARIZED] != 0)
             n_fact += nf
-            if nf == 2:
-                istate[I_REGULARIZED] = 1
+            if nf == 2 and ok:      # the second shift was the one that worked
+                istate[I_REGULARIZED] = 1 - istate[I_REGULARIZED]
             if not ok:
                 n_singular += 1
                 status = NUMERICAL_ERROR
