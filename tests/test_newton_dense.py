@@ -284,13 +284,20 @@ def test_plain_twin_counts_failed_line_searches_like_the_python_loop():
 
 
 def test_plain_twin_time_limit_chunks_like_the_python_loop(monkeypatch):
-    # re-entry of the compiled loop between chunks: one step per call, then 7
-    p = manufactured(20, 3, 0.5, structure="redundant", seed=2)
-    for work in (1.0, 7 * 60 ** 3 / 3):
-        monkeypatch.setattr(nt, "CHUNK_WORK", work)
-        a, b = _both(p, np.zeros(p.m), 1e-14, max_iter=30, time_limit=1e3, policy="plain",
-                     **PLAIN)
-        _assert_equal(a, b)
+    # re-entry of the compiled loop between chunks: one step per call, then 7; the state
+    # "regularized first" (I_REGULARIZED) carried from chunk to chunk (mass ratio 1e6 and
+    # redundant W: singular Newton matrices, the regularized retry)
+    retried = 0
+    for p in (manufactured(20, 3, 0.5, structure="redundant", seed=2),
+              *(manufactured(20, 3, 1.0, structure="redundant", mass_ratio=1e6, seed=s)
+                for s in range(3))):
+        for work in (1.0, 7 * 60 ** 3 / 3):
+            monkeypatch.setattr(nt, "CHUNK_WORK", work)
+            a, b = _both(p, np.zeros(p.m), 1e-14, max_iter=30, time_limit=1e3, policy="plain",
+                         **PLAIN)
+            _assert_equal(a, b)
+            retried += a[4]["factorizations"] > a[4]["newton_steps"]
+    assert retried > 0
 
 
 def test_velocity_error_is_the_guard_error():

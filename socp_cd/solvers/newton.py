@@ -509,7 +509,8 @@ def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch, *, non
         return r, u, 0, True, reg_first
     regularized = reg_first and nonmonotone
     try:
-        dr, du = system.direction(r, Dr, Du, reg if regularized else 0.0, F, strict=True)
+        # (strict: the nonmonotone policy's first try only; policy "hybrid" as before)
+        dr, du = system.direction(r, Dr, Du, reg if regularized else 0.0, F, strict=nonmonotone)
     except _SingularStep:
         if not nonmonotone:
             return None
