@@ -104,9 +104,9 @@ COLD_ALPHA0 = 0.1
 DENSE_MAX_M = 600
 DENSE_ALWAYS_M = 120
 DENSE_MIN_FILL = 0.1
-#: dense Newton matrices this small are factorized by the compiled LU of
-#: :mod:`~socp_cd.solvers.kernels.dense` (same partial pivoting), with compiled
-#: mat-vecs and no BLAS thread limit (no BLAS call at all).  Measured
+#: dense Newton matrices this small are factorized by the written-out LU of
+#: :mod:`~socp_cd.solvers.kernels.dense` (same partial pivoting; its NAIVE_LU_MAX_N),
+#: without any BLAS call (no thread limit needed); larger ones by LAPACK.  Measured
 #: (``validation/results/newton_loop_threshold.md``, whole solves with the compiled
 #: loop below): faster than LAPACK through scipy's wrappers up to m = 72 even with
 #: every entry of W non-zero (x0.7 at m = 72, x1.3 at m = 90); with the sparsity
@@ -285,7 +285,8 @@ class _LocalSystem:
             elif self.compiled:
                 self.W = csr_to_dense(indptr, indices, data.astype(np.float64, copy=False),
                                       self.m, self.m)       # no scipy overhead on tiny W
-            else:
+            else:   # (only with COMPILED_LOOP_MAX_M set below DENSE_MAX_M: the studies'
+                #        session-14 baseline, validation/newton_compiled_lapack.py, auto_chain.py)
                 self.W = np.ascontiguousarray(problem.W.toarray(), dtype=np.float64)
                 if not self.W.flags.writeable:
                     self.W = self.W.copy()
@@ -327,7 +328,7 @@ class _LocalSystem:
             dr, ok = dense_solve(self.J, -F, self.lapack, strict)   # no wrapper overhead
             if not ok:
                 raise _SingularStep("singular Newton matrix")
-        elif self.kind == "dense":
+        elif self.kind == "dense":      # (the studies' baseline, as in __init__)
             dense_jacobian(Dr, Du, self.W, alpha, self.d, self.J)
             # (dense_solve's pivot test)
             tiny = 1e-300 + PIVOT_TOL * np.max(np.abs(self.J)) if strict else 0.0

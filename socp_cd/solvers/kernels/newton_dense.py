@@ -40,7 +40,8 @@ FSTATE = 4
 #: the last 10 % drop of the best error, then the counters of ``prox_newton``'s info
 (I_STARTED, I_STATUS, I_IT, I_BEST_IT, I_NEWTON, I_BACKTRACK, I_LS_FAIL, I_SINGULAR,
  I_REJECTED, I_FACTORIZATIONS) = range(10)
-#: ... and (plain policy) whether a step of the run needed the regularization
+#: ... and (plain policy) whether the next step tries the regularized matrix first (set when
+#: a step's retry with it worked, cleared when a retry without it did)
 I_REGULARIZED = 10
 ISTATE = 11
 
