@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 from .kernels.cone import EPS, error_parts, law_error, relative_error
-from .local_solvers import local_solve
+from .local_solvers import LOCAL_OK, local_solve_first, local_solve_rest
 
 STATUS_CONVERGED = 0
 STATUS_MAX_ITER = 1
@@ -86,6 +86,71 @@ def full_errors(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u):
     if not vel > EPS:
         vel = 1.0
     return relative_error(f2, r2, u2, norm_q), np.sqrt(f2) / vel
+
+
+#: :func:`sweep_span`'s code for a contact whose new iterate is not finite
+NOT_FINITE = -1
+
+
+@njit(cache=True, inline="always")
+def all_finite(x, d):
+    """Whether ``x[:d]`` is finite."""
+    for a in range(d):
+        if not np.isfinite(x[a]):
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def relax_into(r, o, d, rl, rold, omega, dsum):
+    """``r[o:o+d] = omega rl + (1 - omega) rold``; returns ``dsum`` plus the squared change."""
+    for a in range(d):
+        v = omega * rl[a] + (1.0 - omega) * rold[a]
+        e = v - rold[a]
+        dsum += e * e
+        r[o + a] = v
+    return dsum
+
+
+@njit(cache=True)
+def sweep_span(k0, order, dims, indptr, indices, blocks, diag, q, r, mu, g, law, kind, rhoN,
+               rhoT, loc_tol, newton_maxit, omega, b, rl, rold, M, dsum):
+    """Contacts ``order[k0:]`` of one Gauss–Seidel sweep, up to the first one the cheap local
+    attempt (:func:`~socp_cd.solvers.local_solvers.local_solve_first`) does not settle.
+
+    The contact loop holds no call that is not inlined (see
+    :func:`~socp_cd.solvers.local_solvers.local_solve_first`); the caller runs the rest of
+    the local chain on the contact it stopped at and calls it again from the next one.
+    ``dims``: a tuple of ``d`` entries (its length is a compile-time constant, so numba
+    compiles a version per dimension with the ``d``-loops unrolled: a 304-contact sweep
+    20 -> 14 µs).
+
+    Returns
+    -------
+    kk, first, dsum
+        ``kk = n_contacts`` when the sweep is done; else the position of the contact
+        that stopped it, with ``b`` its free velocity, ``rold`` its iterate before and
+        ``rl`` after the attempt, and ``first`` the attempt's code (or
+        :data:`NOT_FINITE`: ``rl`` is not finite); ``dsum``: the squared change of
+        ``r`` so far in this sweep.
+    """
+    d = len(dims)
+    nc = diag.shape[0]
+    for kk in range(k0, nc):
+        i = order[kk]
+        o = i * d
+        local_free_velocity(i, d, indptr, indices, blocks, q, r, b)
+        for a in range(d):
+            rold[a] = r[o + a]
+            rl[a] = r[o + a]
+        first = local_solve_first(kind, diag, i, b, mu[i], g[i], law, rhoN[i], rhoT[i], rl, d,
+                                  loc_tol, newton_maxit, M)
+        if first != LOCAL_OK:
+            return kk, first, dsum
+        if not all_finite(rl, d):
+            return kk, NOT_FINITE, dsum
+        dsum = relax_into(r, o, d, rl, rold, omega, dsum)
+    return nc, LOCAL_OK, dsum
 
 
 #: The block-sparse ``W`` (:mod:`socp_cd.solvers.block_storage`): block-row pointers,
@@ -171,29 +236,35 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
         if shuffle:
             np.random.shuffle(order)
         dsum = 0.0
-        for kk in range(nc):
+        kk = 0
+        while kk < nc:
+            # (the dimension as a tuple's length: a compile-time constant in each version)
+            if d == 3:
+                kk, first, dsum = sweep_span(kk, order, (0, 0, 0), indptr, indices, blocks, diag,
+                                             q, r, mu, g, law, kind, rhoN, rhoT, loc_tol,
+                                             newton_maxit, omega, b, rl, rold, M, dsum)
+            else:
+                kk, first, dsum = sweep_span(kk, order, (0, 0), indptr, indices, blocks, diag, q,
+                                             r, mu, g, law, kind, rhoN, rhoT, loc_tol,
+                                             newton_maxit, omega, b, rl, rold, M, dsum)
+            if kk == nc:
+                break
+            # contact order[kk] needs the rest of the local chain (or broke)
             i = order[kk]
-            o = i * d
-            local_free_velocity(i, d, indptr, indices, blocks, q, r, b)
-            for a in range(d):
-                rold[a] = r[o + a]
-                rl[a] = r[o + a]
-            flag = local_solve(kind, diag, i, b, mu[i], g[i], law, rhoN[i], rhoT[i], rhoP[i],
-                               rl, d, loc_tol, newton_maxit, proj_maxit, work, M)
-            if flag != 0:
-                n_fail += 1
-            finite = True
-            for a in range(d):
-                if not np.isfinite(rl[a]):
-                    finite = False
-            if not finite:
+            if first != NOT_FINITE:
+                flag = local_solve_rest(first, diag, i, b, mu[i], g[i], law, rhoN[i], rhoT[i],
+                                        rhoP[i], rl, rold, d, loc_tol, newton_maxit, proj_maxit,
+                                        work, M)
+                if flag != LOCAL_OK:
+                    n_fail += 1
+                if all_finite(rl, d):
+                    dsum = relax_into(r, i * d, d, rl, rold, omega, dsum)
+                else:
+                    first = NOT_FINITE
+            if first == NOT_FINITE:
                 err = full_error(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u)
                 return STATUS_NUMERICAL, it, err, n_full + 1, n_fail, light, hist
-            for a in range(d):
-                v = omega * rl[a] + (1.0 - omega) * rold[a]
-                e = v - rold[a]
-                dsum += e * e
-                r[o + a] = v
+            kk += 1
         nr = 0.0
         for k in range(nc * d):
             nr += r[k] * r[k]

@@ -41,8 +41,9 @@ def unit_factors(diag, q, dim):
     m = q.shape[0]
     nc = m // dim
     d = np.zeros(nc)
-    for j in range(m):
-        d[j // dim] += abs(diag[j])
+    for i in range(nc):
+        for k in range(dim):
+            d[i] += abs(diag[i * dim + k])
     n_good = 0
     for i in range(nc):
         d[i] /= dim
