@@ -363,3 +363,31 @@ def test_both_lus_of_dense_solve_agree_and_report_singular_matrices(n):
     bad[1, 2] = np.nan
     assert not dense_solve(bad.copy(), b.copy(), None, True)[1]
     assert not dense_solve(bad, b, LAPACK_LU, False)[1]
+
+
+@pytest.mark.parametrize("n", [1, 3, 7, 42, 73])
+def test_vector_lu_is_the_many_rhs_lu_bit_for_bit(n):
+    """``lu_solve`` (one right-hand side, unsigned vectorized loops) performs the operations of
+    ``lu_solve_many`` in the same order: the same bits, pivoting and sparse rows included; its
+    scale ``abs_max`` is the largest |entry|, NaN ignored."""
+    from socp_cd.solvers.kernels.dense import abs_max, lu_solve, lu_solve_many
+    rng = np.random.default_rng(n)
+    for trial in range(4):
+        A = rng.standard_normal((n, n))
+        A[rng.random((n, n)) < 0.5] = 0.0          # zero multipliers (skipped) and pivoting
+        A += 0.1 * np.eye(n)
+        b = rng.standard_normal(n)
+        x, ok = lu_solve(A.copy(), b)
+        X, ok_many = lu_solve_many(A.copy(), b.reshape(n, 1).copy())
+        assert ok == ok_many
+        assert np.array_equal(x, X[:, 0])
+        if ok:
+            np.testing.assert_allclose(A @ x, b, atol=1e-8 * max(1.0, np.abs(x).max()))
+        assert abs_max(A) == np.abs(A).max()
+    if n == 1:
+        return
+    A = rng.standard_normal((n, n))
+    A[0, n - 1] = np.nan
+    A[n - 1, 0] = -1e3
+    assert abs_max(A) == np.nanmax(np.abs(A)) == 1e3
+    assert not lu_solve(A, rng.standard_normal(n))[1]
