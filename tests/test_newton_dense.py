@@ -21,6 +21,7 @@ from socp_cd.errors import UnsupportedError
 from socp_cd.problem import FrictionContactProblem
 from socp_cd.solvers import newton as nt
 from socp_cd.solvers.kernels.cone import project_cone_stacked
+from socp_cd.solvers.kernels.dense import envelope_fraction
 
 #: settings of a cold solve (newton_backend's defaults) and of the polish (newton_polish)
 COLD = dict(alpha0=nt.COLD_ALPHA0, alpha_min=1e-10, inner_max_iter=10, stall_window=50)
@@ -73,8 +74,17 @@ def test_dispatch_rules():
         nt.prox_newton(system, mu, np.zeros(p.m), tol=1e-10, max_iter=5, time_limit=None,
                        history=True, compiled=True, **COLD)
     assert system.lapack is None                   # the written-out LU
-    big = manufactured(25, 3, 0.5, seed=0)         # m = 75 > COMPILED_LU_MAX_M: LAPACK's LU
+    # m = 75 > COMPILED_LU_MAX_M: the written-out LU on a contact graph's pattern (a small
+    # envelope), LAPACK's on a full W
+    big = manufactured(25, 3, 0.5, seed=0)
+    indptr, indices, _ = big.csr_parts
+    assert envelope_fraction(indptr, indices, big.m) < 0.3
     system = nt._LocalSystem(big, "auto")
+    assert system.compiled and system.lapack is None
+    rng = np.random.default_rng(0)
+    A = rng.standard_normal((big.m, big.m))
+    full = FrictionContactProblem(A @ A.T + np.eye(big.m), big.q, big.mu, 3)
+    system = nt._LocalSystem(full, "auto")
     assert system.compiled and system.lapack is not None
     assert not nt._LocalSystem(p, "splu").compiled
     huge = manufactured(210, 3, 0.5, seed=0)       # m = 630 > DENSE_MAX_M
@@ -99,15 +109,21 @@ def test_twin_equals_python_loop_on_shared_problems(name):
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("structure", ["tree", "redundant"])
 @pytest.mark.parametrize("mu", [0.0, 0.3, 2.0])
-@pytest.mark.parametrize("m", [72, 90])
-def test_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu, m):
+@pytest.mark.parametrize("m, lapack", [(72, False), (90, False), (90, True)])
+def test_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu, m, lapack,
+                                                          monkeypatch):
     """Mixes of separated/stick/slide/grazing contacts; "redundant": rank-deficient W;
-    m = 72 = COMPILED_LU_MAX_M (written-out LU), 90 (LAPACK's)."""
+    m = 72 = COMPILED_LU_MAX_M (written-out LU), 90 (written-out by the envelope rule, or
+    LAPACK's with the rule switched off)."""
+    if lapack:
+        monkeypatch.setattr(nt, "COMPILED_LU_MAX_ENVELOPE", -1.0)
     nc = m // dim
     for seed, mix in enumerate([(0.25, 0.35, 0.3, 0.1), (0.0, 0.0, 0.0, 1.0),
                                 (0.0, 0.0, 1.0, 0.0), (0.5, 0.0, 0.0, 0.5)]):
         p = manufactured(nc, dim, mu, structure=structure, mix=mix, seed=seed)
         assert bool(p.is_rank_deficient) == (structure == "redundant")
+        if lapack:
+            assert nt._LocalSystem(p, "auto").lapack is not None
         a, b = _both(p, np.zeros(p.m), 1e-10)
         _assert_equal(a, b)
         a, b = _both(p, p.solution.r + 1e-4 * np.abs(p.solution.r).max(), 1e-12, **WARM)

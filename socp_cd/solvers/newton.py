@@ -87,7 +87,7 @@ from .block_storage import block_csr_arrays
 from .kernels import newton_dense as nd
 from .kernels.cone import project_cone_stacked, siconos_error
 from .kernels.dense import (LAPACK_LU, NAIVE_LU_MAX_N, PIVOT_TOL, csr_to_dense, dense_solve,
-                            matvec, matvec_into)
+                            envelope_fraction, matvec, matvec_into)
 from .kernels.newton_ac import ac_blocks, block_jacobian, block_rho_dense, dense_jacobian
 from .options import check_choice, check_int, check_real
 from .polish import associated_polish
@@ -106,12 +106,19 @@ DENSE_ALWAYS_M = 120
 DENSE_MIN_FILL = 0.1
 #: dense Newton matrices this small are factorized by the written-out LU of
 #: :mod:`~socp_cd.solvers.kernels.dense` (same partial pivoting; its NAIVE_LU_MAX_N),
-#: without any BLAS call (no thread limit needed); larger ones by LAPACK.  Measured
-#: (``validation/results/newton_loop_threshold.md``, whole solves with the compiled
-#: loop below): faster than LAPACK through scipy's wrappers up to m = 72 even with
-#: every entry of W non-zero (x0.7 at m = 72, x1.3 at m = 90); with the sparsity
-#: of a contact graph (zero multipliers skipped) up to m = 180.
+#: without any BLAS call (no thread limit needed) ...
 COMPILED_LU_MAX_M = NAIVE_LU_MAX_N
+#: ... and larger ones too when the envelope of W's pattern
+#: (:func:`~.kernels.dense.envelope_fraction`) fills at most this share of the lower
+#: triangle; the others by LAPACK.  The written-out loop skips zero multipliers and
+#: partial pivoting keeps its fill-in near the envelope: on contact graphs (envelope
+#: 0.2-0.5 on every matrix of shared/ and of the tune box stacks) one LU took 0.3-0.6x
+#: LAPACK's time (m up to 531), on random block patterns (envelope >= 0.94: complete
+#: fill-in) 1.3-1.8x (session 16, validation/results/dense_lu_rule.md; until session 15
+#: LAPACK above 72 unknowns, when the written-out inner loop was not vectorized: numba
+#: kept negative-index wrap-around in it).  A negative value: LAPACK above
+#: COMPILED_LU_MAX_M whatever the pattern (the studies' session-15 baseline).
+COMPILED_LU_MAX_ENVELOPE = 0.6
 #: dense local systems this small run the whole proximal loop compiled
 #: (:func:`socp_cd.solvers.kernels.newton_dense.prox_newton_dense`, policy "prox" or
 #: "plain", no history); the Python loop of :func:`prox_newton` is its reference.  Both
@@ -197,7 +204,7 @@ def _one_blas_thread(system):
     the written-out LU: no BLAS)."""
     m = system.m
     if m < SINGLE_THREAD_MIN_M or (getattr(system, "compiled", False)
-                                   and m <= COMPILED_LU_MAX_M):
+                                   and getattr(system, "lapack", None) is None):
         return contextlib.nullcontext()
     return _blas_controller().limit(limits=1, user_api="blas")
 
@@ -271,7 +278,10 @@ class _LocalSystem:
         #: dense system: compiled mat-vecs and solves (and the compiled loop); the LU of
         #: dense_solve (None: written out)
         self.compiled = self.kind == "dense" and self.m <= COMPILED_LOOP_MAX_M
-        self.lapack = None if self.m <= COMPILED_LU_MAX_M else LAPACK_LU
+        self.lapack = (None if self.kind == "dense" and (
+            self.m <= COMPILED_LU_MAX_M
+            or envelope_fraction(indptr, indices, self.m) <= COMPILED_LU_MAX_ENVELOPE)
+            else LAPACK_LU)
         given = dense if self.compiled else None
         if given is not None:
             self.q = given[1]

@@ -6,10 +6,10 @@ the condensation of a small global problem are written out here instead of
 calling BLAS/LAPACK: at these sizes it costs about the same, and it cannot fall
 into multithreaded-OpenBLAS oversubscription, which on a loaded machine turns
 a 0.2 ms ``162 x 162`` solve into 50-100 ms.  Above :data:`NAIVE_LU_MAX_N`
-unknowns :func:`dense_solve` calls LAPACK (the ``getrf``/``getrs`` of scipy's
-LAPACK) from compiled code, where the blocked LU
-is 3-7x faster than the loop of :func:`lu_solve_many` on a full matrix; the
-caller limits BLAS to one thread around it.
+unknowns, on patterns whose envelope fills much of the triangle (:func:`envelope_fraction`),
+:func:`dense_solve` calls LAPACK (the ``getrf``/``getrs`` of scipy's LAPACK) from compiled
+code, where the blocked LU is 1.3-1.8x faster than the loop of :func:`lu_solve` on a full
+matrix; the caller limits BLAS to one thread around it.
 
 :func:`dense_error` is Siconos' relative error with ``u = W r + q``
 recomputed, through :func:`socp_cd.solvers.kernels.cone.law_error`.
@@ -179,11 +179,33 @@ def lu_solve(A, b):
     return x, True
 
 
-#: :func:`dense_solve` uses the written-out LU up to this order, LAPACK above.  The loop
-#: skips zero multipliers: on the sparsity of a contact graph it matched LAPACK (single
-#: thread) up to ~100 unknowns, on a full matrix it was 3x slower at 84 and 5x at 150
-#: (formulations/newton.md, "The dense LU")
+#: :func:`dense_solve`'s callers take the written-out LU up to this order whatever the
+#: matrix (session 16: 18 us on a full 60 x 60 matrix, LAPACK 19; 78 vs 52 at 100), and
+#: above it on patterns of a small :func:`envelope_fraction`
+#: (``socp_cd.solvers.newton.COMPILED_LU_MAX_ENVELOPE``; formulations/newton.md, "The dense LU")
 NAIVE_LU_MAX_N = 72
+
+
+@njit(cache=True)
+def envelope_fraction(indptr, indices, m):
+    """The share of the lower triangle inside the envelope of the pattern of ``A + Aᵀ``.
+
+    ``A`` (``m x m``) in CSR form; row ``i``'s envelope runs from its first stored column
+    (of ``A`` or ``Aᵀ``) to the diagonal: ``sum_i (i - first_i) / (m² / 2)`` (0 for a
+    diagonal matrix, ~1 for a full one).
+    """
+    first = np.arange(m)
+    for i in range(m):
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            if j < first[i]:
+                first[i] = j
+            elif j > i and i < first[j]:
+                first[j] = i
+    s = 0
+    for i in range(m):
+        s += i - first[i]
+    return s / (0.5 * m * m) if m > 0 else 0.0
 
 
 def _lapack_functions():
@@ -255,7 +277,8 @@ def dense_solve(A, b, lapack, strict):
     must not fail where scipy's test had let a usable step through (formulations/newton.md
     §5, "The dense LU").
 
-    Callers pass ``None`` up to :data:`NAIVE_LU_MAX_N` unknowns (numba compiles the two
+    Callers pass ``None`` up to :data:`NAIVE_LU_MAX_N` unknowns and on patterns of a small
+    :func:`envelope_fraction` (numba compiles the two
     cases apart; a ctypes argument costs ~1 µs a call)."""
     if lapack is None:
         return lu_solve(A, b)
@@ -385,4 +408,4 @@ def matvec(A, x):
 
 __all__ = ["csr_to_dense", "dense_error", "dense_condense", "dense_split", "dense_solve", "matvec",
            "lu_solve", "lu_solve_many", "normal_matrix", "matvec_into", "NAIVE_LU_MAX_N",
-           "LAPACK_LU", "PIVOT_TOL"]
+           "LAPACK_LU", "PIVOT_TOL", "envelope_fraction"]
