@@ -113,8 +113,9 @@ def test_twin_equals_python_loop_on_shared_problems(name):
 def test_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu, m, lapack,
                                                           monkeypatch):
     """Mixes of separated/stick/slide/grazing contacts; "redundant": rank-deficient W;
-    m = 72 = COMPILED_LU_MAX_M (written-out LU), 90 (written-out by the envelope rule, or
-    LAPACK's with the rule switched off)."""
+    m = 72 = COMPILED_LU_MAX_M (written-out LU), 90 (the envelope rule's choice: written-out
+    on "tree", LAPACK's on "redundant", whose envelope is ~0.75; or LAPACK's with the rule
+    switched off)."""
     if lapack:
         monkeypatch.setattr(nt, "COMPILED_LU_MAX_ENVELOPE", -1.0)
     nc = m // dim
@@ -122,8 +123,9 @@ def test_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu, m,
                                 (0.0, 0.0, 1.0, 0.0), (0.5, 0.0, 0.0, 0.5)]):
         p = manufactured(nc, dim, mu, structure=structure, mix=mix, seed=seed)
         assert bool(p.is_rank_deficient) == (structure == "redundant")
-        if lapack:
-            assert nt._LocalSystem(p, "auto").lapack is not None
+        if lapack or m > nt.COMPILED_LU_MAX_M:
+            assert (nt._LocalSystem(p, "auto").lapack is not None) == (
+                lapack or structure == "redundant")
         a, b = _both(p, np.zeros(p.m), 1e-10)
         _assert_equal(a, b)
         a, b = _both(p, p.solution.r + 1e-4 * np.abs(p.solution.r).max(), 1e-12, **WARM)
@@ -407,3 +409,47 @@ def test_vector_lu_is_the_many_rhs_lu_bit_for_bit(n):
     A[n - 1, 0] = -1e3
     assert abs_max(A) == np.nanmax(np.abs(A)) == 1e3
     assert not lu_solve(A, rng.standard_normal(n))[1]
+
+
+def test_twin_on_a_rank_deficient_w_ordered_to_a_small_envelope():
+    """A redundant (rank-deficient) W of 90 unknowns with its contacts in reverse
+    Cuthill-McKee order: the envelope rule takes the written-out LU above 72 unknowns on a
+    singular pattern; the twin still equals the Python loop, and Newton solves it."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+    from socp_cd.bench.transforms import permuted
+    for seed in range(3):
+        base = manufactured(30, 3, 0.5, structure="redundant", seed=seed)
+        graph = sp.csr_matrix(np.abs(base.W.toarray()).reshape(30, 3, 30, 3).sum(axis=(1, 3)))
+        p, _ = permuted(base, reverse_cuthill_mckee(graph, symmetric_mode=True))
+        indptr, indices, _ = p.csr_parts
+        assert p.is_rank_deficient and p.m > nt.COMPILED_LU_MAX_M
+        assert envelope_fraction(indptr, indices, p.m) <= nt.COMPILED_LU_MAX_ENVELOPE
+        assert nt._LocalSystem(p, "auto").lapack is None
+        _assert_equal(*_both(p, np.zeros(p.m), 1e-10))
+        _assert_equal(*_both(p, np.zeros(p.m), 1e-10, policy="plain"))
+        res = socp_cd.solve(p, "newton", tol=1e-8)
+        assert res.converged
+
+
+def test_envelope_fraction_of_simple_patterns():
+    """0 for a diagonal pattern, (m - 1) / m for a full one; an entry above the diagonal
+    counts as its transpose; int32 or int64 indices; a NumPy reference on random patterns."""
+    import scipy.sparse as sp
+    m = 7
+    for A, expected in ((np.eye(m), 0.0), (np.ones((m, m)), (m - 1) / m)):
+        S = sp.csr_matrix(A)
+        assert envelope_fraction(S.indptr, S.indices, m) == pytest.approx(expected, abs=1e-15)
+    A = np.eye(m)
+    A[0, m - 1] = 1.0                              # row m - 1's envelope reaches column 0
+    S = sp.csr_matrix(A)
+    assert envelope_fraction(S.indptr.astype(np.int32), S.indices.astype(np.int32), m) == \
+        pytest.approx((m - 1) / (m * m / 2))
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        A = (rng.random((20, 20)) < 0.1) + np.eye(20)
+        nz = (A != 0) | (A.T != 0)
+        first = np.argmax(nz, axis=1)
+        ref = (np.arange(20) - first).sum() / 200.0
+        S = sp.csr_matrix(A)
+        assert envelope_fraction(S.indptr, S.indices, 20) == pytest.approx(ref, abs=1e-15)

@@ -504,3 +504,142 @@ def test_next_block_rule():
     assert next_block(STATUS_CONVERGED, 5, 20, 25, 1000, 1e-9, 20) == (0, -1.0)
     assert next_block(STATUS_MAX_ITER, 20, 20, 1000, 1000, 1e-3, 20) == (0, -1.0)
     assert next_block(STATUS_MAX_ITER, 7, 20, 27, 1000, 1e-3, 20) == (0, -1.0)
+
+
+# --------------------------------------------------------------------------- the sweep's code
+_REFERENCE = []
+
+
+def _reference_sweeps():
+    """(Compiled once per session.)  The sweep loop before session 16 (one loop, ``local_solve`` per contact), compiled:
+    what :func:`~socp_cd.solvers.nsgs_kernels.nsgs_loop`'s split loop must reproduce bit for
+    bit (iterates, local failures, the light error)."""
+    from numba import njit
+    from socp_cd.solvers.local_solvers import local_solve
+    from socp_cd.solvers.nsgs_kernels import local_free_velocity
+
+    @njit
+    def sweeps(d, indptr, indices, blocks, diag, q, mu, g, law, kind, rhoN, rhoT, rhoP, tol,
+               newton_maxit, proj_maxit, omega, order, n_sweeps, r):
+        nc = diag.shape[0]
+        work = np.zeros((4, d))
+        M = np.zeros((d, d + 1))
+        b = np.zeros(d)
+        rl = np.zeros(d)
+        rold = np.zeros(d)
+        n_fail = 0
+        dsums = np.zeros(n_sweeps)
+        for it in range(n_sweeps):
+            dsum = 0.0
+            for kk in range(nc):
+                i = order[it, kk]
+                o = i * d
+                local_free_velocity(i, d, indptr, indices, blocks, q, r, b)
+                for a in range(d):
+                    rold[a] = r[o + a]
+                    rl[a] = r[o + a]
+                if local_solve(kind, diag, i, b, mu[i], g[i], law, rhoN[i], rhoT[i], rhoP[i],
+                               rl, d, tol, newton_maxit, proj_maxit, work, M) != 0:
+                    n_fail += 1
+                for a in range(d):
+                    v = omega * rl[a] + (1.0 - omega) * rold[a]
+                    e = v - rold[a]
+                    dsum += e * e
+                    r[o + a] = v
+            dsums[it] = dsum
+        return n_fail, dsums
+    if not _REFERENCE:
+        _REFERENCE.append(sweeps)
+    return _REFERENCE[0]
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("law_name", ["coulomb", "tresca", "associated"])
+@pytest.mark.parametrize("kind_name", ["exact", "ac_newton", "projection"])
+@pytest.mark.parametrize("omega, newton_maxit", [(1.0, 10), (0.7, 10), (1.0, 1)])
+def test_split_sweep_equals_the_single_loop(dim, law_name, kind_name, omega, newton_maxit):
+    """``nsgs_loop`` (``sweep_span`` with the first local attempt inlined, the rest of the
+    chain on the contacts it stops at) gives the single loop's iterates, local failures and
+    light errors bit for bit: every local solver and law, relaxation, and Newton capped at
+    one step so that the fallback chain runs mid-sweep."""
+    from socp_cd.bench.generators import manufactured
+    from socp_cd.solvers.block_storage import block_csr
+    from socp_cd.solvers.kernels.cone import LAW_ASSOCIATED, LAW_COULOMB, LAW_TRESCA
+    from socp_cd.solvers.local_solvers import KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION
+    from socp_cd.solvers.nsgs_kernels import (BlockW, Law, LocalSolver, Sweeps,
+                                              local_parameters, nsgs_loop)
+    if kind_name == "exact" and dim == 3:
+        pytest.skip("the exact local solver is 2D only")
+    law = {"coulomb": LAW_COULOMB, "tresca": LAW_TRESCA, "associated": LAW_ASSOCIATED}[law_name]
+    kind = {"exact": KIND_EXACT, "ac_newton": KIND_AC_NEWTON, "projection": KIND_PROJECTION}[kind_name]
+    p = manufactured(12, dim, 0.6, structure="redundant", seed=dim)
+    S = block_csr(p.W, dim)
+    rhoN, rhoT, rhoP, bad = local_parameters(S.diag, S.blocks)
+    assert not bad.any()
+    g = np.full(p.n_contacts, 0.05)
+    n_sweeps = 6
+    for shuffle in (False, True):
+        r_new = np.zeros(p.m)
+        sweeps = Sweeps(1e-300, n_sweeps, omega, shuffle, 3, 0, 0, False, 0, n_sweeps, -1.0)
+        status, its, err, n_full, n_fail, light, _ = nsgs_loop(
+            dim, BlockW(S.indptr, S.indices, S.blocks, S.diag), p.q, Law(p.mu, g, law),
+            LocalSolver(kind, rhoN, rhoT, rhoP, 1e-13, newton_maxit, 50), sweeps, r_new,
+            np.full(1, np.nan))
+        assert its == n_sweeps
+        # the orders the kernel drew (numba's generator, seeded as the kernel seeds it)
+        order = np.tile(np.arange(p.n_contacts), (n_sweeps, 1))
+        if shuffle:
+            order = _shuffled_orders(3, p.n_contacts, n_sweeps)
+        r_ref = np.zeros(p.m)
+        ref_fail, dsums = _reference_sweeps()(
+            dim, S.indptr, S.indices, S.blocks, S.diag, p.q, p.mu, g, law, kind, rhoN, rhoT,
+            rhoP, 1e-13, newton_maxit, 50, omega, order, n_sweeps, r_ref)
+        assert np.array_equal(r_new, r_ref)
+        assert n_fail == ref_fail
+        nr2 = 0.0
+        for x in r_ref:                      # (the kernel's order of summation)
+            nr2 += x * x
+        assert light == np.sqrt(dsums[-1]) / np.sqrt(nr2)
+
+
+def _shuffled_orders(seed, nc, n_sweeps):
+    """The contact orders of ``n_sweeps`` shuffled sweeps (numba's generator, seeded as
+    ``nsgs_loop`` seeds it)."""
+    if len(_REFERENCE) < 2:
+        from numba import njit
+
+        @njit
+        def draw(seed, nc, n_sweeps):
+            np.random.seed(seed)
+            order = np.arange(nc)
+            out = np.empty((n_sweeps, nc), dtype=np.int64)
+            for k in range(n_sweeps):
+                np.random.shuffle(order)
+                out[k] = order
+            return out
+        _reference_sweeps()
+        _REFERENCE.append(draw)
+    return _REFERENCE[1](seed, nc, n_sweeps)
+
+
+def test_a_non_finite_local_iterate_stops_the_sweeps_with_a_numerical_error():
+    """A contact whose free velocity is not finite: ``nsgs_loop`` returns STATUS_NUMERICAL
+    (its full error, of the last finite ``r``, not finite) instead of sweeping on."""
+    from socp_cd.bench.generators import manufactured
+    from socp_cd.solvers.block_storage import block_csr
+    from socp_cd.solvers.kernels.cone import LAW_COULOMB
+    from socp_cd.solvers.local_solvers import KIND_AC_NEWTON
+    from socp_cd.solvers.nsgs_kernels import (STATUS_NUMERICAL, BlockW, Law, LocalSolver,
+                                              Sweeps, local_parameters, nsgs_loop)
+    p = manufactured(6, 3, 0.5, seed=1)
+    S = block_csr(p.W, 3)
+    rhoN, rhoT, rhoP, _ = local_parameters(S.diag, S.blocks)
+    q = p.q.copy()
+    q[3 * 4] = -np.inf                       # contact 4
+    r = np.zeros(p.m)
+    status, its, err, n_full, n_fail, light, _ = nsgs_loop(
+        3, BlockW(S.indptr, S.indices, S.blocks, S.diag), q, Law(p.mu, np.zeros(6), LAW_COULOMB),
+        LocalSolver(KIND_AC_NEWTON, rhoN, rhoT, rhoP, 1e-13, 10, 50),
+        Sweeps(1e-10, 20, 1.0, False, 0, 0, 0, False, 0, 20, -1.0), r, np.full(1, np.nan))
+    assert status == STATUS_NUMERICAL and its <= 20 and n_full == 1
+    assert np.all(np.isfinite(r)) and not np.isfinite(err)

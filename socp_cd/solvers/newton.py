@@ -17,8 +17,9 @@ when ``W`` is small or dense, otherwise as a sparse matrix factorized by
 SuperLU; on a dense system the whole proximal loop runs compiled
 (:mod:`socp_cd.solvers.kernels.newton_dense`, bit-identical to the Python loop
 of :func:`prox_newton`, which stays the reference and the path of every other
-case), its LU written out up to ``m = COMPILED_LU_MAX_M`` (72) and LAPACK's
-above.  Global problems are registered as native: small ones
+case), its LU written out up to ``m = COMPILED_LU_MAX_M`` (72) and above on
+patterns of a small envelope (``COMPILED_LU_MAX_ENVELOPE``), LAPACK's on the others.
+Global problems are registered as native: small ones
 are condensed here (``W = Hᵀ M⁻¹ H`` by sparse solves, cheaper as measured),
 larger ones run Newton on the saddle-point system ``M v = H r + f``,
 ``u = Hᵀ v + w`` with unknowns ``(v, r)``, one sparse LU per Newton step and
@@ -122,8 +123,8 @@ COMPILED_LU_MAX_ENVELOPE = 0.6
 #: dense local systems this small run the whole proximal loop compiled
 #: (:func:`socp_cd.solvers.kernels.newton_dense.prox_newton_dense`, policy "prox" or
 #: "plain", no history); the Python loop of :func:`prox_newton` is its reference.  Both
-#: loops factorize with the same :func:`~.kernels.dense.dense_solve` (written-out LU up to
-#: COMPILED_LU_MAX_M, LAPACK called from compiled code above), so the twin reproduces the
+#: loops factorize with the same :func:`~.kernels.dense.dense_solve` (the LU chosen by
+#: COMPILED_LU_MAX_M and COMPILED_LU_MAX_ENVELOPE), so the twin reproduces the
 #: reference's iterates bit for bit.  Until session 15 equal to COMPILED_LU_MAX_M (72),
 #: larger dense systems running the Python loop with LAPACK through scipy's wrappers:
 #: every dense system now (``DENSE_MAX_M``), measured in
@@ -278,10 +279,10 @@ class _LocalSystem:
         #: dense system: compiled mat-vecs and solves (and the compiled loop); the LU of
         #: dense_solve (None: written out)
         self.compiled = self.kind == "dense" and self.m <= COMPILED_LOOP_MAX_M
-        self.lapack = (None if self.kind == "dense" and (
-            self.m <= COMPILED_LU_MAX_M
-            or envelope_fraction(indptr, indices, self.m) <= COMPILED_LU_MAX_ENVELOPE)
-            else LAPACK_LU)
+        self.lapack = None          # (read on the compiled dense path only)
+        if self.kind == "dense" and self.m > COMPILED_LU_MAX_M and (
+                envelope_fraction(indptr, indices, self.m) > COMPILED_LU_MAX_ENVELOPE):
+            self.lapack = LAPACK_LU
         given = dense if self.compiled else None
         if given is not None:
             self.q = given[1]

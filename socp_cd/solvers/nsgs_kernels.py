@@ -12,8 +12,9 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from .kernels.cone import EPS, error_parts, law_error, relative_error
-from .local_solvers import LOCAL_OK, local_solve_first, local_solve_rest
+from .kernels.cone import EPS, LAW_ASSOCIATED, error_parts, law_error, relative_error
+from .local_solvers import (KIND_PROJECTION, LOCAL_OK, NEEDS_PROJECTION, local_solve_first,
+                            local_solve_rest)
 
 STATUS_CONVERGED = 0
 STATUS_MAX_ITER = 1
@@ -232,14 +233,24 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
     light = np.inf
     n_full = 0
     n_fail = 0
+    # the projection fixed point is the whole local chain (local_solve_first declines it)
+    projection_only = law == LAW_ASSOCIATED or kind == KIND_PROJECTION
     for it in range(1, max_iter + 1):
         if shuffle:
             np.random.shuffle(order)
         dsum = 0.0
         kk = 0
         while kk < nc:
+            if projection_only:
+                # every contact takes the rest of the chain: no span to run first
+                i = order[kk]
+                local_free_velocity(i, d, indptr, indices, blocks, q, r, b)
+                for a in range(d):
+                    rold[a] = r[i * d + a]
+                    rl[a] = r[i * d + a]
+                first = NEEDS_PROJECTION
             # (the dimension as a tuple's length: a compile-time constant in each version)
-            if d == 3:
+            elif d == 3:
                 kk, first, dsum = sweep_span(kk, order, (0, 0, 0), indptr, indices, blocks, diag,
                                              q, r, mu, g, law, kind, rhoN, rhoT, loc_tol,
                                              newton_maxit, omega, b, rl, rold, M, dsum)

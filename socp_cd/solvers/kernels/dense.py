@@ -6,8 +6,8 @@ the condensation of a small global problem are written out here instead of
 calling BLAS/LAPACK: at these sizes it costs about the same, and it cannot fall
 into multithreaded-OpenBLAS oversubscription, which on a loaded machine turns
 a 0.2 ms ``162 x 162`` solve into 50-100 ms.  Above :data:`NAIVE_LU_MAX_N`
-unknowns, on patterns whose envelope fills much of the triangle (:func:`envelope_fraction`),
-:func:`dense_solve` calls LAPACK (the ``getrf``/``getrs`` of scipy's LAPACK) from compiled
+unknowns, on patterns whose envelope fills much of the triangle (:func:`envelope_fraction`;
+the caller decides), :func:`dense_solve` calls LAPACK (the ``getrf``/``getrs`` of scipy's LAPACK) from compiled
 code, where the blocked LU is 1.3-1.8x faster than the loop of :func:`lu_solve` on a full
 matrix; the caller limits BLAS to one thread around it.
 
