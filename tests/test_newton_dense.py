@@ -385,9 +385,9 @@ def test_both_lus_of_dense_solve_agree_and_report_singular_matrices(n):
 
 @pytest.mark.parametrize("n", [1, 3, 7, 42, 73])
 def test_vector_lu_is_the_many_rhs_lu_bit_for_bit(n):
-    """``lu_solve`` (one right-hand side, unsigned vectorized loops) performs the operations of
-    ``lu_solve_many`` in the same order: the same bits, pivoting and sparse rows included; its
-    scale ``abs_max`` is the largest |entry|, NaN ignored."""
+    """``lu_solve`` (one right-hand side) is ``lu_solve_many``'s first column, pivoting and
+    sparse rows included, and solves the system; the scale ``abs_max`` (four running
+    maxima) is the largest |entry|, NaN ignored."""
     from socp_cd.solvers.kernels.dense import abs_max, lu_solve, lu_solve_many
     rng = np.random.default_rng(n)
     for trial in range(4):
