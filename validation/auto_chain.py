@@ -54,6 +54,15 @@ Session 15's:
     after the plain stages, the proximal Newton method once more from ``r = 0`` with this
     relative proximal parameter (``"newton_cold_alt"``; None: off).
 
+Session 16's:
+
+``HANDOFF_PREDICT``
+    the hand-off's rate-prediction window (sweeps; 20 since session 12; tune: 10 not adopted);
+``COMPILED_LU_MAX_ENVELOPE``
+    ``newton.COMPILED_LU_MAX_ENVELOPE``: above 72 unknowns Newton's dense LU is the
+    written-out one when the envelope of W's pattern fills at most this share of the lower
+    triangle (-1: LAPACK above 72, session 15's rule; ``base`` keeps it).
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``) or ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``.  Problems:
