@@ -115,7 +115,7 @@ COMPILED_LU_MAX_M = NAIVE_LU_MAX_N
 #: partial pivoting keeps its fill-in near the envelope: on contact graphs (envelope
 #: 0.2-0.5 on every matrix of shared/ and of the tune box stacks) one LU took 0.3-0.6x
 #: LAPACK's time (m up to 531), on random block patterns (envelope >= 0.94: complete
-#: fill-in) 1.3-1.8x (session 16, validation/results/dense_lu_rule.md; until session 15
+#: fill-in) 1.4-2.1x (session 16, validation/results/dense_lu_rule.md; until session 15
 #: LAPACK above 72 unknowns, when the written-out inner loop was not vectorized: numba
 #: kept negative-index wrap-around in it).  A negative value: LAPACK above
 #: COMPILED_LU_MAX_M whatever the pattern (the studies' session-15 baseline).

@@ -8,7 +8,7 @@ into multithreaded-OpenBLAS oversubscription, which on a loaded machine turns
 a 0.2 ms ``162 x 162`` solve into 50-100 ms.  Above :data:`NAIVE_LU_MAX_N`
 unknowns, on patterns whose envelope fills much of the triangle (:func:`envelope_fraction`;
 the caller decides), :func:`dense_solve` calls LAPACK (the ``getrf``/``getrs`` of scipy's LAPACK) from compiled
-code, where the blocked LU is 1.3-1.8x faster than the loop of :func:`lu_solve` on a full
+code, where the blocked LU is 1.4-2.1x faster than the loop of :func:`lu_solve` on a full
 matrix; the caller limits BLAS to one thread around it.
 
 :func:`dense_error` is Siconos' relative error with ``u = W r + q``
