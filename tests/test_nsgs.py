@@ -5,6 +5,7 @@ Single-contact problems are built backwards from a hand-chosen solution
 """
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -507,9 +508,7 @@ def test_next_block_rule():
 
 
 # --------------------------------------------------------------------------- the sweep's code
-_REFERENCE = []
-
-
+@functools.cache
 def _reference_sweeps():
     """(Compiled once per session.)  The sweep loop before session 16 (one loop, ``local_solve`` per contact), compiled:
     what :func:`~socp_cd.solvers.nsgs_kernels.nsgs_loop`'s split loop must reproduce bit for
@@ -548,9 +547,7 @@ def _reference_sweeps():
                     r[o + a] = v
             dsums[it] = dsum
         return n_fail, dsums
-    if not _REFERENCE:
-        _REFERENCE.append(sweeps)
-    return _REFERENCE[0]
+    return sweeps
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -602,24 +599,27 @@ def test_split_sweep_equals_the_single_loop(dim, law_name, kind_name, omega, new
         assert light == np.sqrt(dsums[-1]) / np.sqrt(nr2)
 
 
-def _shuffled_orders(seed, nc, n_sweeps):
-    """The contact orders of ``n_sweeps`` shuffled sweeps (numba's generator, seeded as
-    ``nsgs_loop`` seeds it)."""
-    if len(_REFERENCE) < 2:
-        from numba import njit
+@functools.cache
+def _order_drawer():
+    """numba's generator drawing the contact orders of shuffled sweeps, seeded as
+    ``nsgs_loop`` seeds it (compiled once per session)."""
+    from numba import njit
 
-        @njit
-        def draw(seed, nc, n_sweeps):
-            np.random.seed(seed)
-            order = np.arange(nc)
-            out = np.empty((n_sweeps, nc), dtype=np.int64)
-            for k in range(n_sweeps):
-                np.random.shuffle(order)
-                out[k] = order
-            return out
-        _reference_sweeps()
-        _REFERENCE.append(draw)
-    return _REFERENCE[1](seed, nc, n_sweeps)
+    @njit
+    def draw(seed, nc, n_sweeps):
+        np.random.seed(seed)
+        order = np.arange(nc)
+        out = np.empty((n_sweeps, nc), dtype=np.int64)
+        for k in range(n_sweeps):
+            np.random.shuffle(order)
+            out[k] = order
+        return out
+    return draw
+
+
+def _shuffled_orders(seed, nc, n_sweeps):
+    """The contact orders of ``n_sweeps`` shuffled sweeps."""
+    return _order_drawer()(seed, nc, n_sweeps)
 
 
 def test_a_non_finite_local_iterate_stops_the_sweeps_with_a_numerical_error():

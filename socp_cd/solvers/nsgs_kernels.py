@@ -103,6 +103,15 @@ def all_finite(x, d):
 
 
 @njit(cache=True, inline="always")
+def load_contact(i, d, indptr, indices, blocks, q, r, b, rold, rl):
+    """Contact ``i``'s free velocity into ``b`` and its iterate into ``rold`` and ``rl``."""
+    local_free_velocity(i, d, indptr, indices, blocks, q, r, b)
+    for a in range(d):
+        rold[a] = r[i * d + a]
+        rl[a] = r[i * d + a]
+
+
+@njit(cache=True, inline="always")
 def relax_into(r, o, d, rl, rold, omega, dsum):
     """``r[o:o+d] = omega rl + (1 - omega) rold``; returns ``dsum`` plus the squared change."""
     for a in range(d):
@@ -139,18 +148,14 @@ def sweep_span(k0, order, dims, indptr, indices, blocks, diag, q, r, mu, g, law,
     nc = diag.shape[0]
     for kk in range(k0, nc):
         i = order[kk]
-        o = i * d
-        local_free_velocity(i, d, indptr, indices, blocks, q, r, b)
-        for a in range(d):
-            rold[a] = r[o + a]
-            rl[a] = r[o + a]
+        load_contact(i, d, indptr, indices, blocks, q, r, b, rold, rl)
         first = local_solve_first(kind, diag, i, b, mu[i], g[i], law, rhoN[i], rhoT[i], rl, d,
                                   loc_tol, newton_maxit, M)
         if first != LOCAL_OK:
             return kk, first, dsum
         if not all_finite(rl, d):
             return kk, NOT_FINITE, dsum
-        dsum = relax_into(r, o, d, rl, rold, omega, dsum)
+        dsum = relax_into(r, i * d, d, rl, rold, omega, dsum)
     return nc, LOCAL_OK, dsum
 
 
@@ -243,11 +248,7 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
         while kk < nc:
             if projection_only:
                 # every contact takes the rest of the chain: no span to run first
-                i = order[kk]
-                local_free_velocity(i, d, indptr, indices, blocks, q, r, b)
-                for a in range(d):
-                    rold[a] = r[i * d + a]
-                    rl[a] = r[i * d + a]
+                load_contact(order[kk], d, indptr, indices, blocks, q, r, b, rold, rl)
                 first = NEEDS_PROJECTION
             # (the dimension as a tuple's length: a compile-time constant in each version)
             elif d == 3:
