@@ -395,3 +395,55 @@ def test_no_early_stop_when_the_handoff_cap_does_not_bind(monkeypatch):
         b = _general(monkeypatch, p, tol=1e-10, max_iter=100, **kw)
         _same(a, b)
         assert a.info["path"][0]["iterations"] == 100
+
+
+def test_routed_auto_result_builds_its_info_on_first_read_only(monkeypatch):
+    # a converged routed auto call returns info as a LazyInfo: the verdict read the guard
+    # value from the route, not from info; the dict built on first read is the one the
+    # general path reports (path, features, guard, scaling), and it is built once
+    import copy
+    import dataclasses
+    import pickle
+    from socp_cd.solvers import auto
+    from socp_cd.solvers.result import LazyInfo
+    p = _random(3, 3, seed=11)
+    res = socp_cd.solve(p)
+    assert res.converged and type(res._info) is LazyInfo
+    twin = pickle.loads(pickle.dumps(res))          # pickles unbuilt (a campaign's records)
+    calls = []
+    original = auto._route_info
+    monkeypatch.setattr(auto, "_route_info", lambda *a: calls.append(1) or original(*a))
+    res = socp_cd.solve(p)
+    info = res.info
+    assert res.info is info and type(res._info) is dict and len(calls) == 1
+    assert info["route"] == "compiled" and info["guard"]["value"] <= 1e-8
+    b = _general(monkeypatch, p)
+    assert info["features"] == b.info["features"] and info["guard"] == b.info["guard"]
+    assert [s["method"] for s in info["path"]] == [s["method"] for s in b.info["path"]]
+    assert twin.info["guard"] == info["guard"]
+    assert copy.copy(res).info is info
+    assert dataclasses.replace(res, status="stalled").info is info
+
+
+def test_a_lazy_info_reads_as_the_dict_everywhere():
+    import dataclasses
+    from socp_cd.solvers.result import LazyInfo, SolverResult
+    built = {"k": 1}
+    res = SolverResult.of_local(np.ones(3), np.zeros(3), "converged", 0.0, 1,
+                                LazyInfo((dict, built)), "", False)
+    assert res.info == built and res.info is res.info
+    assert dataclasses.asdict(res)["info"] == built
+    res.info = {"other": 2}                 # assignment replaces it, as for any field
+    assert res.info == {"other": 2}
+    assert SolverResult(np.ones(1)).info == {}
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_one_contact_nsgs_checks_its_first_sweep(dim):
+    # with one contact the local solve is the whole problem: NSGS checks the full error
+    # after the first sweep and stops there (it used to run a second, confirming sweep)
+    for seed in range(5):
+        p = _random(1, dim, seed, mu=0.2 + 0.3 * seed)
+        res = socp_cd.solve(p, "nsgs")
+        assert res.converged and res.iterations == 1, (seed, res)
+        assert socp_cd.error(p, res.r) <= 1e-8

@@ -79,10 +79,10 @@ from . import checks, clarabel_backend, newton, nsgs
 from .kernels.cone import siconos_error
 from .kernels.dense import csr_matvec_add
 from .kernels.scaling import GUARD_KEYS, balanced_guard
-from .nsgs_route import (ERROR, INTERNAL_ERROR, MU_MAX, START_ERROR, SWEEPS, ZERO_ERROR,
-                         guard_record, scaling_record)
+from .nsgs_route import (ERROR, GUARD_VALUE, INTERNAL_ERROR, MU_MAX, START_ERROR, SWEEPS,
+                         ZERO_ERROR, guard_record, scaling_record)
 from .options import tightened_tolerance
-from .result import SolverResult
+from .result import LazyInfo, SolverResult
 from .scaling import balanced
 from .spec import SolverSpec
 
@@ -436,7 +436,7 @@ def _predict_window(problem):
     w = HANDOFF_PREDICT
     if type(w) is not int or w < 0:         # (a bool is not an int here)
         raise ValueError(f"socp_cd.solvers.auto.HANDOFF_PREDICT must be an int >= 0, got {w!r}")
-    return w if problem.m <= PREDICT_MAX_M else 0
+    return w if problem.dim * problem.mu.shape[0] <= PREDICT_MAX_M else 0
 
 
 def _cold_steps(method):
@@ -458,12 +458,19 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     On a local exact-Coulomb problem with friction the chain starts with NSGS
     (at most :data:`SMALL_NC` contacts) or the NSGS probe (more); that stage
     and the dispatcher's checks of its answer run in one compiled call
-    (:func:`socp_cd.solvers.nsgs.compiled_run`, within its bounds).  Returns the result
-    :func:`auto_backend` would give when that stage meets ``tol``; otherwise
-    the same with ``info["resume"]`` (the stage, for the rest of the chain:
-    the dispatcher calls :func:`auto_backend` with ``resume=``).  None when
-    the route does not apply, or when the stage does not improve on ``r0``
-    (the general path then keeps ``r0`` as its best iterate).
+    (:func:`socp_cd.solvers.nsgs_route.run`, within its bounds).
+
+    Returns
+    -------
+    tuple or None
+        ``(result, guard_value, resume)``: the result :func:`auto_backend`
+        would give when that stage meets ``tol`` (its ``info`` a
+        :class:`~socp_cd.solvers.result.LazyInfo`, built on first read:
+        :func:`_route_info`), the units guard's value and None; otherwise
+        the same with ``resume`` the stage (for the rest of the chain: the
+        dispatcher calls :func:`auto_backend` with ``resume=``).  None when
+        the route does not apply, or when the stage does not improve on
+        ``r0`` (the general path then keeps ``r0`` as its best iterate).
     """
     # the chain's first stage on a local problem with friction (stage_order): NSGS, or on
     # more than SMALL_NC contacts the NSGS probe of at most PROBE_SWEEPS sweeps
@@ -492,22 +499,31 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     stage_error = x[INTERNAL_ERROR]         # the stage judge's measure (to rounding)
     if not stage_error < x[START_ERROR]:
         return None
+    t = _clock() - t0
     sweeps = int(x[SWEEPS])
-    stage = {"method": method, "formulation": "coulomb", "iterations": sweeps,
-             "time": _clock() - t0, "error": stage_error, "status": status}
-    guard = guard_record(x)
-    met = stage_error <= tol and guard["value"] <= tol     # auto_backend's stop test
-    info = {"path": [stage],
-            "features": {"dim": problem.dim, "n_contacts": nc, "global": False,
-                         "mu_max": x[MU_MAX], "frictionless": False,
-                         "structurally_rank_deficient": None},
-            "best_stage": 0, "guard": guard, "scaling": scaling_record(x), "route": "compiled"}
-    if met:
-        return SolverResult.of_local(vectors[1], vectors[2], "converged", x[ERROR], sweeps, info,
-                                     "nsgs met tol", x[ZERO_ERROR] <= tol)
-    info["resume"] = {"r": vectors[0], "stage": stage}
-    return SolverResult.of_local(vectors[1], vectors[2], "stalled", x[ERROR], sweeps, info, "",
-                                 x[ZERO_ERROR] <= tol)
+    if stage_error <= tol and x[GUARD_VALUE] <= tol:        # auto_backend's stop test
+        return (SolverResult.of_local(vectors[1], vectors[2], "converged", x[ERROR], sweeps,
+                                      LazyInfo((_route_info, problem.dim, nc, x, method, t,
+                                                status)),
+                                      "nsgs met tol", x[ZERO_ERROR] <= tol),
+                x[GUARD_VALUE], None)
+    info = _route_info(problem.dim, nc, x, method, t, status)
+    return (SolverResult.of_local(vectors[1], vectors[2], "stalled", x[ERROR], sweeps, info, "",
+                                  x[ZERO_ERROR] <= tol),
+            x[GUARD_VALUE], {"r": vectors[0], "stage": info["path"][0]})
+
+
+def _route_info(dim, nc, x, method, seconds, status) -> dict:
+    """``result.info`` of :func:`route`'s result: the stage ``method`` (its ``status``,
+    ``seconds``) from the compiled call's stats tuple ``x``
+    (:data:`~socp_cd.solvers.nsgs_route.STATS`) on a problem of ``nc`` contacts."""
+    stage = {"method": method, "formulation": "coulomb", "iterations": int(x[SWEEPS]),
+             "time": seconds, "error": x[INTERNAL_ERROR], "status": status}
+    return {"path": [stage],
+            "features": {"dim": dim, "n_contacts": nc, "global": False, "mu_max": x[MU_MAX],
+                         "frictionless": False, "structurally_rank_deficient": None},
+            "best_stage": 0, "guard": guard_record(x), "scaling": scaling_record(x),
+            "route": "compiled"}
 
 
 def _starts_cold(method, k, best_err) -> bool:

@@ -257,11 +257,12 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     """The compiled route of a plain NSGS call (``SolverSpec.route``).
 
     For a local exact-Coulomb problem called with the default settings (and
-    within :func:`~socp_cd.solvers.nsgs_route.applies`' bounds): the result that :func:`nsgs_backend` on the balanced
+    within :func:`~socp_cd.solvers.nsgs_route.run`'s bounds): the result that :func:`nsgs_backend` on the balanced
     problem and the dispatcher's checks would give, with ``u``, ``error``,
     ``coulomb_error``, ``trivial`` and ``info["guard"]`` filled from the
     checks (``info["route"] = "compiled"``; ``setup_time`` is 0, the set-up
-    runs inside the compiled call); None when the route does not apply.
+    runs inside the compiled call), as ``(result, guard_value, None)`` (the
+    route's contract, ``SolverSpec.route``); None when the route does not apply.
     """
     t0, cpu0 = time.perf_counter(), time.process_time()
     out = compiled_run(problem, tol, max_iter, r0, time_limit)
@@ -278,8 +279,9 @@ def route(problem, *, tol, max_iter, r0, time_limit):
             "guard": R.guard_record(x), "scaling": R.scaling_record(x), "route": "compiled"}
     message = _message(out.status, x[R.LIGHT], x[R.INTERNAL_ERROR], st["stall_window"], None,
                        sweeps)
-    return SolverResult.of_local(out.vectors[1], out.vectors[2], out.status, x[R.ERROR], sweeps,
-                                 info, message, x[R.ZERO_ERROR] <= tol)
+    return (SolverResult.of_local(out.vectors[1], out.vectors[2], out.status, x[R.ERROR], sweeps,
+                                  info, message, x[R.ZERO_ERROR] <= tol),
+            x[R.GUARD_VALUE], None)
 
 
 SPEC = SolverSpec(

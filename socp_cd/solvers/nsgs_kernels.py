@@ -189,7 +189,9 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
     the light error drops below the light tolerance (initially ``tol``; on a
     false alarm it is tightened to ``light * tol / full``), every
     ``error_every`` sweeps (``0``: never), at the last sweep, and at every
-    sweep when ``record``.  Convergence is declared on the full error only:
+    sweep when ``record`` or when the problem has one contact (its local
+    solve is then the whole problem: a one-contact call stops after one
+    sweep, not two).  Convergence is declared on the full error only:
     Siconos' relative error and the same residual relative to the velocity
     scale (:func:`full_errors`, the dispatcher's units-guard measure) must
     both be ``<= tol``; ``error`` is Siconos'.
@@ -284,7 +286,8 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
         light = np.sqrt(dsum)
         if nr > 2.220446049250313e-16:
             light /= nr
-        full_now = record or light <= light_tol or it == max_iter
+        # (one contact: the local solve is the whole problem, so its sweep is checked at once)
+        full_now = record or light <= light_tol or it == max_iter or nc == 1
         if error_every > 0 and it % error_every == 0:
             full_now = True
         window_end = window > 0 and it % window == 0

@@ -65,15 +65,6 @@ DECLINED_ILL_POSED = -3      # a contact with W_NN <= 0 (the general path report
 DECLINED_NOT_FINITE = -4     # r or u not finite (the general path reports it)
 
 
-def applies(n_contacts, nnz, sweeps, time_limit) -> bool:
-    """Whether the route may run ``sweeps`` sweeps on a problem of ``n_contacts`` contacts and
-    ``nnz`` stored entries of ``W`` within ``time_limit`` (None: no limit)."""
-    if n_contacts > MAX_CONTACTS or n_contacts == 0:
-        return False
-    return time_limit is None or (time_limit >= MIN_TIME_LIMIT
-                                  and sweeps * nnz <= MAX_TIMED_WORK)
-
-
 #: the NSGS settings :func:`run` takes, in order (the keys of the NSGS backend's settings)
 ROUTE_SETTINGS = ("kind", "loc_tol", "newton_maxit", "proj_maxit", "omega", "error_every",
                   "stall_window")
@@ -86,6 +77,8 @@ STATS = ("sweeps", "internal_error", "n_full", "n_fail", "light", "error", "zero
 _N_STATS = len(STATS)
 #: length of :func:`nsgs_checked`'s ``stats`` tuple (STATS, then the guard's entries)
 _N_OUT = _N_STATS + len(GUARD_KEYS)
+#: index of the units guard's value (what ``converged`` needs ``<= tol``) in that tuple
+GUARD_VALUE = _N_STATS + GUARD_KEYS.index("value")
 
 
 @njit(cache=True)
@@ -248,17 +241,22 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
 
     ``settings``: the NSGS backend's checked settings as the tuple
     :data:`ROUTE_SETTINGS` names (its defaults: the route runs plain calls
-    only); ``max_iter`` sweeps, in the backend's time-limit
-    blocks when ``time_limit`` is given.  None when the route does not apply
-    (:func:`applies`) or declines: a problem whose every ``mu`` is 0 when
-    ``need_friction``, one with an ill-posed contact, an answer that is not
+    only); ``max_iter`` sweeps, in the backend's time-limit blocks when
+    ``time_limit`` is given.  None when the route does not apply (it takes a
+    local problem of 1 to :data:`MAX_CONTACTS` contacts; with a time limit,
+    only a limit of at least :data:`MIN_TIME_LIMIT` s and ``max_iter *
+    nnz(W) <=`` :data:`MAX_TIMED_WORK`) or declines: a problem whose every
+    ``mu`` is 0 when ``need_friction``, one with an ill-posed contact, an answer that is not
     finite, whose error overflows or whose guard cannot be evaluated (the
     general path reports those).  ``handoff``: ``(sweeps, work)`` of
     :func:`nsgs_checked` (``(0, 0)``: off); ``predict_window`` as there.
     """
     mu = problem.mu
     indptr, indices, data = problem.csr_parts
-    if not applies(mu.shape[0], int(indptr[-1]), max_iter, time_limit):
+    nc = mu.shape[0]
+    # the bounds (MAX_CONTACTS; with a time limit, MIN_TIME_LIMIT and MAX_TIMED_WORK)
+    if (nc > MAX_CONTACTS or nc == 0 or time_limit is not None and not (
+            time_limit >= MIN_TIME_LIMIT and max_iter * int(indptr[-1]) <= MAX_TIMED_WORK)):
         return None
     q = problem.q
     vectors = np.empty((3, q.shape[0]))
@@ -272,6 +270,6 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     return _new(RouteOutcome, (STATUS_NAMES[code], vectors, x))
 
 
-__all__ = ["nsgs_checked", "run", "applies", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
+__all__ = ["nsgs_checked", "run", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
            "MIN_TIME_LIMIT", "MAX_TIMED_WORK", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
-           "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX"]
+           "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX", "GUARD_VALUE"]
