@@ -184,7 +184,7 @@ def test_history_buffer_grows_with_iterations(monkeypatch):
     real = nsgs.nsgs_loop
 
     def spy(*args):
-        sizes.append(args[-1].shape[0])
+        sizes.append(args[7].shape[0])
         return real(*args)
     monkeypatch.setattr(nsgs, "nsgs_loop", spy)
     res = socp_cd.solve(_problem(), "nsgs", max_iter=10 ** 10, history=True)

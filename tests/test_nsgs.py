@@ -564,7 +564,7 @@ def test_split_sweep_equals_the_single_loop(dim, law_name, kind_name, omega, new
     from socp_cd.solvers.kernels.cone import LAW_ASSOCIATED, LAW_COULOMB, LAW_TRESCA
     from socp_cd.solvers.local_solvers import KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION
     from socp_cd.solvers.nsgs_kernels import (BlockW, Law, LocalSolver, Sweeps,
-                                              local_parameters, nsgs_loop)
+                                              local_parameters, no_origin, nsgs_loop)
     if kind_name == "exact" and dim == 3:
         pytest.skip("the exact local solver is 2D only")
     law = {"coulomb": LAW_COULOMB, "tresca": LAW_TRESCA, "associated": LAW_ASSOCIATED}[law_name]
@@ -581,7 +581,7 @@ def test_split_sweep_equals_the_single_loop(dim, law_name, kind_name, omega, new
         status, its, err, n_full, n_fail, light, _ = nsgs_loop(
             dim, BlockW(S.indptr, S.indices, S.blocks, S.diag), p.q, Law(p.mu, g, law),
             LocalSolver(kind, rhoN, rhoT, rhoP, 1e-13, newton_maxit, 50), sweeps, r_new,
-            np.full(1, np.nan))
+            np.full(1, np.nan), no_origin())
         assert its == n_sweeps
         # the orders the kernel drew (numba's generator, seeded as the kernel seeds it)
         order = np.tile(np.arange(p.n_contacts), (n_sweeps, 1))
@@ -630,7 +630,7 @@ def test_a_non_finite_local_iterate_stops_the_sweeps_with_a_numerical_error():
     from socp_cd.solvers.kernels.cone import LAW_COULOMB
     from socp_cd.solvers.local_solvers import KIND_AC_NEWTON
     from socp_cd.solvers.nsgs_kernels import (STATUS_NUMERICAL, BlockW, Law, LocalSolver,
-                                              Sweeps, local_parameters, nsgs_loop)
+                                              Sweeps, local_parameters, no_origin, nsgs_loop)
     p = manufactured(6, 3, 0.5, seed=1)
     S = block_csr(p.W, 3)
     rhoN, rhoT, rhoP, _ = local_parameters(S.diag, S.blocks)
@@ -640,6 +640,7 @@ def test_a_non_finite_local_iterate_stops_the_sweeps_with_a_numerical_error():
     status, its, err, n_full, n_fail, light, _ = nsgs_loop(
         3, BlockW(S.indptr, S.indices, S.blocks, S.diag), q, Law(p.mu, np.zeros(6), LAW_COULOMB),
         LocalSolver(KIND_AC_NEWTON, rhoN, rhoT, rhoP, 1e-13, 10, 50),
-        Sweeps(1e-10, 20, 1.0, False, 0, 0, 0, False, 0, 20, -1.0), r, np.full(1, np.nan))
+        Sweeps(1e-10, 20, 1.0, False, 0, 0, 0, False, 0, 20, -1.0), r, np.full(1, np.nan),
+        no_origin())
     assert status == STATUS_NUMERICAL and its <= 20 and n_full == 1
     assert np.all(np.isfinite(r)) and not np.isfinite(err)

@@ -447,3 +447,49 @@ def test_one_contact_nsgs_checks_its_first_sweep(dim):
         res = socp_cd.solve(p, "nsgs")
         assert res.converged and res.iterations == 1, (seed, res)
         assert socp_cd.error(p, res.r) <= 1e-8
+
+
+def _heavy_and_light(nc, dim, structure, seed, mass_ratio, scale):
+    """A manufactured problem (mu 0.6) with bodies of very different masses / contact scales."""
+    return manufactured(nc, dim, mu=0.6, structure=structure, mass_ratio=mass_ratio,
+                        contact_scale=scale, seed=seed)
+
+
+@pytest.mark.parametrize("args", [(8, 2, "tree", 1, 1e6, 1.0), (4, 2, "tree", 3, 1e6, 1e4),
+                                  (8, 3, "redundant", 5, 1.0, 1e4)])
+def test_nsgs_stops_on_the_dispatchers_measure_not_only_the_balanced_one(monkeypatch, args):
+    # problems whose balanced-units error meets tol before Siconos' error of the problem as
+    # written does: NSGS used to stop there, the dispatcher refused and ran it again (a
+    # retry from the Python path); the sweeps now also check the measure the dispatcher
+    # judges by (kernels.scaling.origin_error), on the compiled route and the general path
+    from socp_cd.solvers import nsgs as nsgs_module
+    p = _heavy_and_light(*args)
+    routed = socp_cd.solve(p, "nsgs")
+    general = _general(monkeypatch, p, solver="nsgs")
+    _same(routed, general)
+    assert routed.converged and "retry" not in routed.info and routed.info["route"] == "compiled"
+    assert routed.error <= 1e-8 and socp_cd.error(p, routed.r) <= 1e-8
+    with monkeypatch.context() as m:        # without the origin: the refused claim, the retry
+        m.setattr(nsgs_module, "origin", lambda problem: None)
+        m.setattr(nsgs_route, "MAX_CONTACTS", 0)
+        before = socp_cd.solve(p, "nsgs")
+    assert before.info["retry"]["first_error"] > 1e-8 >= before.info["retry"]["retry_error"]
+
+
+@pytest.mark.parametrize("args", [(8, 3, "redundant", 1, 1e6, 1.0), (8, 3, "redundant", 2, 1e6, 1.0),
+                                  (4, 2, "tree", 1, 1e6, 1e4)])
+def test_auto_judges_its_stages_by_the_dispatchers_measure(monkeypatch, args):
+    # auto's stages (NSGS, Newton trials) used to end the chain on an answer within tol in
+    # balanced units only; the dispatcher refused it and ran the whole chain again. The
+    # judge's guard value now includes Siconos' error of the problem as written
+    from socp_cd.solvers import auto
+    from socp_cd.solvers import nsgs as nsgs_module
+    p = _heavy_and_light(*args)
+    res = socp_cd.solve(p)
+    assert res.converged and "retry" not in res.info and socp_cd.error(p, res.r) <= 1e-8
+    with monkeypatch.context() as m:        # without the origin: the chain's answer refused
+        m.setattr(auto, "origin", lambda problem: None)
+        m.setattr(nsgs_module, "origin", lambda problem: None)
+        m.setattr(nsgs_route, "MAX_CONTACTS", 0)
+        before = socp_cd.solve(p)
+    assert before.info["retry"]["first_error"] > 1e-8

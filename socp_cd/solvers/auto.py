@@ -40,7 +40,9 @@ The chain stops at the first stage whose error, recomputed from its ``r``
 (compiled kernel :func:`~socp_cd.solvers.kernels.cone.siconos_error` for the
 local Coulomb law, the NumPy law residual otherwise), meets ``tol`` and whose
 units guard (:func:`socp_cd.residuals.guard`, the dispatcher's second test)
-does too; after a stage that met the first and not the second, that stage runs
+does too (on a local Coulomb problem, with Siconos' error of the problem as
+written: the chain runs on the dispatcher's balanced copy, and the dispatcher
+judges by that error first); after a stage that met the first and not the second, that stage runs
 once more from its answer (:data:`RETRY_REFUSED`) and the later stages aim at
 the dispatcher's retry tolerance
 (:func:`~socp_cd.solvers.options.tightened_tolerance`).  The dispatcher
@@ -78,12 +80,12 @@ from ..residuals import guard
 from . import checks, clarabel_backend, newton, nsgs
 from .kernels.cone import siconos_error
 from .kernels.dense import csr_matvec_add
-from .kernels.scaling import GUARD_KEYS, balanced_guard
+from .kernels.scaling import GUARD_KEYS, balanced_guard, origin_error
 from .nsgs_route import (ERROR, GUARD_VALUE, INTERNAL_ERROR, MU_MAX, START_ERROR, SWEEPS,
                          ZERO_ERROR, guard_record, scaling_record)
 from .options import tightened_tolerance
 from .result import LazyInfo, SolverResult
-from .scaling import balanced
+from .scaling import balanced, origin
 from .spec import SolverSpec
 
 #: the clock of the time budget (a module attribute so tests can drive it)
@@ -317,6 +319,7 @@ class _Judge:
             self.q = problem.q
             self.mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
             self.norm_q = float(np.sqrt(np.dot(self.q, self.q)))
+            self.origin = origin(problem)   # (a, b, ||q||) on the dispatcher's balanced copy
         # a global Coulomb problem reaches auto as written: the dispatcher's own checks, with the
         # unit factors it keeps on the problem (the NumPy guard cost 250 us a call, on a
         # one-contact problem more than the Newton stage); not when M is singular
@@ -341,13 +344,25 @@ class _Judge:
         the compiled one with unit factors 1.  Without this test a stage whose Siconos
         error met ``tol`` ended the chain with an answer the dispatcher then refused (a
         global 1-contact problem, ``W, q`` times 1e-6: error 3.6e-12, guard 2.3e-6).
+        On the dispatcher's balanced copy (:func:`~socp_cd.solvers.scaling.origin`) the
+        value is also at least the dispatcher's first test, Siconos' error of the problem as
+        written (:func:`~socp_cd.solvers.kernels.scaling.origin_error`): a stage within
+        ``tol`` in balanced units only is refused here, as the dispatcher would refuse it
+        (and then run the whole chain once more).
         """
         if self.fast:
             indptr, indices, data = self.problem.csr_parts
             ones = np.ones(self.problem.m)
-            finite, out = balanced_guard(r, csr_matvec_add(indptr, indices, data, r, self.q),
-                                         ones, ones, self.mu, self.problem.dim, self.norm_q)
-            return float(out[_GUARD_VALUE]) if finite else np.inf
+            u = csr_matvec_add(indptr, indices, data, r, self.q)
+            finite, out = balanced_guard(r, u, ones, ones, self.mu, self.problem.dim, self.norm_q)
+            if not finite:
+                return np.inf
+            value = float(out[_GUARD_VALUE])
+            if self.origin is not None:
+                a, b, q_norm = self.origin
+                e = float(origin_error(r, u, a, b, self.mu, self.problem.dim, q_norm))
+                value = e if not e <= value else value      # (NaN: not met)
+            return value
         if self.global_checks:
             u = self._global_velocity(r)
             value = np.inf if u is None else float(checks.coulomb_guard(self.problem, r,
@@ -501,7 +516,8 @@ def route(problem, *, tol, max_iter, r0, time_limit):
         return None
     t = _clock() - t0
     sweeps = int(x[SWEEPS])
-    if stage_error <= tol and x[GUARD_VALUE] <= tol:        # auto_backend's stop test
+    # auto_backend's stop test (_Judge.guard_value: the guard and the error as written)
+    if stage_error <= tol and x[GUARD_VALUE] <= tol and x[ERROR] <= tol:
         return (SolverResult.of_local(vectors[1], vectors[2], "converged", x[ERROR], sweeps,
                                       LazyInfo((_route_info, problem.dim, nc, x, method, t,
                                                 status)),

@@ -57,10 +57,11 @@ from . import nsgs_route
 from .block_storage import problem_blocks
 from .local_solvers import (KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION, LAW_ASSOCIATED,
                             LAW_COULOMB, LAW_TRESCA)
-from .nsgs_kernels import (STATUS_NAMES, BlockW, Law, LocalSolver, Sweeps,
+from .nsgs_kernels import (STATUS_NAMES, BlockW, Law, LocalSolver, Origin, Sweeps, no_origin,
                            full_error, local_parameters, nsgs_loop, timed_next_block, whole_windows)
 from .options import check_choice, check_int, check_real, check_unknown
 from .result import SolverResult
+from .scaling import origin
 from .spec import SolverSpec
 
 DEFAULT_MAX_ITER = 1000
@@ -183,6 +184,9 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     law_t = Law(mu, g, int(law))
     local = LocalSolver(int(_KINDS[st["ls_name"]]), rhoN, rhoT, rhoP, float(st["loc_tol"]),
                         int(st["newton_maxit"]), int(st["proj_maxit"]))
+    # on the dispatcher's balanced copy of a Coulomb problem, also stop on its measure
+    units = origin(problem) if formulation == "coulomb" else None
+    units = no_origin() if units is None else Origin(*units)
     info["setup_time"] = time.perf_counter() - t_setup
     t0 = time.perf_counter()
     window = int(st["predict_window"])
@@ -195,7 +199,7 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                         int(st["seed"] + done), int(st["error_every"]), int(st["stall_window"]),
                         bool(history), window, int(max_iter - done), prev)
         status, iters, err, n_full, n_fail, light, hist = nsgs_loop(d, W, q, law_t, local, sweeps,
-                                                                    r, hist)
+                                                                    r, hist, units)
         if history:
             hist_all.extend(hist[:iters].tolist())
         done += int(iters)

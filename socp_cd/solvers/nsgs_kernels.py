@@ -13,6 +13,7 @@ import numpy as np
 from numba import njit
 
 from .kernels.cone import EPS, LAW_ASSOCIATED, error_parts, law_error, relative_error
+from .kernels.scaling import origin_error
 from .local_solvers import (KIND_PROJECTION, LOCAL_OK, NEEDS_PROJECTION, local_solve_first,
                             local_solve_rest)
 
@@ -166,6 +167,11 @@ BlockW = namedtuple("BlockW", "indptr indices blocks diag")
 Law = namedtuple("Law", "mu g code")
 #: One-contact solver: kind code, per-contact steps and its tolerance and caps.
 LocalSolver = namedtuple("LocalSolver", "kind rhoN rhoT rhoP tol newton_max_iter projection_max_iter")
+#: The units of the problem as written, when the sweeps run on the dispatcher's balanced copy
+#: of it: unit factors ``a, b`` (``r = a r~``, ``u = b u~``) and ``q_norm = ||q||``
+#: (:func:`~socp_cd.solvers.kernels.scaling.origin_error`, Coulomb law only);
+#: ``q_norm < 0``: none (the sweeps' own measures only).
+Origin = namedtuple("Origin", "a b q_norm")
 #: Sweep settings: tolerance, cap, relaxation, ordering, error policy, recording, and the
 #: rate prediction (``predict_window`` sweeps, 0: off; ``predict_budget``: the sweeps the
 #: run may still do from the start of this call; ``predict_prev``: the full error at the
@@ -176,12 +182,13 @@ Sweeps = namedtuple("Sweeps", "tol max_iter omega shuffle seed error_every stall
 
 
 @njit(cache=True)
-def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
+def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
     """Nonsmooth block Gauss–Seidel iterations, in place on ``r``.
 
     ``W`` is a :data:`BlockW`, ``law`` a :data:`Law`, ``local`` a
-    :data:`LocalSolver`, ``sweeps`` a :data:`Sweeps` (numba takes these named
-    tuples as they are).
+    :data:`LocalSolver`, ``sweeps`` a :data:`Sweeps`, ``origin`` an
+    :data:`Origin` (:func:`no_origin`: none; numba takes these named tuples
+    as they are).
 
     Error policy (Siconos' ``LIGHT_WITH_FULL_FINAL`` plus a periodic check):
     after each sweep the light error ``||r_k+1 - r_k|| / ||r_k+1||`` is
@@ -194,7 +201,14 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
     sweep, not two).  Convergence is declared on the full error only:
     Siconos' relative error and the same residual relative to the velocity
     scale (:func:`full_errors`, the dispatcher's units-guard measure) must
-    both be ``<= tol``; ``error`` is Siconos'.
+    both be ``<= tol``; ``error`` is Siconos'.  With an ``origin`` (the sweeps
+    run on the dispatcher's balanced copy of a Coulomb problem) a third
+    measure must be too: Siconos' error of the problem as written
+    (:func:`~socp_cd.solvers.kernels.scaling.origin_error`, evaluated only
+    when the other two pass), the one
+    the dispatcher judges by; when it fails, the pass counts as a false alarm
+    of the light error (its tolerance is tightened, the sweeps go on), where
+    the dispatcher would refuse the claim and run NSGS once more.
 
     Rate prediction (``predict_window = w > 0``): the full error is also
     evaluated every ``w`` sweeps; from the second such evaluation on, its
@@ -301,6 +315,10 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist):
             if not np.isfinite(err):
                 return STATUS_NUMERICAL, it, err, n_full, n_fail, light, hist
             worst = stop if stop > err else err      # (stop >= err unless ||q||, ||u|| < eps)
+            if worst <= tol and origin.q_norm >= 0.0:
+                orig = origin_error(r, u, origin.a, origin.b, mu, d, origin.q_norm)
+                if not orig <= worst:
+                    worst = orig
             if worst <= tol:
                 return STATUS_CONVERGED, it, err, n_full, n_fail, light, hist
             if light <= light_tol:
@@ -426,3 +444,9 @@ def local_parameters(diag, blocks):
                 fro += diag[i, a2, c2] * diag[i, a2, c2]
         rhoP[i] = 1.0 / np.sqrt(fro)
     return rhoN, rhoT, rhoP, bad
+
+
+def no_origin():
+    """The :data:`Origin` meaning "none": the sweeps judge by their own measures only."""
+    return Origin(np.empty(0), np.empty(0), -1.0)
+

@@ -43,7 +43,7 @@ from .block_storage import csr_to_bsr
 from .kernels.cone import LAW_COULOMB, error_parts, relative_error, siconos_error
 from .kernels.dense import csr_matvec_add
 from .kernels.scaling import GUARD_KEYS, balance_csr, balanced_guard, factor_summary
-from .nsgs_kernels import (STATUS_NAMES, BlockW, Law, LocalSolver, Sweeps,
+from .nsgs_kernels import (STATUS_NAMES, BlockW, Law, LocalSolver, Origin, Sweeps,
                            local_parameters, next_block, nsgs_loop, whole_windows)
 
 #: the route runs on local problems with at most this many contacts (it builds the balanced
@@ -169,6 +169,7 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
                                     dim, q_s_norm)
     W = BlockW(bptr, bcol, blocks, diag)
     law = Law(mu, np.zeros(nc), LAW_COULOMB)
+    origin = Origin(a, b, q_norm)       # the dispatcher's measure stops the sweeps too
     local = LocalSolver(kind, rhoN, rhoT, rhoP, loc_tol, newton_max_iter, projection_max_iter)
     hist = np.full(1, np.nan)
     done = 0
@@ -178,7 +179,7 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
         sweeps = Sweeps(tol, block, omega, False, done, error_every, stall_window, False,
                         predict_window, max_iter - done, prev)
         status, its, err, n_full, n_fail, light, hist = nsgs_loop(dim, W, q_s, law, local, sweeps,
-                                                                  r_s, hist)
+                                                                  r_s, hist, origin)
         done += its
         if not blocked:
             break

@@ -87,11 +87,28 @@ def _compute(problem) -> Balanced:
             indptr, indices, data, np.ascontiguousarray(problem.q, dtype=np.float64),
             np.ascontiguousarray(problem.mu, dtype=np.float64), problem.dim)
         q_s.flags.writeable = False
-        out = Balanced(a, b, problem.rescaled(a, b, W_data=data_s, q=q_s), float(q_s_norm),
-                       float(q_norm), float(err0))
+        copy = problem.rescaled(a, b, W_data=data_s, q=q_s)
+        copy.derived(_ORIGIN, lambda _: (a, b, float(q_norm)))
+        out = Balanced(a, b, copy, float(q_s_norm), float(q_norm), float(err0))
     out.a.flags.writeable = False
     out.b.flags.writeable = False
     return out
+
+
+#: ``derived`` key of a balanced copy's origin (:func:`origin`)
+_ORIGIN = "solvers.scaling.origin"
+
+
+def origin(problem):
+    """``(a, b, ||q||)`` when ``problem`` is the balanced copy :func:`balanced` made of another
+    (its unit factors, ``r = a r~``, ``u = b u~``, and ``||q||`` of the problem as
+    written), else None.  A backend running on the copy can so stop on the dispatcher's
+    own measure (:func:`socp_cd.solvers.nsgs_kernels.origin_error`)."""
+    return problem.derived(_ORIGIN, _none)
+
+
+def _none(problem):
+    return None
 
 
 def balanced(problem) -> Balanced:
@@ -146,4 +163,4 @@ def balance(problem: FrictionContactProblem) -> Scaling:
     return Scaling(rec.a, rec.b, problem.dim)
 
 
-__all__ = ["Balanced", "Scaling", "balance", "balanced"]
+__all__ = ["Balanced", "Scaling", "balance", "balanced", "origin"]

@@ -188,6 +188,27 @@ _EPS = np.finfo(np.float64).eps
 
 
 @njit(cache=True)
+def origin_error(r, u, a, b, mu, dim, q_norm):
+    """Siconos' Coulomb error of ``(a r, b u)`` over ``q_norm``: of the problem as written.
+
+    ``(r, u)`` a pair of the balanced problem (``r = a r~``, ``u = b u~``,
+    :func:`balance_csr`), ``q_norm = ||q||`` of the problem the caller
+    wrote.  The measure the dispatcher judges ``converged`` by
+    (:func:`socp_cd.error`, up to the rounding of ``u = W r + q``), for a
+    solver that runs on the balanced copy and would otherwise stop on the
+    balanced problem's own error.
+    """
+    m = r.shape[0]
+    ro = np.empty(m)
+    uo = np.empty(m)
+    for j in range(m):
+        ro[j] = r[j] * a[j]
+        uo[j] = u[j] * b[j]
+    f2, r2, u2 = error_parts(ro, uo, mu, np.zeros(mu.shape[0]), dim, LAW_COULOMB)
+    return relative_error(f2, r2, u2, q_norm)
+
+
+@njit(cache=True)
 def balanced_guard(r, u, a, b, mu, dim, q_norm):
     """The Coulomb units guard of ``(r, u)``: :func:`balanced_guard_parts` and the guard's formulas.
 
