@@ -482,7 +482,7 @@ def test_auto_judges_its_stages_by_the_dispatchers_measure(monkeypatch, args):
     # auto's stages (NSGS, Newton trials) used to end the chain on an answer within tol in
     # balanced units only; the dispatcher refused it and ran the whole chain again. The
     # judge's guard value now includes Siconos' error of the problem as written
-    from socp_cd.solvers import auto
+    from socp_cd.solvers import auto, newton
     from socp_cd.solvers import nsgs as nsgs_module
     p = _heavy_and_light(*args)
     res = socp_cd.solve(p)
@@ -490,6 +490,26 @@ def test_auto_judges_its_stages_by_the_dispatchers_measure(monkeypatch, args):
     with monkeypatch.context() as m:        # without the origin: the chain's answer refused
         m.setattr(auto, "origin", lambda problem: None)
         m.setattr(nsgs_module, "origin", lambda problem: None)
+        m.setattr(newton, "origin", lambda problem: None)
         m.setattr(nsgs_route, "MAX_CONTACTS", 0)
         before = socp_cd.solve(p)
     assert before.info["retry"]["first_error"] > 1e-8
+
+
+@pytest.mark.parametrize("args", [(4, 3, "tree", 1, 1e6, 1.0), (4, 3, "redundant", 2, 1e6, 1.0)])
+def test_newton_goes_on_when_only_the_balanced_error_met_tol(monkeypatch, args):
+    # the Newton backend on the dispatcher's balanced copy: a run that met tol in balanced
+    # units only goes on from its answer with the dispatcher's tightened tolerance (one call,
+    # the system kept), instead of the dispatcher's refusal and retry
+    from socp_cd.solvers import newton
+    p = _heavy_and_light(*args)
+    res = socp_cd.solve(p, "newton")
+    assert res.converged and "retry" not in res.info and socp_cd.error(p, res.r) <= 1e-8
+    runs = res.info["continued"]
+    assert 1 <= len(runs) <= newton.MAX_CONTINUED and runs[0]["error_as_written"] > 1e-8
+    assert res.iterations > sum(run["iterations"] for run in runs)
+    with monkeypatch.context() as m:
+        m.setattr(newton, "origin", lambda problem: None)
+        before = socp_cd.solve(p, "newton")
+    assert before.info["continued"] == [] and before.info["retry"]["first_error"] > 1e-8
+    assert before.info["retry"]["first_iterations"] == runs[0]["iterations"]

@@ -187,7 +187,7 @@ GUARD_KEYS = ("error", "balanced_siconos", "rounding", "value", "cone", "normal_
 _EPS = np.finfo(np.float64).eps
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def origin_error(r, u, a, b, mu, dim, q_norm):
     """Siconos' Coulomb error of ``(a r, b u)`` over ``q_norm``: of the problem as written.
 
