@@ -400,29 +400,32 @@ def test_no_early_stop_when_the_handoff_cap_does_not_bind(monkeypatch):
 def test_routed_auto_result_builds_its_info_on_first_read_only(monkeypatch):
     # a converged routed auto call returns info as a LazyInfo: the verdict read the guard
     # value from the route, not from info; the dict built on first read is the one the
-    # general path reports (path, features, guard, scaling), and it is built once
+    # general path reports (path, features, guard, scaling), and it is built once; a copy
+    # or a pickle carries the built dict (never the route's private builder)
     import copy
     import dataclasses
     import pickle
     from socp_cd.solvers import auto
     from socp_cd.solvers.result import LazyInfo
     p = _random(3, 3, seed=11)
-    res = socp_cd.solve(p)
-    assert res.converged and type(res._info) is LazyInfo
-    twin = pickle.loads(pickle.dumps(res))          # pickles unbuilt (a campaign's records)
     calls = []
     original = auto._route_info
     monkeypatch.setattr(auto, "_route_info", lambda *a: calls.append(1) or original(*a))
     res = socp_cd.solve(p)
+    assert res.converged and type(res._info) is LazyInfo and not calls
     info = res.info
     assert res.info is info and type(res._info) is dict and len(calls) == 1
     assert info["route"] == "compiled" and info["guard"]["value"] <= 1e-8
     b = _general(monkeypatch, p)
     assert info["features"] == b.info["features"] and info["guard"] == b.info["guard"]
     assert [s["method"] for s in info["path"]] == [s["method"] for s in b.info["path"]]
-    assert twin.info["guard"] == info["guard"]
-    assert copy.copy(res).info is info
     assert dataclasses.replace(res, status="stalled").info is info
+    for make in (lambda x: pickle.loads(pickle.dumps(x)), copy.copy):
+        fresh = socp_cd.solve(p)
+        assert type(fresh._info) is LazyInfo
+        twin = make(fresh)      # (pickling the patched builder would fail: it is built first)
+        assert type(fresh._info) is dict and twin.info == fresh.info
+    assert copy.copy(fresh).info is fresh.info      # a shallow copy shares it, as any field
 
 
 def test_a_lazy_info_reads_as_the_dict_everywhere():
@@ -513,3 +516,52 @@ def test_newton_goes_on_when_only_the_balanced_error_met_tol(monkeypatch, args):
         before = socp_cd.solve(p, "newton")
     assert before.info["continued"] == [] and before.info["retry"]["first_error"] > 1e-8
     assert before.info["retry"]["first_iterations"] == runs[0]["iterations"]
+
+
+def test_newton_continuation_keeps_its_contracts(monkeypatch):
+    # history: one entry per outer iteration plus the start, across the continued runs;
+    # counters summed; max_iter bounds all runs; a continued run that fails leaves the claim
+    # (the dispatcher then retries it, as before the continuation existed)
+    from socp_cd.solvers import newton
+    p = _heavy_and_light(4, 3, "redundant", 2, 1e6, 1.0)
+    res = socp_cd.solve(p, "newton", history=True)
+    assert res.info["continued"] and res.converged
+    assert len(res.history) == res.iterations + 1
+    assert res.info["newton_steps"] >= res.iterations
+    first = res.info["continued"][0]["iterations"]
+    capped = socp_cd.solve(p, "newton", max_iter=first)     # no iteration left to go on with
+    assert capped.iterations <= first + capped.info.get("retry", {}).get("retry_iterations", 0)
+    real = newton.prox_newton
+    runs = []
+
+    def failing(system, mu, r, **kw):     # every continued run fails, far off
+        runs.append(kw["alpha0"])
+        out = real(system, mu, r, **kw)
+        if len(runs) > 1:
+            return ("stalled", np.full_like(out[1], 1e3)) + out[2:]
+        return out
+    monkeypatch.setattr(newton, "prox_newton", failing)
+    kept = socp_cd.solve(p, "newton")
+    assert len(runs) >= 3 and runs[1] == max(min(newton.COLD_ALPHA0, newton.WARM_ALPHA0), 1e-10)
+    # the claim stood, the dispatcher refused it and its retry (a new backend call) ran
+    assert kept.info["retry"]["first_error"] > 1e-8
+
+
+
+def test_origin_error_is_the_error_of_the_problem_as_written():
+    # kernels.scaling.origin_error on a pair of the balanced copy = socp_cd.error of the
+    # problem as written (to the rounding of u = W r + q); only the copy has an origin
+    from socp_cd.solvers.kernels.scaling import origin_error
+    from socp_cd.solvers.scaling import balanced, origin
+    p = _heavy_and_light(8, 3, "redundant", 4, 1e6, 1.0)
+    copy = balanced(p).problem
+    a, b, q_norm = origin(copy)
+    assert origin(p) is None and a.flags.writeable and b.flags.writeable
+    rng = np.random.default_rng(3)
+    for scale in (1e-3, 1.0, 1e3):
+        r = scale * rng.random(p.m) * np.repeat(rng.uniform(0.1, 10.0, p.n_contacts), 3)
+        rs = r / a
+        e = origin_error(rs, copy.velocity(rs), a, b, p.mu, 3, q_norm)
+        assert e == pytest.approx(socp_cd.error(p, r), rel=1e-9)
+    huge = origin_error(np.full(p.m, 1e300), np.full(p.m, 1e300), a, b, p.mu, 3, q_norm)
+    assert not huge <= 1e-8         # an overflow never passes (inf or NaN, not a small number)

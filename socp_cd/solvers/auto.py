@@ -362,7 +362,7 @@ class _Judge:
                 a, b, q_norm = self.origin
                 e = float(origin_error(r, u, a, b, self.mu, self.problem.dim, q_norm))
                 value = e if not e <= value else value      # (NaN: not met)
-            return value
+            return value if np.isfinite(value) else np.inf
         if self.global_checks:
             u = self._global_velocity(r)
             value = np.inf if u is None else float(checks.coulomb_guard(self.problem, r,
@@ -576,8 +576,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                  **options) -> SolverResult:
     """Portfolio backend for :func:`socp_cd.solve` (see the module docstring).
 
-    ``resume`` (set by the dispatcher only, from :func:`route`'s
-    ``info["resume"]``): the first stage of the order, already run by the
+    ``resume`` (set by the dispatcher only, from the ``resume`` that
+    :func:`route` returns beside its result): the first stage of the order, already run by the
     compiled route — ``{"r": its iterate on this (balanced) problem,
     "stage": its path record}``; the chain goes on from the second stage as
     if it had run that stage itself.

@@ -889,26 +889,40 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
     # on the dispatcher's balanced copy: its own measure, Siconos' error as written
     units = None if problem.is_global else origin(problem)
     t0, iters, hist, run_tol, continued = time.perf_counter(), 0, [] if history else None, tol, []
+    claim = None    # (r, info, error as written) of the last run that met tol in balanced units only
+    # a continued run starts near a solution: the warm proximal parameter (as auto's rerun of a
+    # refused stage), within the caller's bounds
+    warm = max(min(st["alpha0"], WARM_ALPHA0), st["alpha_min"])
     with _one_blas_thread(system):
         while True:
             left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
             status, r, its, h, info = prox_newton(
                 system, mu, r, tol=float(run_tol), max_iter=max_iter - iters,
-                alpha0=WARM_ALPHA0 if continued else st["alpha0"], alpha_min=st["alpha_min"],
+                alpha0=warm if claim else st["alpha0"], alpha_min=st["alpha_min"],
                 inner_max_iter=st["inner_max_iter"], stall_window=st["stall_window"],
                 time_limit=left, history=history, rho=st["rho"], policy=st["policy"])
             iters += its
             if history:
-                hist.extend(h)
-            if status != "converged" or units is None:
+                hist.extend(h[1:] if claim else h)      # (a continued run repeats its start)
+            if claim:
+                _add_counters(info, claim[1])
+            e = np.inf
+            if units is not None and (status == "converged" or claim):
+                e = float(origin_error(r, system.start(r), units[0], units[1], mu, problem.dim,
+                                       units[2]))
+                e = e if np.isfinite(e) else np.inf
+            if claim and status != "converged" and not e < claim[2]:
+                # the continued run failed: the claim stands (the dispatcher then retries it)
+                status, r, info = "converged", claim[0], dict(info, internal_error=claim[1][
+                    "internal_error"])
                 break
-            e = float(origin_error(r, system.start(r), units[0], units[1], mu, problem.dim,
-                                   units[2]))
-            if e <= tol or iters >= max_iter or len(continued) == MAX_CONTINUED:
+            if (status != "converged" or units is None or e <= tol or not np.isfinite(e)
+                    or iters >= max_iter or len(continued) == MAX_CONTINUED
+                    or time_limit is not None and time.perf_counter() - t0 >= time_limit):
                 break       # (a claim the dispatcher refuses still gets its retry)
-            # met in balanced units only: go on from r (near a solution: the warm proximal
-            # parameter, as auto's rerun of a refused stage), aiming lower (the dispatcher's policy)
+            # met in balanced units only: go on from r, aiming lower (the dispatcher's policy)
             continued.append({"iterations": its, "tol": run_tol, "error_as_written": e})
+            claim = (r.copy(), info, e)
             run_tol = tightened_tolerance(tol, min(info["internal_error"], tol), e)
     info["continued"] = continued
     message = ""
@@ -925,6 +939,18 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
             extra["v"] = glob.global_velocity(r)
     return SolverResult(r=r, status=status, iterations=iters, history=hist, info=info,
                         message=message, **extra)
+
+
+#: per-run counters of :func:`prox_newton`'s info that a continued run adds to
+_COUNTERS = ("newton_steps", "plain_steps", "backtracks", "line_search_failures",
+             "singular_steps", "rejected_outer")
+
+
+def _add_counters(info, before) -> None:
+    """Add the counters of an earlier run's ``before`` info into ``info`` (in place)."""
+    for key in _COUNTERS:
+        if key in info and key in before:
+            info[key] += before[key]
 
 
 #: times :func:`newton_backend` goes on from a converged run whose error as written (the

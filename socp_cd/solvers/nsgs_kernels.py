@@ -318,7 +318,7 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
             if worst <= tol and origin.q_norm >= 0.0:
                 orig = origin_error(r, u, origin.a, origin.b, mu, d, origin.q_norm)
                 if not orig <= worst:
-                    worst = orig
+                    worst = orig if orig < np.inf else np.inf      # (NaN: not met, as inf)
             if worst <= tol:
                 return STATUS_CONVERGED, it, err, n_full, n_fail, light, hist
             if light <= light_tol:

@@ -18,7 +18,8 @@ class LazyInfo(tuple):
     ``info`` is made of in a tuple; assembling the nested dicts costs about a
     microsecond, a sixth of a one-contact call, and most callers never read
     them.  :attr:`SolverResult.info` builds the dict the first time it is
-    read (the same dict, whenever that is).
+    read (the same dict, whenever that is); copying or pickling a result
+    builds it first.
     """
 
     __slots__ = ()
@@ -122,6 +123,13 @@ class SolverResult:
         }
 
 
+def _getstate(self) -> dict:
+    # a copy or a pickle carries the built dict (shared by a shallow copy, as any field
+    # is), never a reference to the route's private builder
+    _get_info(self)
+    return self.__dict__
+
+
 def _get_info(self) -> dict:
     info = self._info
     if type(info) is LazyInfo:
@@ -138,4 +146,5 @@ def _set_info(self, value) -> None:
 # and go through the property): a LazyInfo is built on first read.
 SolverResult.info = property(_get_info, _set_info,
                              doc="Backend-specific statistics (see the class docstring).")
+SolverResult.__getstate__ = _getstate
 

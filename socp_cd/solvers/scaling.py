@@ -88,7 +88,10 @@ def _compute(problem) -> Balanced:
             np.ascontiguousarray(problem.mu, dtype=np.float64), problem.dim)
         q_s.flags.writeable = False
         copy = problem.rescaled(a, b, W_data=data_s, q=q_s)
-        copy.derived(_ORIGIN, lambda _: (a, b, float(q_norm)))
+        # (writable copies: numba types read-only arrays apart, one more compiled version
+        # of every kernel that takes them)
+        units = (a.copy(), b.copy(), float(q_norm))
+        copy.derived(_ORIGIN, lambda _: units)
         out = Balanced(a, b, copy, float(q_s_norm), float(q_norm), float(err0))
     out.a.flags.writeable = False
     out.b.flags.writeable = False
@@ -103,7 +106,9 @@ def origin(problem):
     """``(a, b, ||q||)`` when ``problem`` is the balanced copy :func:`balanced` made of another
     (its unit factors, ``r = a r~``, ``u = b u~``, and ``||q||`` of the problem as
     written), else None.  A backend running on the copy can so stop on the dispatcher's
-    own measure (:func:`socp_cd.solvers.nsgs_kernels.origin_error`)."""
+    own measure (:func:`socp_cd.solvers.kernels.scaling.origin_error`).  For a global
+    problem condensed to a local one, "as written" means the condensed local problem
+    (the dispatcher's Coulomb error of a global problem is measured on it too)."""
     return problem.derived(_ORIGIN, _none)
 
 
