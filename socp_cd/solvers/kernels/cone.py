@@ -223,6 +223,18 @@ def error_parts(r, u, mu, g, dim, law):
     ``mu`` and ``g`` (Tresca thresholds; ignored for the other laws) have one
     entry per contact.
     """
+    return _error_parts(r, u, r, u, False, mu, g, dim, law)
+
+
+@njit(cache=True, inline="always")
+def scaled_error_parts(r, u, a, b, mu, g, dim, law):
+    """:func:`error_parts` of ``(a r, b u)`` (entrywise products), without forming them."""
+    return _error_parts(r, u, a, b, True, mu, g, dim, law)
+
+
+@njit(cache=True, inline="always")
+def _error_parts(r, u, a, b, scaled, mu, g, dim, law):
+    # error_parts of (a r, b u) when ``scaled``, of (r, u) otherwise (a, b then unread)
     nc = r.shape[0] // dim
     f2 = 0.0
     r2 = 0.0
@@ -233,6 +245,9 @@ def error_parts(r, u, mu, g, dim, law):
         u0, u1 = u[o], u[o + 1]
         r_2 = r[o + 2] if dim == 3 else 0.0
         u_2 = u[o + 2] if dim == 3 else 0.0
+        if scaled:
+            r0, r1, r_2 = r0 * a[o], r1 * a[o + 1], (r_2 * a[o + 2] if dim == 3 else 0.0)
+            u0, u1, u_2 = u0 * b[o], u1 * b[o + 1], (u_2 * b[o + 2] if dim == 3 else 0.0)
         h0, h1, h2 = law_velocity(u0, u1, u_2, dim, mu[i], law)
         x0 = r0 - h0
         x1 = r1 - h1

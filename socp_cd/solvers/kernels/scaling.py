@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .cone import LAW_COULOMB, coulomb_violations, error_parts, relative_error
+from .cone import (LAW_COULOMB, coulomb_violations, error_parts, relative_error,
+                   scaled_error_parts)
 
 
 @njit(cache=True)
@@ -198,13 +199,9 @@ def origin_error(r, u, a, b, mu, dim, q_norm):
     solver that runs on the balanced copy and would otherwise stop on the
     balanced problem's own error.
     """
-    m = r.shape[0]
-    ro = np.empty(m)
-    uo = np.empty(m)
-    for j in range(m):
-        ro[j] = r[j] * a[j]
-        uo[j] = u[j] * b[j]
-    f2, r2, u2 = error_parts(ro, uo, mu, np.zeros(mu.shape[0]), dim, LAW_COULOMB)
+    # (no temporaries: a one-contact NSGS call runs this once, and three allocations cost
+    # 0.2 us of its 8; ``mu`` stands in for the thresholds, which the Coulomb law never reads)
+    f2, r2, u2 = scaled_error_parts(r, u, a, b, mu, mu, dim, LAW_COULOMB)
     return relative_error(f2, r2, u2, q_norm)
 
 
