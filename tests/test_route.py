@@ -565,3 +565,15 @@ def test_origin_error_is_the_error_of_the_problem_as_written():
         assert e == pytest.approx(socp_cd.error(p, r), rel=1e-9)
     huge = origin_error(np.full(p.m, 1e300), np.full(p.m, 1e300), a, b, p.mu, 3, q_norm)
     assert not huge <= 1e-8         # an overflow never passes (inf or NaN, not a small number)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_scaled_error_parts_is_error_parts_of_the_products(dim):
+    from socp_cd.solvers.kernels.cone import LAW_ASSOCIATED, LAW_TRESCA, scaled_error_parts
+    rng = np.random.default_rng(dim)
+    m = 7 * dim
+    r, u, a, b = rng.standard_normal(m), rng.standard_normal(m), rng.random(m), rng.random(m)
+    mu, g = rng.random(7), rng.random(7)
+    for law in (LAW_COULOMB, LAW_ASSOCIATED, LAW_TRESCA):
+        assert scaled_error_parts(r, u, a, b, mu, g, dim, law) == \
+            error_parts(a * r, b * u, mu, g, dim, law)          # the same bits
