@@ -451,7 +451,7 @@ def _predict_window(problem):
     w = HANDOFF_PREDICT
     if type(w) is not int or w < 0:         # (a bool is not an int here)
         raise ValueError(f"socp_cd.solvers.auto.HANDOFF_PREDICT must be an int >= 0, got {w!r}")
-    return w if problem.dim * problem.mu.shape[0] <= PREDICT_MAX_M else 0
+    return w if problem.m <= PREDICT_MAX_M else 0
 
 
 def _cold_steps(method):

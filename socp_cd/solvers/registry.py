@@ -334,14 +334,11 @@ def _plain(problem, spec, tol, max_iter, r0, time_limit):
     if r0 is not None:
         r0 = problem.check_reaction(r0, "r0")
     t0 = _time.perf_counter()
-    out = spec.route(problem, tol=tol, max_iter=max_iter, r0=r0, time_limit=time_limit)
-    resume = None
-    if out is not None:     # (_try_route, written out: a call is 2 % of a one-contact call)
-        res, resume = _routed(out, spec.name, tol, time_limit, t0)
-        if res is not None:
-            return res
+    res, resume, routed = _try_route(problem, spec, tol, max_iter, r0, time_limit, t0)
+    if res is not None:
+        return res
     return _general(problem, spec, "coulomb", tol, max_iter, r0, False, time_limit, False, {}, {},
-                    t0, resume, out is not None)
+                    t0, resume, routed)
 
 
 def _try_route(problem, spec, tol, max_iter, r0, time_limit, t0):
