@@ -577,3 +577,85 @@ def test_scaled_error_parts_is_error_parts_of_the_products(dim):
     for law in (LAW_COULOMB, LAW_ASSOCIATED, LAW_TRESCA):
         assert scaled_error_parts(r, u, a, b, mu, g, dim, law) == \
             error_parts(a * r, b * u, mu, g, dim, law)          # the same bits
+
+
+def test_compiled_trials_equal_general_path_and_resume(monkeypatch):
+    # after the route's NSGS stage misses tol, the hand-off's Newton trials (plain from NSGS's
+    # iterate, plain and proximal from r = 0) run compiled too (auto._compiled_trials): a trial
+    # that meets tol ends the call on the route; a failed one is handed on (resume) and the
+    # chain goes on as on the general path, which runs every trial itself
+    seen = []
+    real = nsgs_route.trial_runner
+
+    def spy(problem, outcome, prox, stall_window, constants):
+        seen.append(prox)
+        return real(problem, outcome, prox, stall_window, constants)
+
+    monkeypatch.setattr(nsgs_route, "trial_runner", spy)
+    def case(dim, seed):
+        return manufactured(12, dim, mu=0.6, structure="redundant", mass_ratio=1e6,
+                            contact_scale=1e4, seed=seed)
+    plain = (dict(), dict(tol=1e-12), dict(time_limit=5.0))
+    # (the last: a cold trial meets tol in balanced units, is refused, the chain goes on)
+    cases = [(case(2, 6), plain), (case(3, 6), plain), (case(3, 7), (dict(tol=1e-14),))]
+    outcomes = set()
+    for p, kws in cases:
+        for kw in kws:
+            seen.clear()
+            a = socp_cd.solve(p, **kw)
+            b = _general(monkeypatch, p, **kw)
+            _same(a, b)
+            assert [(s["method"], s["iterations"], s["status"]) for s in a.info["path"]] == \
+                   [(s["method"], s["iterations"], s["status"]) for s in b.info["path"]]
+            for sa, sb in zip(a.info["path"], b.info["path"]):
+                assert sa["error"] == pytest.approx(sb["error"], rel=1e-9, abs=1e-13)
+            assert a.info["best_stage"] == b.info["best_stage"]
+            # the route ran the chain's trials, in its order: plain, plain, proximal
+            assert seen and seen == [False, False, True][:len(seen)]
+            methods = [s["method"] for s in a.info["path"]]
+            assert methods[1:1 + len(seen)] == ["newton_trial", "newton_trial_cold",
+                                                "newton_trial_prox"][:len(seen)]
+            if "route" in a.info:
+                assert a.converged and len(methods) == 1 + len(seen)    # met tol on the route
+                outcomes.add("route")
+            else:
+                outcomes.add("handed on")
+    # both outcomes occur: a trial met tol on the route, and one was handed on
+    assert outcomes == {"route", "handed on"}
+
+
+def test_trial_runs_equal_newton_backend_on_the_balanced_copy():
+    # nsgs_route.trial_runner in newton.continued_runs is the Newton backend with its default
+    # settings on the dispatcher's balanced copy: the same answer, status and iterations
+    # (policy plain / prox, from r = 0 and from a start), also where a run that met tol in
+    # balanced units goes on (heavy and light contacts side by side)
+    from socp_cd.solvers import newton
+    from socp_cd.solvers.scaling import balanced
+    compared, went_on = 0, 0
+    for dim, seed, scale in ((3, 1, 1.0), (2, 2, 1.0), (3, 3, 1e4), (2, 4, 1e4), (3, 5, 1e4)):
+        p = manufactured(6, dim, mu=0.5, structure="redundant", mass_ratio=1e6,
+                         contact_scale=scale, seed=seed)
+        copy = balanced(p).problem
+        out = nsgs_route.run(p, (1, 1e-13, 10, 100, 1.0, 10, 5000), 1e-10, 3, None, None,
+                             True)
+        assert out is not None
+        c = newton.trial_constants()
+        for warm in (False, True):
+            start = out.vectors[0].copy() if warm else np.zeros(p.m)
+            for prox, steps in ((False, 6), (True, 4)):
+                run = nsgs_route.trial_runner(p, out, prox, 2, c)
+                st, r, its, _, info = newton.continued_runs(
+                    run, lambda r, i: i["error_as_written"], start, 1e-10, steps, c[0], c[4],
+                    None)
+                ref = newton.newton_backend(copy, "coulomb", tol=1e-10, max_iter=steps,
+                                            r0=start if warm else None,
+                                            policy="prox" if prox else "plain",
+                                            stall_window=2)
+                assert np.array_equal(r, ref.r)
+                assert (st, its) == (ref.status, ref.iterations)
+                assert len(info["continued"]) == len(ref.info["continued"])
+                t = nsgs_route.trial_outcome(p, out, st, r)
+                assert np.array_equal(t.vectors[1], r * balanced(p).a)
+                compared += 1
+                went_on += bool(info["continued"])
+    assert compared == 20 and went_on >= 1

@@ -77,7 +77,7 @@ import numpy as np
 from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, law_parameters
 from ..residuals import guard
-from . import checks, clarabel_backend, newton, nsgs
+from . import checks, clarabel_backend, newton, nsgs, nsgs_route
 from .kernels.cone import siconos_error
 from .kernels.dense import csr_matvec_add
 from .kernels.scaling import GUARD_KEYS, balanced_guard, origin_error
@@ -524,9 +524,82 @@ def route(problem, *, tol, max_iter, r0, time_limit):
                                       "nsgs met tol", x[ZERO_ERROR] <= tol),
                 x[GUARD_VALUE], None)
     info = _route_info(problem.dim, nc, x, method, t, status)
+    trials = []
+    if (handoff[0] and not stage_error <= tol and problem.m <= nsgs_route.TRIAL_MAX_M
+            and _handoff_cap(problem, max_iter) is not None):
+        # the hand-off's trials, compiled too, while each misses tol by the stages' measure
+        # (the chain's order is then the one auto_backend runs: _compiled_trials)
+        done = _compiled_trials(problem, out, tol, max_iter, time_limit, t0)
+        if done:
+            sweeps += sum(d["stage"]["iterations"] for d in done)
+            last, tx = done[-1]["stage"], done[-1]["stats"]
+            if last["error"] <= tol and tx[GUARD_VALUE] <= tol and tx[ERROR] <= tol:
+                vec = done[-1]["vectors"]
+                info["path"] += [d["stage"] for d in done]
+                info.update(best_stage=len(done), guard=guard_record(tx),
+                            scaling=scaling_record(tx))
+                return (SolverResult.of_local(vec[1], vec[2], "converged", tx[ERROR], sweeps,
+                                              info, f"{last['method']} met tol",
+                                              tx[ZERO_ERROR] <= tol), tx[GUARD_VALUE], None)
+            trials = [{"r": d["vectors"][0], "stage": d["stage"], "warm": d["warm"]}
+                      for d in done]
     return (SolverResult.of_local(vectors[1], vectors[2], "stalled", x[ERROR], sweeps, info, "",
                                   x[ZERO_ERROR] <= tol),
-            x[GUARD_VALUE], {"r": vectors[0], "stage": info["path"][0]})
+            x[GUARD_VALUE], {"r": vectors[0], "stage": info["path"][0], "trials": trials})
+
+
+#: the hand-off's trials the compiled route can run: (method, from NSGS's iterate, proximal)
+_ROUTE_TRIALS = (("newton_trial", True, False), ("newton_trial_cold", False, False),
+                 ("newton_trial_prox", False, True))
+
+
+def _as_written(r, info):
+    """Siconos' error as written of a compiled trial's run (:func:`_compiled_trials`)."""
+    return info["error_as_written"]
+
+
+def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
+    """The hand-off's Newton trials after the compiled route's NSGS stage ``out``, compiled
+    (:func:`socp_cd.solvers.nsgs_route.trial_runner` in the Newton backend's
+    :func:`~socp_cd.solvers.newton.continued_runs`), in :func:`stage_order`'s order and under
+    :func:`auto_backend`'s rules (the cold trials only after a failed first trial, on at most
+    :data:`COLD_MAX_M` unknowns, with their step caps): the list of those run, each
+    ``{"stage": its path record, "vectors", "stats", "warm"}``, up to the first whose error
+    meets ``tol`` by the stages' measure (the chain decides what follows it), or before one
+    whose checks are not finite (the chain runs it and what follows)."""
+    done = []
+    constants = newton.trial_constants()
+    for method, warm, prox in _ROUTE_TRIALS:
+        if method == "newton_trial":
+            steps, stall = TRIAL_STEPS, TRIAL_STALL
+        else:
+            steps, stall = _cold_steps(method), COLD_TRIAL_STALL
+            if not steps or problem.m > COLD_MAX_M:
+                continue
+        if max_iter is not None:
+            steps = min(max_iter, steps)
+        if time_limit is not None and _clock() - t0 >= time_limit:
+            break
+        t1 = _clock()
+        run = nsgs_route.trial_runner(problem, out, prox, stall, constants)
+        if run is None:
+            break
+        start = out.vectors[0].copy() if warm else np.zeros(problem.m)
+        # the Newton backend's runs (newton.continued_runs: on the dispatcher's balanced copy
+        # a run that meets tol there and not as written goes on), its default settings
+        st, r_s, its, _, _ = newton.continued_runs(run, _as_written, start, tol, steps,
+                                                   constants[0], constants[4], None)
+        tout = nsgs_route.trial_outcome(problem, out, st, r_s)
+        if tout is None:
+            break
+        tx = tout.stats
+        done.append({"stage": {"method": method, "formulation": "coulomb", "iterations": its,
+                               "time": _clock() - t1, "error": tx[INTERNAL_ERROR],
+                               "status": tout.status},
+                     "vectors": tout.vectors, "stats": tx, "warm": warm})
+        if tx[INTERNAL_ERROR] <= tol:
+            break
+    return done
 
 
 def _route_info(dim, nc, x, method, seconds, status) -> dict:
@@ -609,6 +682,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     rounds, bests, since = 0, [], None
     took = {}                     # method -> shortest duration of its runs in this call
     short = ""                    # why a SLOW_TO_STOP stage was not run for lack of time
+    # the hand-off's trials the compiled route ran after its NSGS stage (route)
+    trials = list(resume.get("trials") or ()) if resume is not None else []
     k = -1
     while True:     # (a refused stage may be inserted once: RETRY_REFUSED; rounds appended)
         if k + 1 >= len(order):
@@ -671,7 +746,16 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             r, res = np.asarray(resume["r"], dtype=np.float64), None
             st, its, dt = stage["status"], int(stage["iterations"]), float(stage["time"])
             err = judge(r)
+        elif (trials and method == trials[0]["stage"]["method"] and stage_tol == tol
+              and (not trials[0]["warm"] or (best_r is not None
+                                             and np.array_equal(best_r, resume["r"])))):
+            # the next trial the compiled route ran after it, from the same start and tol
+            done = trials.pop(0)
+            stage, r, res = done["stage"], np.asarray(done["r"], dtype=np.float64), None
+            st, its, dt = stage["status"], int(stage["iterations"]), float(stage["time"])
+            err = judge(r)
         else:
+            trials = []     # a stage the route did not run: its later trials do not apply
             stage_limit = None
             if time_limit is not None:
                 left = time_limit - (_clock() - t_start)

@@ -172,6 +172,9 @@ DEFAULT_RHO = "block"
 _ARMIJO = 1e-4
 _MAX_BACKTRACK = 30
 _ALPHA_MAX = 1e8
+#: defaults of the options alpha_min and inner_max_iter
+_DEFAULT_ALPHA_MIN = 1e-10
+_DEFAULT_INNER_MAX_ITER = 10
 #: a solved proximal subproblem is accepted while its error <= NONMONOTONE * best
 NONMONOTONE = 10.0
 #: outer policies of :func:`prox_newton`
@@ -855,15 +858,28 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
     return status, r, ist[nd.I_IT], None, info
 
 
+def trial_constants():
+    """The constants :func:`_newton_compiled` passes its loops with the default settings, as
+    the array :func:`socp_cd.solvers.nsgs_route.trial_checked` takes (entries named by
+    ``nsgs_route.TRIAL_CONSTANTS``; ``alpha0``, ``plain_regularization``, ``alpha_min``
+    and ``alpha_max`` relative to the block scale), for a compiled route that runs those
+    loops itself."""
+    return np.array([COLD_ALPHA0, PLAIN_REGULARIZATION, GOLDSTEIN_M1, _MAX_BACKTRACK,
+                     _DEFAULT_ALPHA_MIN, _ALPHA_MAX, _DEFAULT_INNER_MAX_ITER, _ARMIJO,
+                     NONMONOTONE])
+
+
 def _settings(problem, options, inner_settings=None) -> dict:
     """Checked Newton settings (a bad value raises ``InvalidProblemError`` naming it)."""
     def get(name, default):
         v = options.get(name)
         return default if v is None else v
     alpha0 = check_real("alpha0", get("alpha0", COLD_ALPHA0), positive=True)
-    alpha_min = check_real("alpha_min", get("alpha_min", 1e-10), minimum=0.0, maximum=alpha0)
+    alpha_min = check_real("alpha_min", get("alpha_min", _DEFAULT_ALPHA_MIN), minimum=0.0,
+                           maximum=alpha0)
     return dict(alpha0=alpha0, alpha_min=alpha_min,
-                inner_max_iter=check_int("inner_max_iter", get("inner_max_iter", 10), minimum=1),
+                inner_max_iter=check_int("inner_max_iter",
+                                         get("inner_max_iter", _DEFAULT_INNER_MAX_ITER), minimum=1),
                 stall_window=check_int("stall_window", get("stall_window", 50), minimum=0),
                 linear_solver=check_choice("linear_solver", get("linear_solver", "auto"),
                                            ("auto", "dense", "splu")),
@@ -888,43 +904,21 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
     r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=np.float64).reshape(-1)
     # on the dispatcher's balanced copy: its own measure, Siconos' error as written
     units = None if problem.is_global else origin(problem)
-    t0, iters, hist, run_tol, continued = time.perf_counter(), 0, [] if history else None, tol, []
-    claim = None    # (r, info, error as written) of the last run that met tol in balanced units only
-    # a continued run starts near a solution: the warm proximal parameter (as auto's rerun of a
-    # refused stage), within the caller's bounds
-    warm = max(min(st["alpha0"], WARM_ALPHA0), st["alpha_min"])
+    as_written = None
+    if units is not None:
+        def as_written(r, info):
+            return origin_error(r, system.start(r), units[0], units[1], mu, problem.dim, units[2])
+
+    def run(r, run_tol, run_max_iter, alpha0, left):
+        return prox_newton(system, mu, r, tol=run_tol, max_iter=run_max_iter, alpha0=alpha0,
+                           alpha_min=st["alpha_min"], inner_max_iter=st["inner_max_iter"],
+                           stall_window=st["stall_window"], time_limit=left, history=history,
+                           rho=st["rho"], policy=st["policy"])
+
     with _one_blas_thread(system):
-        while True:
-            left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
-            status, r, its, h, info = prox_newton(
-                system, mu, r, tol=float(run_tol), max_iter=max_iter - iters,
-                alpha0=warm if claim else st["alpha0"], alpha_min=st["alpha_min"],
-                inner_max_iter=st["inner_max_iter"], stall_window=st["stall_window"],
-                time_limit=left, history=history, rho=st["rho"], policy=st["policy"])
-            iters += its
-            if history:
-                hist.extend(h[1:] if claim else h)      # (a continued run repeats its start)
-            if claim:
-                _add_counters(info, claim[1])
-            e = np.inf
-            if units is not None and (status == "converged" or claim):
-                e = float(origin_error(r, system.start(r), units[0], units[1], mu, problem.dim,
-                                       units[2]))
-                e = e if np.isfinite(e) else np.inf
-            if claim and status != "converged" and not e < claim[2]:
-                # the continued run failed: the claim stands (the dispatcher then retries it)
-                status, r, info = "converged", claim[0], dict(info, internal_error=claim[1][
-                    "internal_error"])
-                break
-            if (status != "converged" or units is None or e <= tol or not np.isfinite(e)
-                    or iters >= max_iter or len(continued) == MAX_CONTINUED
-                    or time_limit is not None and time.perf_counter() - t0 >= time_limit):
-                break       # (a claim the dispatcher refuses still gets its retry)
-            # met in balanced units only: go on from r, aiming lower (the dispatcher's policy)
-            continued.append({"iterations": its, "tol": run_tol, "error_as_written": e})
-            claim = (r.copy(), info, e)
-            run_tol = tightened_tolerance(tol, min(info["internal_error"], tol), e)
-    info["continued"] = continued
+        status, r, iters, hist, info = continued_runs(run, as_written, r, tol, max_iter,
+                                                      st["alpha0"], st["alpha_min"],
+                                                      time_limit, history)
     message = ""
     if status == "stalled":
         message = f"no 10 % drop of the error over {st['stall_window']} outer iterations"
@@ -939,6 +933,71 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
             extra["v"] = glob.global_velocity(r)
     return SolverResult(r=r, status=status, iterations=iters, history=hist, info=info,
                         message=message, **extra)
+
+
+def continued_runs(run, as_written, r, tol, max_iter, alpha0, alpha_min, time_limit,
+                   history=False):
+    """Newton runs from ``r`` until the answer meets ``tol`` as written (the backend's loop).
+
+    A run that converges on a balanced copy while Siconos' error of the problem as
+    written misses ``tol`` goes on from its answer (at most :data:`MAX_CONTINUED`
+    times, within ``max_iter`` and ``time_limit``): the warm proximal parameter
+    ``max(min(alpha0, WARM_ALPHA0), alpha_min)`` and the dispatcher's tightened
+    tolerance (:func:`~socp_cd.solvers.options.tightened_tolerance`).  A continued run
+    that fails leaves the claim (the dispatcher then retries it).
+
+    Parameters
+    ----------
+    run : callable
+        ``run(r, tol, max_iter, alpha0, time_left) -> (status, r, iterations, history,
+        info)`` (:func:`prox_newton`'s return value; ``info["internal_error"]``).
+    as_written : callable or None
+        ``as_written(r, info)``: Siconos' error of the problem as written (None: the
+        problem is not a balanced copy, nothing goes on).
+    r : ndarray
+        Start.
+    tol, max_iter, alpha0, alpha_min, time_limit, history
+        As :func:`newton_backend`'s.
+
+    Returns
+    -------
+    status, r, iterations, history, info
+        Of all runs (``info`` the last run's, its counters summed over the runs,
+        ``info["continued"]`` a record of each continued run).
+    """
+    t0, iters, hist, run_tol, continued = time.perf_counter(), 0, [] if history else None, tol, []
+    claim = None    # (r, info, error as written) of the last run that met tol in balanced units only
+    # a continued run starts near a solution: the warm proximal parameter (as auto's rerun of a
+    # refused stage), within the caller's bounds
+    warm = max(min(alpha0, WARM_ALPHA0), alpha_min)
+    while True:
+        left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
+        status, r, its, h, info = run(r, float(run_tol), max_iter - iters,
+                                      warm if claim else alpha0, left)
+        iters += its
+        if history:
+            hist.extend(h[1:] if claim else h)      # (a continued run repeats its start)
+        if claim:
+            _add_counters(info, claim[1])
+        e = np.inf
+        if as_written is not None and (status == "converged" or claim):
+            e = float(as_written(r, info))
+            e = e if np.isfinite(e) else np.inf
+        if claim and status != "converged" and not e < claim[2]:
+            # the continued run failed: the claim stands (the dispatcher then retries it)
+            status, r, info = "converged", claim[0], dict(info, internal_error=claim[1][
+                "internal_error"])
+            break
+        if (status != "converged" or as_written is None or e <= tol or not np.isfinite(e)
+                or iters >= max_iter or len(continued) == MAX_CONTINUED
+                or time_limit is not None and time.perf_counter() - t0 >= time_limit):
+            break       # (a claim the dispatcher refuses still gets its retry)
+        # met in balanced units only: go on from r, aiming lower (the dispatcher's policy)
+        continued.append({"iterations": its, "tol": run_tol, "error_as_written": e})
+        claim = (r.copy(), info, e)
+        run_tol = tightened_tolerance(tol, min(info["internal_error"], tol), e)
+    info["continued"] = continued
+    return status, r, iters, hist, info
 
 
 #: per-run counters of :func:`prox_newton`'s info that a continued run adds to
@@ -1058,6 +1117,6 @@ def warmup() -> float:
     return time.perf_counter() - t0
 
 
-__all__ = ["newton_backend", "BlockJacobian", "prox_newton", "newton_polish", "resolve_polish", "POLISH_NAMES",
+__all__ = ["newton_backend", "trial_constants", "continued_runs", "BlockJacobian", "prox_newton", "newton_polish", "resolve_polish", "POLISH_NAMES",
            "WARM_ALPHA0", "COLD_ALPHA0", "velocity_relative_error", "POLICIES", "warmup",
            "DEFAULT_MAX_ITER", "OPTIONS", "SPEC"]

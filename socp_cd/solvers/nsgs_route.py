@@ -27,6 +27,16 @@ So the answer is the general path's, bit for bit (``tests/test_route.py``
 holds the two equal); the verdict (``converged``) stays the dispatcher's.
 Backends offer the route through ``SolverSpec.route``
 (:mod:`socp_cd.solvers.nsgs`, :mod:`socp_cd.solvers.auto`).
+
+``solver="auto"`` hands a small problem's NSGS stage that misses ``tol`` to
+Newton trials.  On at most :data:`TRIAL_MAX_M` unknowns its route runs them
+compiled too: :func:`trial_run` is one run of the Newton backend's compiled
+loop on the same balanced problem (dense ``W~``), :func:`trial_runner` feeds it to
+the backend's own run logic (:func:`socp_cd.solvers.newton.continued_runs`), and
+:func:`trial_checked` computes the stage judge's measure and the dispatcher's
+checks of the answer (:func:`checked_answer`, shared with :func:`nsgs_checked`).
+Through the general path each trial cost ~60 µs of Python around a kernel of
+10–500 µs (the backend's set-up, the chain's and the dispatcher's bookkeeping).
 """
 from __future__ import annotations
 
@@ -41,8 +51,10 @@ from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from .block_storage import csr_to_bsr
 from .kernels.cone import LAW_COULOMB, error_parts, relative_error, siconos_error
-from .kernels.dense import csr_matvec_add
-from .kernels.scaling import GUARD_KEYS, balance_csr, balanced_guard, factor_summary
+from .kernels import newton_dense as nd
+from .kernels.dense import csr_matvec_add, csr_to_dense, matvec_into
+from .kernels.newton_ac import block_rho_dense
+from .kernels.scaling import GUARD_KEYS, balance_csr, balanced_guard, factor_summary, origin_error
 from .nsgs_kernels import (STATUS_NAMES, BlockW, Law, LocalSolver, Origin, Sweeps,
                            local_parameters, next_block, nsgs_loop, whole_windows)
 
@@ -64,6 +76,16 @@ DECLINED_FRICTIONLESS = -2   # every mu = 0 and friction was required
 DECLINED_ILL_POSED = -3      # a contact with W_NN <= 0 (the general path reports it)
 DECLINED_NOT_FINITE = -4     # r or u not finite (the general path reports it)
 
+#: the compiled trial runs on local problems of at most this many unknowns (dense ``W``, the
+#: written-out LU: the Newton backend's compiled path there, ``newton.COMPILED_LU_MAX_M``)
+TRIAL_MAX_M = 72
+#: the trial's statuses (the Newton backend's, :mod:`~socp_cd.solvers.kernels.newton_dense`)
+#: the entries of :func:`trial_run`'s ``constants``, in order
+TRIAL_CONSTANTS = ("alpha0", "plain_regularization", "goldstein_m1", "max_backtrack",
+                   "alpha_min", "alpha_max", "inner_max_iter", "armijo", "nonmonotone")
+TRIAL_STATUS = {nd.RUNNING: "max_iter", nd.CONVERGED: "converged", nd.STALLED: "stalled",
+                nd.NUMERICAL_ERROR: "numerical_error"}
+
 
 #: the NSGS settings :func:`run` takes, in order (the keys of the NSGS backend's settings)
 ROUTE_SETTINGS = ("kind", "loc_tol", "newton_maxit", "proj_maxit", "omega", "error_every",
@@ -79,6 +101,38 @@ _N_STATS = len(STATS)
 _N_OUT = _N_STATS + len(GUARD_KEYS)
 #: index of the units guard's value (what ``converged`` needs ``<= tol``) in that tuple
 GUARD_VALUE = _N_STATS + GUARD_KEYS.index("value")
+
+
+@njit(cache=True)
+def checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_s, vectors,
+                   stats):
+    """The dispatcher's checks of a balanced iterate ``r_s``, in place: ``vectors[1] = a r_s``
+    (:func:`~socp_cd.solvers.kernels.scaling.times_factors`'s product), ``vectors[2] = W r + q``
+    (the data as written), and the entries ``ERROR``, ``VELOCITY_SCALE``, ``DIAG_MIN``,
+    ``DIAG_MAX``, ``GUARD_FINITE`` and the units guard's of ``stats``
+    (:func:`~socp_cd.solvers.kernels.cone.error_parts`,
+    :func:`~socp_cd.solvers.kernels.scaling.balanced_guard`,
+    :func:`~socp_cd.solvers.kernels.scaling.factor_summary`).  False (nothing filled)
+    when ``r`` or ``u`` is not finite."""
+    m = q.shape[0]
+    nc = mu.shape[0]
+    r, u = vectors[1], vectors[2]
+    for j in range(m):
+        r[j] = r_s[j] * a[j]                          # = times_factors(r_s, a)
+    u[:] = csr_matvec_add(indptr, indices, data, r, q)
+    for j in range(m):
+        if not (np.isfinite(r[j]) and np.isfinite(u[j])):
+            return False
+    f2, r2, u2 = error_parts(r, u, mu, np.zeros(nc), dim, LAW_COULOMB)
+    g_finite, guard = balanced_guard(r, u, a, b, mu, dim, q_s_norm)
+    sigma, d_min, d_max = factor_summary(a, b, dim)
+    stats[ERROR] = relative_error(f2, r2, u2, q_norm)
+    stats[VELOCITY_SCALE] = sigma
+    stats[DIAG_MIN] = d_min
+    stats[DIAG_MAX] = d_max
+    stats[GUARD_FINITE] = 1.0 if g_finite else 0.0
+    stats[_N_STATS:] = guard
+    return True
 
 
 @njit(cache=True)
@@ -116,9 +170,10 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
         predicts that the hand-off's cap will not reach ``tol``; ignored when the
         hand-off is on and its cap is not below ``max_iter`` (the general path
         then runs NSGS without it).
-    vectors : ndarray (3, m)
+    vectors : ndarray (3, m) or (4, m)
         Output, overwritten: rows the balanced iterate ``r~``, ``r = a r~`` and
-        ``u = W r + q`` (the data as written).  Passed in, one array: an array
+        ``u = W r + q`` (the data as written), and (a fourth row) ``q~ = q / b``,
+        the compiled trial's start (:func:`trial_checked`).  Passed in, one array: an array
         a compiled call allocates and returns costs its boxing (~0.3 µs, three
         times NumPy's allocation).
 
@@ -186,30 +241,130 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
         block, prev = next_block(status, its, block, done, max_iter, err, predict_window)
         if block == 0:
             break
-    r, u = vectors[1], vectors[2]
-    for j in range(m):
-        r[j] = r_s[j] * a[j]                          # = times_factors(r_s, a)
-    u[:] = csr_matvec_add(indptr, indices, data, r, q)
-    for j in range(m):
-        if not (np.isfinite(r[j]) and np.isfinite(u[j])):
-            return DECLINED_NOT_FINITE, to_fixed_tuple(stats, _N_OUT)
-    f2, r2, u2 = error_parts(r, u, mu, np.zeros(nc), dim, LAW_COULOMB)
-    g_finite, guard = balanced_guard(r, u, a, b, mu, dim, q_s_norm)
-    sigma, d_min, d_max = factor_summary(a, b, dim)
+    if vectors.shape[0] > 3:
+        vectors[3] = q_s                              # (the compiled trial's norm of q~)
+    if not checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_s,
+                          vectors, stats):
+        return DECLINED_NOT_FINITE, to_fixed_tuple(stats, _N_OUT)
     stats[SWEEPS] = done
     stats[INTERNAL_ERROR] = err
     stats[N_FULL] = n_full
     stats[N_FAIL] = n_fail
     stats[LIGHT] = light
-    stats[ERROR] = relative_error(f2, r2, u2, q_norm)
     stats[ZERO_ERROR] = err0
     stats[START_ERROR] = start_error
-    stats[VELOCITY_SCALE] = sigma
-    stats[DIAG_MIN] = d_min
-    stats[DIAG_MAX] = d_max
-    stats[GUARD_FINITE] = 1.0 if g_finite else 0.0
-    stats[_N_STATS:] = guard
     return status, to_fixed_tuple(stats, _N_OUT)
+
+
+@njit(cache=True)
+def _balanced_dense(indptr, indices, data, q, mu, dim):
+    """The balanced problem (:func:`~socp_cd.solvers.kernels.scaling.balance_csr`) with
+    ``W~`` also dense: ``(a, b, data_s, q_s, q_norm, q_s_norm, err0, W~)``."""
+    m = q.shape[0]
+    a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, dim)
+    return a, b, data_s, q_s, q_norm, q_s_norm, err0, csr_to_dense(indptr, indices, data_s, m, m)
+
+
+@njit(cache=True)
+def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, stall_window,
+              prox, constants, alpha0, r_s):
+    """One run of the Newton backend's compiled loop on the balanced problem, from ``start``.
+
+    The loop the backend runs with its default settings — plain steps
+    (:func:`~socp_cd.solvers.kernels.newton_dense.plain_newton_dense`,
+    ``policy="plain"``) or the proximal method
+    (:func:`~socp_cd.solvers.kernels.newton_dense.prox_newton_dense`) — on the
+    balanced problem of :func:`~socp_cd.solvers.kernels.scaling.balance_csr` as a
+    dense ``W~``, Alart–Curnier parameters of
+    :func:`~socp_cd.solvers.kernels.newton_ac.block_rho_dense`, with the arguments
+    the backend passes it (``_newton_compiled``): the same iterates, bit for bit, as
+    one run of ``solver="newton"`` on the dispatcher's balanced copy.
+
+    Parameters
+    ----------
+    indptr, indices, data, q, mu, dim
+        The local problem as written (``m <=`` :data:`TRIAL_MAX_M` unknowns).
+    start : ndarray (m,)
+        The balanced start.
+    norm_q : float
+        ``||q~||`` as the balanced copy computes it (``problem.q_norm``).
+    tol, max_iter, stall_window, prox
+        The run's tolerance, outer-iteration cap, stall window; the proximal method
+        (else plain steps).
+    constants : ndarray (9,)
+        The backend's loop constants (:data:`TRIAL_CONSTANTS` names them,
+        :func:`socp_cd.solvers.newton.trial_constants` gives them); ``alpha0`` (relative
+        to the block scale) replaces its first.
+    r_s : ndarray (m,)
+        Output: the run's answer (its last iterate, or its best one when it did not
+        converge).
+
+    Returns
+    -------
+    code, iterations, internal_error, error_as_written
+        The loop's status (:data:`TRIAL_STATUS`), its outer iterations, its own error
+        (the smaller of the last and best), and Siconos' error of the problem as
+        written (:func:`~socp_cd.solvers.kernels.scaling.origin_error` of ``r_s`` and
+        ``W~ r_s + q~``, the backend's test).
+    """
+    nc = mu.shape[0]
+    m = q.shape[0]
+    a, b, data_s, q_s, q_norm, q_s_norm, err0, W = _balanced_dense(indptr, indices, data, q,
+                                                                   mu, dim)
+    rho = np.empty(nc)
+    wscale = block_rho_dense(W, dim, rho)
+    fstate = np.zeros(nd.FSTATE)
+    fstate[nd.F_ALPHA] = alpha0 * wscale
+    fstate[nd.F_ALPHA_MAX_USED] = alpha0 * wscale
+    istate = np.zeros(nd.ISTATE, dtype=np.int64)
+    r_s[:] = start
+    best_r = np.empty(m)
+    max_backtrack = int(constants[3])
+    if prox:
+        nd.prox_newton_dense(W, q_s, norm_q, mu, rho, rho, dim, tol, max_iter,
+                             constants[4] * wscale, constants[5] * wscale, int(constants[6]),
+                             stall_window, constants[7], max_backtrack, constants[8], r_s,
+                             best_r, fstate, istate, None)
+    else:
+        nd.plain_newton_dense(W, q_s, norm_q, mu, rho, rho, dim, tol, max_iter,
+                              constants[1] * wscale, stall_window, constants[2], max_backtrack,
+                              r_s, best_r, fstate, istate, None)
+    status = istate[nd.I_STATUS]
+    err, best_err = fstate[nd.F_ERR], fstate[nd.F_BEST_ERR]
+    if status != nd.CONVERGED and best_err < err:
+        r_s[:] = best_r
+    u = np.empty(m)
+    matvec_into(W, r_s, q_s, u)                 # the backend's system.start(r)
+    return (status, istate[nd.I_IT], min(err, best_err),
+            origin_error(r_s, u, a, b, mu, dim, q_norm))
+
+
+@njit(cache=True)
+def trial_checked(indptr, indices, data, q, mu, dim, r_s, norm_q, vectors):
+    """The stage judge's measure and the dispatcher's checks of a trial's answer ``r_s``.
+
+    Returns ``(ok, stats)``: ``stats`` as :func:`nsgs_checked`'s (``INTERNAL_ERROR``
+    Siconos' error of the balanced pair as ``solver="auto"``'s stage judge computes it,
+    ``ERROR`` and the guard's entries the dispatcher's checks of ``r = a r~``; the
+    counters 0); ``vectors`` (3, m) as there (row 0 ``r_s``); ``ok`` False when ``r``
+    or ``u`` is not finite.
+    """
+    nc = mu.shape[0]
+    stats = np.zeros(_N_OUT)
+    a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, dim)
+    vectors[0] = r_s
+    if not checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_s,
+                          vectors, stats):
+        return False, to_fixed_tuple(stats, _N_OUT)
+    stats[INTERNAL_ERROR] = siconos_error(r_s, csr_matvec_add(indptr, indices, data_s, r_s,
+                                                              q_s), mu, dim, norm_q)
+    stats[ZERO_ERROR] = err0
+    stats[START_ERROR] = np.inf
+    mu_max = 0.0
+    for i in range(nc):
+        mu_max = max(mu_max, mu[i])
+    stats[MU_MAX] = mu_max
+    return True, to_fixed_tuple(stats, _N_OUT)
 
 
 #: What :func:`run` gives a backend's route.  ``status``: the sweeps' own status
@@ -260,7 +415,7 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
             time_limit >= MIN_TIME_LIMIT and max_iter * int(indptr[-1]) <= MAX_TIMED_WORK)):
         return None
     q = problem.q
-    vectors = np.empty((3, q.shape[0]))
+    vectors = np.empty((4, q.shape[0]))      # (row 3: q~, a compiled trial's)
     code, x = nsgs_checked(
         indptr, indices, data, q, mu, problem.dim, q if r0 is None else r0, r0 is not None, tol,
         max_iter, time_limit is not None, TIME_CHECK_SWEEPS, *settings, need_friction, *handoff,
@@ -271,6 +426,44 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     return _new(RouteOutcome, (STATUS_NAMES[code], vectors, x))
 
 
-__all__ = ["nsgs_checked", "run", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
+def trial_runner(problem, outcome, prox, stall_window, constants):
+    """``run(r, tol, max_iter, alpha0, time_left)`` of
+    :func:`socp_cd.solvers.newton.continued_runs` through :func:`trial_run` on
+    ``problem`` (as written; the balanced problem of a :func:`run` ``outcome`` on it):
+    returns ``(status, r~, iterations, None, info)`` with ``info["internal_error"]``
+    and ``info["error_as_written"]``; ``time_left`` is not read (a trial's work is
+    bounded: at most :data:`TRIAL_MAX_M` unknowns, its step cap).  None when the
+    problem has more than :data:`TRIAL_MAX_M` unknowns."""
+    q = problem.q
+    if q.shape[0] > TRIAL_MAX_M:
+        return None
+    q_s = outcome.vectors[3]
+    indptr, indices, data = problem.csr_parts
+    mu, dim, norm_q = problem.mu, problem.dim, float(np.sqrt(q_s.dot(q_s)))
+
+    def run(r, tol, max_iter, alpha0, time_left):
+        r_s = np.empty(q.shape[0])
+        code, its, internal, e = trial_run(indptr, indices, data, q, mu, dim, r, norm_q, tol,
+                                           max_iter, stall_window, prox, constants, alpha0, r_s)
+        return (TRIAL_STATUS[code], r_s, int(its), None,
+                {"internal_error": float(internal), "error_as_written": float(e)})
+    return run
+
+
+def trial_outcome(problem, outcome, status, r_s):
+    """The checks of a trial's answer ``r_s`` (:func:`trial_checked`) as a
+    :data:`RouteOutcome` (``status`` the trial's), or None when they are not finite."""
+    indptr, indices, data = problem.csr_parts
+    q_s = outcome.vectors[3]
+    vectors = np.empty((3, problem.q.shape[0]))
+    ok, x = trial_checked(indptr, indices, data, problem.q, problem.mu, problem.dim, r_s,
+                          float(np.sqrt(q_s.dot(q_s))), vectors)
+    if not ok or not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
+        return None
+    return RouteOutcome(status, vectors, x)
+
+
+__all__ = ["nsgs_checked", "run", "trial_run", "trial_checked", "trial_runner", "trial_outcome",
+           "checked_answer", "TRIAL_MAX_M", "TRIAL_CONSTANTS", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
            "MIN_TIME_LIMIT", "MAX_TIMED_WORK", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
            "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX", "GUARD_VALUE"]
