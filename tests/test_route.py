@@ -597,7 +597,11 @@ def test_compiled_trials_equal_general_path_and_resume(monkeypatch):
                             contact_scale=1e4, seed=seed)
     plain = (dict(), dict(tol=1e-12), dict(time_limit=5.0))
     # (the last: a cold trial meets tol in balanced units, is refused, the chain goes on)
-    cases = [(case(2, 6), plain), (case(3, 6), plain), (case(3, 7), (dict(tol=1e-14),))]
+    # (90 unknowns, above the written-out LU's NAIVE_LU_MAX_N: a tree's envelope keeps it)
+    tree = manufactured(30, 3, mu=0.6, structure="tree", mass_ratio=1e6, contact_scale=1e4,
+                        seed=0)
+    cases = [(case(2, 6), plain), (case(3, 6), plain), (case(3, 7), (dict(tol=1e-14),)),
+             (tree, plain[:1])]
     outcomes = set()
     for p, kws in cases:
         for kw in kws:

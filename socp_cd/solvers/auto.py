@@ -526,7 +526,8 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     info = _route_info(problem.dim, nc, x, method, t, status)
     trials = []
     if (handoff[0] and not stage_error <= tol and problem.m <= nsgs_route.TRIAL_MAX_M
-            and _handoff_cap(problem, max_iter) is not None):
+            and _handoff_cap(problem, max_iter) is not None
+            and newton.compiled_written_out(problem)):
         # the hand-off's trials, compiled too, while each misses tol by the stages' measure
         # (the chain's order is then the one auto_backend runs: _compiled_trials)
         done = _compiled_trials(problem, out, tol, max_iter, time_limit, t0)

@@ -267,6 +267,33 @@ class BlockJacobian:
         return J
 
 
+def _linear_solver(indptr, indices, m, choice):
+    """``(kind, compiled, lapack)`` of a local system of ``m`` unknowns (``W``'s pattern in
+    CSR form) for the option ``linear_solver=choice``: "dense" or "splu" ("auto":
+    dense up to DENSE_ALWAYS_M unknowns, and up to DENSE_MAX_M when the fill is at least
+    DENSE_MIN_FILL); the compiled loop on dense systems of at most COMPILED_LOOP_MAX_M;
+    LAPACK's LU (:data:`~.kernels.dense.LAPACK_LU`) above COMPILED_LU_MAX_M unknowns
+    when the envelope fraction exceeds COMPILED_LU_MAX_ENVELOPE, else None (written out)."""
+    if choice == "auto":
+        dense_kind = m <= DENSE_ALWAYS_M or (
+            m <= DENSE_MAX_M and int(indptr[-1]) / float(m * m) >= DENSE_MIN_FILL)
+        choice = "dense" if dense_kind else "splu"
+    lapack = None
+    if choice == "dense" and m > COMPILED_LU_MAX_M and (
+            envelope_fraction(indptr, indices, m) > COMPILED_LU_MAX_ENVELOPE):
+        lapack = LAPACK_LU
+    return choice, choice == "dense" and m <= COMPILED_LOOP_MAX_M, lapack
+
+
+def compiled_written_out(problem) -> bool:
+    """Whether the backend's default linear solver runs ``problem`` (local) on the compiled
+    dense loop with the written-out LU (no BLAS): the loop a compiled route can run
+    itself (:func:`socp_cd.solvers.nsgs_route.trial_run`)."""
+    indptr, indices, _ = problem.csr_parts
+    _, compiled, lapack = _linear_solver(indptr, indices, problem.m, "auto")
+    return compiled and lapack is None
+
+
 class _LocalSystem:
     """Newton steps of the local problem ``u = W r + q``."""
 
@@ -276,18 +303,10 @@ class _LocalSystem:
         them, e.g. the De Saxcé loop handing its iterate to :func:`newton_polish`."""
         indptr, indices, data = problem.csr_parts      # no scipy matrix needed on the dense path
         self.d, self.m = problem.dim, problem.m
-        if linear_solver == "auto":
-            dense_kind = self.m <= DENSE_ALWAYS_M or (
-                self.m <= DENSE_MAX_M and int(indptr[-1]) / float(self.m * self.m) >= DENSE_MIN_FILL)
-            linear_solver = "dense" if dense_kind else "splu"
-        self.kind = linear_solver
         #: dense system: compiled mat-vecs and solves (and the compiled loop); the LU of
-        #: dense_solve (None: written out)
-        self.compiled = self.kind == "dense" and self.m <= COMPILED_LOOP_MAX_M
-        self.lapack = None          # (read on the compiled dense path only)
-        if self.kind == "dense" and self.m > COMPILED_LU_MAX_M and (
-                envelope_fraction(indptr, indices, self.m) > COMPILED_LU_MAX_ENVELOPE):
-            self.lapack = LAPACK_LU
+        #: dense_solve (None: written out; read on the compiled dense path only)
+        self.kind, self.compiled, self.lapack = _linear_solver(indptr, indices, self.m,
+                                                               linear_solver)
         given = dense if self.compiled else None
         if given is not None:
             self.q = given[1]
@@ -1117,6 +1136,6 @@ def warmup() -> float:
     return time.perf_counter() - t0
 
 
-__all__ = ["newton_backend", "trial_constants", "continued_runs", "BlockJacobian", "prox_newton", "newton_polish", "resolve_polish", "POLISH_NAMES",
+__all__ = ["newton_backend", "trial_constants", "continued_runs", "compiled_written_out", "BlockJacobian", "prox_newton", "newton_polish", "resolve_polish", "POLISH_NAMES",
            "WARM_ALPHA0", "COLD_ALPHA0", "velocity_relative_error", "POLICIES", "warmup",
            "DEFAULT_MAX_ITER", "OPTIONS", "SPEC"]

@@ -29,7 +29,8 @@ Backends offer the route through ``SolverSpec.route``
 (:mod:`socp_cd.solvers.nsgs`, :mod:`socp_cd.solvers.auto`).
 
 ``solver="auto"`` hands a small problem's NSGS stage that misses ``tol`` to
-Newton trials.  On at most :data:`TRIAL_MAX_M` unknowns its route runs them
+Newton trials.  On at most :data:`TRIAL_MAX_M` unknowns (where the Newton
+backend runs the compiled dense loop with the written-out LU) its route runs them
 compiled too: :func:`trial_run` is one run of the Newton backend's compiled
 loop on the same balanced problem (dense ``W~``), :func:`trial_runner` feeds it to
 the backend's own run logic (:func:`socp_cd.solvers.newton.continued_runs`), and
@@ -76,9 +77,10 @@ DECLINED_FRICTIONLESS = -2   # every mu = 0 and friction was required
 DECLINED_ILL_POSED = -3      # a contact with W_NN <= 0 (the general path reports it)
 DECLINED_NOT_FINITE = -4     # r or u not finite (the general path reports it)
 
-#: the compiled trial runs on local problems of at most this many unknowns (dense ``W``, the
-#: written-out LU: the Newton backend's compiled path there, ``newton.COMPILED_LU_MAX_M``)
-TRIAL_MAX_M = 72
+#: the compiled trials run on local problems of at most this many unknowns (``auto``'s cold
+#: trials' bound, ``auto.COLD_MAX_M``) whose Newton steps the backend computes with the
+#: compiled dense loop and the written-out LU (``newton.compiled_written_out``)
+TRIAL_MAX_M = 150
 #: the trial's statuses (the Newton backend's, :mod:`~socp_cd.solvers.kernels.newton_dense`)
 #: the entries of :func:`trial_run`'s ``constants``, in order
 TRIAL_CONSTANTS = ("alpha0", "plain_regularization", "goldstein_m1", "max_backtrack",
