@@ -633,7 +633,7 @@ def test_trial_runs_equal_newton_backend_on_the_balanced_copy():
     # settings on the dispatcher's balanced copy: the same answer, status and iterations
     # (policy plain / prox, from r = 0 and from a start), also where a run that met tol in
     # balanced units goes on (heavy and light contacts side by side)
-    from socp_cd.solvers import newton
+    from socp_cd.solvers import auto, newton
     from socp_cd.solvers.scaling import balanced
     compared, went_on = 0, 0
     for dim, seed, scale in ((3, 1, 1.0), (2, 2, 1.0), (3, 3, 1e4), (2, 4, 1e4), (3, 5, 1e4)):
@@ -658,8 +658,53 @@ def test_trial_runs_equal_newton_backend_on_the_balanced_copy():
                 assert np.array_equal(r, ref.r)
                 assert (st, its) == (ref.status, ref.iterations)
                 assert len(info["continued"]) == len(ref.info["continued"])
-                t = nsgs_route.trial_outcome(p, out, st, r)
+                t, judge_guard = nsgs_route.trial_outcome(p, out, st, r)
                 assert np.array_equal(t.vectors[1], r * balanced(p).a)
+                judge = auto._Judge(copy, "coulomb", {}, 1e-10)
+                assert t.stats[nsgs_route.INTERNAL_ERROR] == judge(r)   # the judge's, exactly
+                assert judge_guard == judge.guard_value(r)
                 compared += 1
                 went_on += bool(info["continued"])
     assert compared == 20 and went_on >= 1
+
+
+@pytest.mark.parametrize("structure,seed,tol,setting", [
+    # NSGS's own error above tol, the judge's at it: the chain does not hand over
+    ("tree", 10, 0.0009899284903614493, None),
+    # a trial within tol by the judge's error, refused by its guard value: the chain goes on
+    ("redundant", 2, 8.345713059193823e-12, None),
+    # a skipped cold trial: best_stage counts the stage order, skipped stages included
+    ("redundant", 6, 1e-8, ("auto", "COLD_TRIAL_STEPS", 0)),
+    # a study's Newton settings: the route leaves the trials to the general path
+    ("redundant", 6, 1e-8, ("newton", "DEFAULT_RHO", "split")),
+    ("redundant", 6, 1e-8, ("newton", "DEFAULT_POLICY", "hybrid")),
+])
+def test_compiled_trials_at_the_edges_equal_general_path(monkeypatch, structure, seed, tol,
+                                                         setting):
+    from socp_cd.solvers import auto, newton
+    if setting is not None:
+        monkeypatch.setattr({"auto": auto, "newton": newton}[setting[0]], setting[1], setting[2])
+    dim, nc = (2, 6) if setting is None else (3, 12)
+    p = manufactured(nc, dim, mu=0.5 if setting is None else 0.6, structure=structure,
+                     mass_ratio=1e4 if setting is None else 1e6,
+                     contact_scale=1.0 if setting is None else 1e4, seed=seed)
+    a = socp_cd.solve(p, tol=tol)
+    b = _general(monkeypatch, p, tol=tol)
+    _same(a, b)
+    assert [(s["method"], s["iterations"], s["status"]) for s in a.info["path"]] == \
+           [(s["method"], s["iterations"], s["status"]) for s in b.info["path"]]
+    assert a.info["best_stage"] == b.info["best_stage"]
+
+
+def test_route_stop_test_at_tol_equals_general_path(monkeypatch):
+    # tol within rounding of the NSGS stage's error or guard (the route's measures of them
+    # differ from the chain judge's in the last digits): the route reads the judge's own
+    # (auto.JUDGE_MARGIN), so it stops, or hands over, where the general path does
+    p = manufactured(3, 2, mu=0.5, structure="tree", mass_ratio=100.0, contact_scale=1.0,
+                     seed=9)
+    for tol in (9.317857290759537e-12, 1e-8):
+        a = socp_cd.solve(p, tol=tol)
+        b = _general(monkeypatch, p, tol=tol)
+        _same(a, b)
+        assert [(s["method"], s["iterations"]) for s in a.info["path"]] == \
+               [(s["method"], s["iterations"]) for s in b.info["path"]]

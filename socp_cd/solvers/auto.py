@@ -473,17 +473,22 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     On a local exact-Coulomb problem with friction the chain starts with NSGS
     (at most :data:`SMALL_NC` contacts) or the NSGS probe (more); that stage
     and the dispatcher's checks of its answer run in one compiled call
-    (:func:`socp_cd.solvers.nsgs_route.run`, within its bounds).
+    (:func:`socp_cd.solvers.nsgs_route.run`, within its bounds).  When NSGS
+    misses ``tol`` and hands over, the hand-off's Newton trials run compiled
+    too where they can (:func:`_compiled_trials`).
 
     Returns
     -------
     tuple or None
         ``(result, guard_value, resume)``: the result :func:`auto_backend`
-        would give when that stage meets ``tol`` (its ``info`` a
+        would give when the NSGS stage, or a trial after it, meets ``tol``
+        (after NSGS alone its ``info`` a
         :class:`~socp_cd.solvers.result.LazyInfo`, built on first read:
         :func:`_route_info`), the units guard's value and None; otherwise
-        the same with ``resume`` the stage (for the rest of the chain: the
-        dispatcher calls :func:`auto_backend` with ``resume=``).  None when
+        the NSGS stage's result, its guard value and ``resume`` (for the rest of the chain: the
+        dispatcher calls :func:`auto_backend` with ``resume=``): ``{"r": NSGS's
+        iterate, "stage": its path record, "trials": the trials run, each
+        ``{"r", "stage", "warm"}``}``.  None when
         the route does not apply, or when the stage does not improve on
         ``r0`` (the general path then keeps ``r0`` as its best iterate).
     """
@@ -516,8 +521,20 @@ def route(problem, *, tol, max_iter, r0, time_limit):
         return None
     t = _clock() - t0
     sweeps = int(x[SWEEPS])
-    # auto_backend's stop test (_Judge.guard_value: the guard and the error as written)
-    if stage_error <= tol and x[GUARD_VALUE] <= tol and x[ERROR] <= tol:
+    # auto_backend's stop test (_Judge: its error, and its guard value: the guard and the
+    # error as written), read on the route's own measures of the same quantities when they are
+    # clear of tol (they differ from the judge's in the last digits), else on the judge's
+    lo = tol * (1.0 - JUDGE_MARGIN)
+    stop = stage_error <= lo and x[GUARD_VALUE] <= lo and x[ERROR] <= lo
+    met = stage_error <= tol
+    if not stop:
+        hi = tol * (1.0 + JUDGE_MARGIN)
+        if any(lo < v <= hi for v in (stage_error, x[GUARD_VALUE], x[ERROR])):
+            judged = nsgs_route.trial_outcome(problem, out, status, vectors[0])
+            if judged is not None:
+                met = judged[0].stats[INTERNAL_ERROR] <= tol
+                stop = met and judged[1] <= tol
+    if stop:
         return (SolverResult.of_local(vectors[1], vectors[2], "converged", x[ERROR], sweeps,
                                       LazyInfo((_route_info, problem.dim, nc, x, method, t,
                                                 status)),
@@ -525,21 +542,20 @@ def route(problem, *, tol, max_iter, r0, time_limit):
                 x[GUARD_VALUE], None)
     info = _route_info(problem.dim, nc, x, method, t, status)
     trials = []
-    if (handoff[0] and not stage_error <= tol and problem.m <= nsgs_route.TRIAL_MAX_M
-            and _handoff_cap(problem, max_iter) is not None
-            and newton.compiled_written_out(problem)):
-        # the hand-off's trials, compiled too, while each misses tol by the stages' measure
-        # (the chain's order is then the one auto_backend runs: _compiled_trials)
+    if (handoff[0] and not met and problem.m <= nsgs_route.TRIAL_MAX_M
+            and _handoff_cap(problem, max_iter) is not None and _trials_compile(problem)):
+        # the hand-off's trials, compiled too (_compiled_trials), when the chain runs them
         done = _compiled_trials(problem, out, tol, max_iter, time_limit, t0)
         if done:
-            sweeps += sum(d["stage"]["iterations"] for d in done)
             last, tx = done[-1]["stage"], done[-1]["stats"]
-            if last["error"] <= tol and tx[GUARD_VALUE] <= tol and tx[ERROR] <= tol:
+            # auto_backend's stop test (the judge's error and guard value), then the verdict's
+            if last["error"] <= tol and done[-1]["judge_guard"] <= tol:
                 vec = done[-1]["vectors"]
                 info["path"] += [d["stage"] for d in done]
-                info.update(best_stage=len(done), guard=guard_record(tx),
+                info.update(best_stage=done[-1]["k"], guard=guard_record(tx),
                             scaling=scaling_record(tx))
-                return (SolverResult.of_local(vec[1], vec[2], "converged", tx[ERROR], sweeps,
+                its = sweeps + sum(d["stage"]["iterations"] for d in done)
+                return (SolverResult.of_local(vec[1], vec[2], "converged", tx[ERROR], its,
                                               info, f"{last['method']} met tol",
                                               tx[ZERO_ERROR] <= tol), tx[GUARD_VALUE], None)
             trials = [{"r": d["vectors"][0], "stage": d["stage"], "warm": d["warm"]}
@@ -548,6 +564,22 @@ def route(problem, *, tol, max_iter, r0, time_limit):
                                   x[ZERO_ERROR] <= tol),
             x[GUARD_VALUE], {"r": vectors[0], "stage": info["path"][0], "trials": trials})
 
+
+def _trials_compile(problem) -> bool:
+    """Whether the compiled route can run the hand-off's trials on ``problem`` as
+    :func:`auto_backend` runs them: the Newton backend's steps on the compiled dense loop
+    with the written-out LU (``newton.compiled_written_out``), its default policy the
+    proximal one and its default Alart–Curnier parameters the block ones (a study may set
+    others: the general path then runs the trials)."""
+    return (newton.DEFAULT_POLICY == "prox" and newton.DEFAULT_RHO == "block"
+            and newton.compiled_written_out(problem))
+
+
+#: relative distance to tol within which the compiled route reads auto_backend's stop test on
+#: the stage judge's own measures of NSGS's iterate (nsgs_route.trial_outcome, ~2 us), not on
+#: the route's measures of the same quantities (computed in another order: they differ by up
+#: to ~1e-6 relative on heavy/light problems)
+JUDGE_MARGIN = 1e-4
 
 #: the hand-off's trials the compiled route can run: (method, from NSGS's iterate, proximal)
 _ROUTE_TRIALS = (("newton_trial", True, False), ("newton_trial_cold", False, False),
@@ -565,12 +597,13 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
     :func:`~socp_cd.solvers.newton.continued_runs`), in :func:`stage_order`'s order and under
     :func:`auto_backend`'s rules (the cold trials only after a failed first trial, on at most
     :data:`COLD_MAX_M` unknowns, with their step caps): the list of those run, each
-    ``{"stage": its path record, "vectors", "stats", "warm"}``, up to the first whose error
+    ``{"stage": its path record, "vectors", "stats", "warm", "k" (its index in the stage
+    order), "judge_guard"}``, up to the first whose error
     meets ``tol`` by the stages' measure (the chain decides what follows it), or before one
     whose checks are not finite (the chain runs it and what follows)."""
     done = []
     constants = newton.trial_constants()
-    for method, warm, prox in _ROUTE_TRIALS:
+    for k, (method, warm, prox) in enumerate(_ROUTE_TRIALS, start=1):
         if method == "newton_trial":
             steps, stall = TRIAL_STEPS, TRIAL_STALL
         else:
@@ -590,14 +623,16 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
         # a run that meets tol there and not as written goes on), its default settings
         st, r_s, its, _, _ = newton.continued_runs(run, _as_written, start, tol, steps,
                                                    constants[0], constants[4], None)
-        tout = nsgs_route.trial_outcome(problem, out, st, r_s)
-        if tout is None:
+        checked = nsgs_route.trial_outcome(problem, out, st, r_s)
+        if checked is None:
             break
+        tout, judge_guard = checked
         tx = tout.stats
         done.append({"stage": {"method": method, "formulation": "coulomb", "iterations": its,
                                "time": _clock() - t1, "error": tx[INTERNAL_ERROR],
                                "status": tout.status},
-                     "vectors": tout.vectors, "stats": tx, "warm": warm})
+                     "vectors": tout.vectors, "stats": tx, "warm": warm, "k": k,
+                     "judge_guard": judge_guard})
         if tx[INTERNAL_ERROR] <= tol:
             break
     return done
@@ -653,8 +688,10 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     ``resume`` (set by the dispatcher only, from the ``resume`` that
     :func:`route` returns beside its result): the first stage of the order, already run by the
     compiled route — ``{"r": its iterate on this (balanced) problem,
-    "stage": its path record}``; the chain goes on from the second stage as
-    if it had run that stage itself.
+    "stage": its path record, "trials": the hand-off's trials the route ran after it}``; the
+    chain goes on from the second stage as if it had run that stage itself, and takes each
+    trial as its own stage when it reaches it in the route's order, from the same start and
+    tolerance (otherwise it runs the trials itself).
     """
     t_start = _clock()
     params = law_parameters(formulation, options)

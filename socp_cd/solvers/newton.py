@@ -879,7 +879,7 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
 
 def trial_constants():
     """The constants :func:`_newton_compiled` passes its loops with the default settings, as
-    the array :func:`socp_cd.solvers.nsgs_route.trial_checked` takes (entries named by
+    the array :func:`socp_cd.solvers.nsgs_route.trial_run` takes (entries named by
     ``nsgs_route.TRIAL_CONSTANTS``; ``alpha0``, ``plain_regularization``, ``alpha_min``
     and ``alpha_max`` relative to the block scale), for a compiled route that runs those
     loops itself."""
@@ -923,6 +923,7 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
     r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=np.float64).reshape(-1)
     # on the dispatcher's balanced copy: its own measure, Siconos' error as written
     units = None if problem.is_global else origin(problem)
+    t0 = time.perf_counter()        # (entering _one_blas_thread counts against time_limit)
     as_written = None
     if units is not None:
         def as_written(r, info):
@@ -937,7 +938,7 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
     with _one_blas_thread(system):
         status, r, iters, hist, info = continued_runs(run, as_written, r, tol, max_iter,
                                                       st["alpha0"], st["alpha_min"],
-                                                      time_limit, history)
+                                                      time_limit, history, t0)
     message = ""
     if status == "stalled":
         message = f"no 10 % drop of the error over {st['stall_window']} outer iterations"
@@ -955,7 +956,7 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
 
 
 def continued_runs(run, as_written, r, tol, max_iter, alpha0, alpha_min, time_limit,
-                   history=False):
+                   history=False, t0=None):
     """Newton runs from ``r`` until the answer meets ``tol`` as written (the backend's loop).
 
     A run that converges on a balanced copy while Siconos' error of the problem as
@@ -977,6 +978,8 @@ def continued_runs(run, as_written, r, tol, max_iter, alpha0, alpha_min, time_li
         Start.
     tol, max_iter, alpha0, alpha_min, time_limit, history
         As :func:`newton_backend`'s.
+    t0 : float, optional
+        ``time.perf_counter()`` when the time limit's clock started (default: now).
 
     Returns
     -------
@@ -984,7 +987,8 @@ def continued_runs(run, as_written, r, tol, max_iter, alpha0, alpha_min, time_li
         Of all runs (``info`` the last run's, its counters summed over the runs,
         ``info["continued"]`` a record of each continued run).
     """
-    t0, iters, hist, run_tol, continued = time.perf_counter(), 0, [] if history else None, tol, []
+    t0 = time.perf_counter() if t0 is None else t0
+    iters, hist, run_tol, continued = 0, [] if history else None, tol, []
     claim = None    # (r, info, error as written) of the last run that met tol in balanced units only
     # a continued run starts near a solution: the warm proximal parameter (as auto's rerun of a
     # refused stage), within the caller's bounds

@@ -81,10 +81,10 @@ DECLINED_NOT_FINITE = -4     # r or u not finite (the general path reports it)
 #: trials' bound, ``auto.COLD_MAX_M``) whose Newton steps the backend computes with the
 #: compiled dense loop and the written-out LU (``newton.compiled_written_out``)
 TRIAL_MAX_M = 150
-#: the trial's statuses (the Newton backend's, :mod:`~socp_cd.solvers.kernels.newton_dense`)
 #: the entries of :func:`trial_run`'s ``constants``, in order
 TRIAL_CONSTANTS = ("alpha0", "plain_regularization", "goldstein_m1", "max_backtrack",
                    "alpha_min", "alpha_max", "inner_max_iter", "armijo", "nonmonotone")
+#: the trial's statuses (the Newton backend's, :mod:`~socp_cd.solvers.kernels.newton_dense`)
 TRIAL_STATUS = {nd.RUNNING: "max_iter", nd.CONVERGED: "converged", nd.STALLED: "stalled",
                 nd.NUMERICAL_ERROR: "numerical_error"}
 
@@ -103,6 +103,7 @@ _N_STATS = len(STATS)
 _N_OUT = _N_STATS + len(GUARD_KEYS)
 #: index of the units guard's value (what ``converged`` needs ``<= tol``) in that tuple
 GUARD_VALUE = _N_STATS + GUARD_KEYS.index("value")
+_GUARD_VALUE_AT = GUARD_KEYS.index("value")     # (in the guard's own entries)
 
 
 @njit(cache=True)
@@ -175,7 +176,8 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     vectors : ndarray (3, m) or (4, m)
         Output, overwritten: rows the balanced iterate ``r~``, ``r = a r~`` and
         ``u = W r + q`` (the data as written), and (a fourth row) ``q~ = q / b``,
-        the compiled trial's start (:func:`trial_checked`).  Passed in, one array: an array
+        whose norm the compiled trials need as the stage judge computes it
+        (:func:`trial_runner`, :func:`trial_outcome`).  Passed in, one array: an array
         a compiled call allocates and returns costs its boxing (~0.3 µs, three
         times NumPy's allocation).
 
@@ -343,30 +345,42 @@ def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, s
 
 @njit(cache=True)
 def trial_checked(indptr, indices, data, q, mu, dim, r_s, norm_q, vectors):
-    """The stage judge's measure and the dispatcher's checks of a trial's answer ``r_s``.
+    """The stage judge's measures and the dispatcher's checks of a balanced answer ``r_s``.
 
-    Returns ``(ok, stats)``: ``stats`` as :func:`nsgs_checked`'s (``INTERNAL_ERROR``
-    Siconos' error of the balanced pair as ``solver="auto"``'s stage judge computes it,
-    ``ERROR`` and the guard's entries the dispatcher's checks of ``r = a r~``; the
-    counters 0); ``vectors`` (3, m) as there (row 0 ``r_s``); ``ok`` False when ``r``
-    or ``u`` is not finite.
+    Returns ``(ok, stats, judge_guard)``: ``stats`` as :func:`nsgs_checked`'s
+    (``INTERNAL_ERROR`` Siconos' error of the balanced pair as ``solver="auto"``'s
+    stage judge computes it, ``ERROR`` and the guard's entries the dispatcher's checks
+    of ``r = a r~``; the counters 0); ``judge_guard`` the judge's ``guard_value``
+    (the units guard of the balanced pair with unit factors 1, or Siconos' error as
+    written when larger; ``inf`` when not finite); ``vectors`` (3, m) as there (row 0
+    ``r_s``); ``ok`` False when ``r`` or ``u`` is not finite.  ``norm_q``: ``||q~||``
+    as the judge computes it.
     """
     nc = mu.shape[0]
+    m = q.shape[0]
     stats = np.zeros(_N_OUT)
     a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, dim)
     vectors[0] = r_s
     if not checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_s,
                           vectors, stats):
-        return False, to_fixed_tuple(stats, _N_OUT)
-    stats[INTERNAL_ERROR] = siconos_error(r_s, csr_matvec_add(indptr, indices, data_s, r_s,
-                                                              q_s), mu, dim, norm_q)
+        return False, to_fixed_tuple(stats, _N_OUT), np.inf
+    u_s = csr_matvec_add(indptr, indices, data_s, r_s, q_s)     # (the judge's u~)
+    stats[INTERNAL_ERROR] = siconos_error(r_s, u_s, mu, dim, norm_q)
+    ones = np.ones(m)
+    g_finite, g = balanced_guard(r_s, u_s, ones, ones, mu, dim, norm_q)
+    judge_guard = g[_GUARD_VALUE_AT] if g_finite else np.inf
+    e = origin_error(r_s, u_s, a, b, mu, dim, q_norm)
+    if not e <= judge_guard:
+        judge_guard = e
+    if not np.isfinite(judge_guard):
+        judge_guard = np.inf
     stats[ZERO_ERROR] = err0
     stats[START_ERROR] = np.inf
     mu_max = 0.0
     for i in range(nc):
         mu_max = max(mu_max, mu[i])
     stats[MU_MAX] = mu_max
-    return True, to_fixed_tuple(stats, _N_OUT)
+    return True, to_fixed_tuple(stats, _N_OUT), judge_guard
 
 
 #: What :func:`run` gives a backend's route.  ``status``: the sweeps' own status
@@ -453,16 +467,17 @@ def trial_runner(problem, outcome, prox, stall_window, constants):
 
 
 def trial_outcome(problem, outcome, status, r_s):
-    """The checks of a trial's answer ``r_s`` (:func:`trial_checked`) as a
-    :data:`RouteOutcome` (``status`` the trial's), or None when they are not finite."""
+    """The checks of a balanced answer ``r_s`` on the problem of a :func:`run` ``outcome``
+    (:func:`trial_checked`): ``(RouteOutcome, judge_guard)`` (``status`` the answer's), or
+    None when they are not finite."""
     indptr, indices, data = problem.csr_parts
     q_s = outcome.vectors[3]
     vectors = np.empty((3, problem.q.shape[0]))
-    ok, x = trial_checked(indptr, indices, data, problem.q, problem.mu, problem.dim, r_s,
-                          float(np.sqrt(q_s.dot(q_s))), vectors)
+    ok, x, judge_guard = trial_checked(indptr, indices, data, problem.q, problem.mu,
+                                       problem.dim, r_s, float(np.sqrt(q_s.dot(q_s))), vectors)
     if not ok or not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
         return None
-    return RouteOutcome(status, vectors, x)
+    return RouteOutcome(status, vectors, x), judge_guard
 
 
 __all__ = ["nsgs_checked", "run", "trial_run", "trial_checked", "trial_runner", "trial_outcome",

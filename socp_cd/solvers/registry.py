@@ -242,13 +242,18 @@ def _routed(out, name, tol, time_limit, t0):
     Returns ``(result, None)`` when the result stands, ``(None, resume)``
     when the general path must run: from the start (``resume`` None) when
     the checks refute a claimed convergence (the general path's retry
-    handles that), or from where the route stopped (``resume``) when it did
-    not converge.  The route filled ``u``, the residuals and the guard with
+    handles that), or from where the route stopped (``resume``: the backend
+    goes on from there, whatever the checks say of that stage's answer, as
+    it would on the general path).  The route filled ``u``, the residuals and the guard with
     the dispatcher's own kernels; the verdict is :func:`_verdict`'s, as on
     the general path (its test is made on ``guard_value`` first, so that a
     result that converged never builds a lazy ``info``).
     """
     res, value, resume = out
+    if resume is not None:
+        # the route stopped where the backend goes on (auto's chain past a stage that missed
+        # tol by its own judge): the backend's answer, not this stage's, is the call's
+        return None, resume
     claimed = res.status
     res.solver, res.formulation, res.tol = name, "coulomb", tol
     if res.error <= tol and value <= tol:       # _verdict's test: converged
@@ -257,8 +262,6 @@ def _routed(out, name, tol, time_limit, t0):
         _verdict(res, res.error, res.info["guard"], tol)
         if claimed == "converged":
             return None, None
-        if resume is not None:
-            return None, resume
     res.time = _time.perf_counter() - t0
     if not res.converged and time_limit is not None and res.time > time_limit:
         res.status = "time_limit"
