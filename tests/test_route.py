@@ -587,9 +587,9 @@ def test_compiled_trials_equal_general_path_and_resume(monkeypatch):
     seen = []
     real = nsgs_route.trial_runner
 
-    def spy(problem, outcome, prox, stall_window, constants):
+    def spy(problem, norm_q, prox, stall_window, constants):
         seen.append(prox)
-        return real(problem, outcome, prox, stall_window, constants)
+        return real(problem, norm_q, prox, stall_window, constants)
 
     monkeypatch.setattr(nsgs_route, "trial_runner", spy)
     def case(dim, seed):
@@ -647,7 +647,7 @@ def test_trial_runs_equal_newton_backend_on_the_balanced_copy():
         for warm in (False, True):
             start = out.vectors[0].copy() if warm else np.zeros(p.m)
             for prox, steps in ((False, 6), (True, 4)):
-                run = nsgs_route.trial_runner(p, out, prox, 2, c)
+                run = nsgs_route.trial_runner(p, nsgs_route.judge_norm(p), prox, 2, c)
                 st, r, its, _, info = newton.continued_runs(
                     run, lambda r, i: i["error_as_written"], start, 1e-10, steps, c[0], c[4],
                     None)
@@ -658,7 +658,7 @@ def test_trial_runs_equal_newton_backend_on_the_balanced_copy():
                 assert np.array_equal(r, ref.r)
                 assert (st, its) == (ref.status, ref.iterations)
                 assert len(info["continued"]) == len(ref.info["continued"])
-                t, judge_guard = nsgs_route.trial_outcome(p, out, st, r)
+                t, judge_guard = nsgs_route.trial_outcome(p, nsgs_route.judge_norm(p), st, r)
                 assert np.array_equal(t.vectors[1], r * balanced(p).a)
                 judge = auto._Judge(copy, "coulomb", {}, 1e-10)
                 assert t.stats[nsgs_route.INTERNAL_ERROR] == judge(r)   # the judge's, exactly

@@ -524,16 +524,11 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     # auto_backend's stop test (_Judge: its error, and its guard value: the guard and the
     # error as written), read on the route's own measures of the same quantities when they are
     # clear of tol (they differ from the judge's in the last digits), else on the judge's
-    lo = tol * (1.0 - JUDGE_MARGIN)
-    stop = stage_error <= lo and x[GUARD_VALUE] <= lo and x[ERROR] <= lo
-    met = stage_error <= tol
-    if not stop:
-        hi = tol * (1.0 + JUDGE_MARGIN)
-        if any(lo < v <= hi for v in (stage_error, x[GUARD_VALUE], x[ERROR])):
-            judged = nsgs_route.trial_outcome(problem, out, status, vectors[0])
-            if judged is not None:
-                met = judged[0].stats[INTERNAL_ERROR] <= tol
-                stop = met and judged[1] <= tol
+    lo = tol * _JUDGE_LO
+    if stage_error <= lo and x[GUARD_VALUE] <= lo and x[ERROR] <= lo:
+        stop = met = True
+    else:
+        stop, met = _stop_test(problem, out, tol, lo)
     if stop:
         return (SolverResult.of_local(vectors[1], vectors[2], "converged", x[ERROR], sweeps,
                                       LazyInfo((_route_info, problem.dim, nc, x, method, t,
@@ -565,6 +560,24 @@ def route(problem, *, tol, max_iter, r0, time_limit):
             x[GUARD_VALUE], {"r": vectors[0], "stage": info["path"][0], "trials": trials})
 
 
+def _stop_test(problem, out, tol, lo):
+    """``(stop, met)`` of auto_backend's test after the route's NSGS stage ``out`` when its
+    measures are not all at most ``lo`` (below ``tol`` by :data:`JUDGE_MARGIN`): ``met`` the
+    judge's error within ``tol``, ``stop`` its guard value too; on the judge's own measures
+    (:func:`~socp_cd.solvers.nsgs_route.trial_outcome`) when one of the route's lies within
+    the margin of ``tol``."""
+    x = out.stats
+    e, g, w = x[INTERNAL_ERROR], x[GUARD_VALUE], x[ERROR]
+    hi = tol * (2.0 - _JUDGE_LO)
+    if any(lo < v <= hi for v in (e, g, w)):
+        judged = nsgs_route.trial_outcome(problem, nsgs_route.judge_norm(problem), out.status,
+                                          out.vectors[0])
+        if judged is not None:
+            met = judged[0].stats[INTERNAL_ERROR] <= tol
+            return met and judged[1] <= tol, met
+    return e <= tol and g <= tol and w <= tol, e <= tol
+
+
 def _trials_compile(problem) -> bool:
     """Whether the compiled route can run the hand-off's trials on ``problem`` as
     :func:`auto_backend` runs them: the Newton backend's steps on the compiled dense loop
@@ -580,6 +593,7 @@ def _trials_compile(problem) -> bool:
 #: the route's measures of the same quantities (computed in another order: they differ by up
 #: to ~1e-6 relative on heavy/light problems)
 JUDGE_MARGIN = 1e-4
+_JUDGE_LO = 1.0 - JUDGE_MARGIN      # (per call: one multiplication)
 
 #: the hand-off's trials the compiled route can run: (method, from NSGS's iterate, proximal)
 _ROUTE_TRIALS = (("newton_trial", True, False), ("newton_trial_cold", False, False),
@@ -603,6 +617,7 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
     whose checks are not finite (the chain runs it and what follows)."""
     done = []
     constants = newton.trial_constants()
+    norm_q = nsgs_route.judge_norm(problem)
     for k, (method, warm, prox) in enumerate(_ROUTE_TRIALS, start=1):
         if method == "newton_trial":
             steps, stall = TRIAL_STEPS, TRIAL_STALL
@@ -615,7 +630,7 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
         if time_limit is not None and _clock() - t0 >= time_limit:
             break
         t1 = _clock()
-        run = nsgs_route.trial_runner(problem, out, prox, stall, constants)
+        run = nsgs_route.trial_runner(problem, norm_q, prox, stall, constants)
         if run is None:
             break
         start = out.vectors[0].copy() if warm else np.zeros(problem.m)
@@ -623,7 +638,7 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
         # a run that meets tol there and not as written goes on), its default settings
         st, r_s, its, _, _ = newton.continued_runs(run, _as_written, start, tol, steps,
                                                    constants[0], constants[4], None)
-        checked = nsgs_route.trial_outcome(problem, out, st, r_s)
+        checked = nsgs_route.trial_outcome(problem, norm_q, st, r_s)
         if checked is None:
             break
         tout, judge_guard = checked

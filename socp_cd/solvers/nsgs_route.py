@@ -106,7 +106,7 @@ GUARD_VALUE = _N_STATS + GUARD_KEYS.index("value")
 _GUARD_VALUE_AT = GUARD_KEYS.index("value")     # (in the guard's own entries)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_s, vectors,
                    stats):
     """The dispatcher's checks of a balanced iterate ``r_s``, in place: ``vectors[1] = a r_s``
@@ -173,11 +173,9 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
         predicts that the hand-off's cap will not reach ``tol``; ignored when the
         hand-off is on and its cap is not below ``max_iter`` (the general path
         then runs NSGS without it).
-    vectors : ndarray (3, m) or (4, m)
+    vectors : ndarray (3, m)
         Output, overwritten: rows the balanced iterate ``r~``, ``r = a r~`` and
-        ``u = W r + q`` (the data as written), and (a fourth row) ``q~ = q / b``,
-        whose norm the compiled trials need as the stage judge computes it
-        (:func:`trial_runner`, :func:`trial_outcome`).  Passed in, one array: an array
+        ``u = W r + q`` (the data as written).  Passed in, one array: an array
         a compiled call allocates and returns costs its boxing (~0.3 µs, three
         times NumPy's allocation).
 
@@ -245,8 +243,6 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
         block, prev = next_block(status, its, block, done, max_iter, err, predict_window)
         if block == 0:
             break
-    if vectors.shape[0] > 3:
-        vectors[3] = q_s                              # (the compiled trial's norm of q~)
     if not checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_s,
                           vectors, stats):
         return DECLINED_NOT_FINITE, to_fixed_tuple(stats, _N_OUT)
@@ -431,7 +427,7 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
             time_limit >= MIN_TIME_LIMIT and max_iter * int(indptr[-1]) <= MAX_TIMED_WORK)):
         return None
     q = problem.q
-    vectors = np.empty((4, q.shape[0]))      # (row 3: q~, a compiled trial's)
+    vectors = np.empty((3, q.shape[0]))
     code, x = nsgs_checked(
         indptr, indices, data, q, mu, problem.dim, q if r0 is None else r0, r0 is not None, tol,
         max_iter, time_limit is not None, TIME_CHECK_SWEEPS, *settings, need_friction, *handoff,
@@ -442,20 +438,28 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     return _new(RouteOutcome, (STATUS_NAMES[code], vectors, x))
 
 
-def trial_runner(problem, outcome, prox, stall_window, constants):
+def judge_norm(problem) -> float:
+    """``||q~||`` of the dispatcher's balanced copy of ``problem`` (local) as ``solver="auto"``'s
+    stage judge and the Newton backend compute it (NumPy's dot of ``q~``: the balancing kernel's
+    own sum differs in the last bits), for :func:`trial_runner` and :func:`trial_outcome`."""
+    indptr, indices, data = problem.csr_parts
+    q_s = balance_csr(indptr, indices, data, problem.q, problem.mu, problem.dim)[3]
+    return float(np.sqrt(q_s.dot(q_s)))
+
+
+def trial_runner(problem, norm_q, prox, stall_window, constants):
     """``run(r, tol, max_iter, alpha0, time_left)`` of
     :func:`socp_cd.solvers.newton.continued_runs` through :func:`trial_run` on
-    ``problem`` (as written; the balanced problem of a :func:`run` ``outcome`` on it):
-    returns ``(status, r~, iterations, None, info)`` with ``info["internal_error"]``
-    and ``info["error_as_written"]``; ``time_left`` is not read (a trial's work is
+    ``problem`` (as written; ``norm_q``: :func:`judge_norm`): returns ``(status, r~,
+    iterations, None, info)`` with ``info["internal_error"]`` and
+    ``info["error_as_written"]``; ``time_left`` is not read (a trial's work is
     bounded: at most :data:`TRIAL_MAX_M` unknowns, its step cap).  None when the
     problem has more than :data:`TRIAL_MAX_M` unknowns."""
     q = problem.q
     if q.shape[0] > TRIAL_MAX_M:
         return None
-    q_s = outcome.vectors[3]
     indptr, indices, data = problem.csr_parts
-    mu, dim, norm_q = problem.mu, problem.dim, float(np.sqrt(q_s.dot(q_s)))
+    mu, dim = problem.mu, problem.dim
 
     def run(r, tol, max_iter, alpha0, time_left):
         r_s = np.empty(q.shape[0])
@@ -466,21 +470,20 @@ def trial_runner(problem, outcome, prox, stall_window, constants):
     return run
 
 
-def trial_outcome(problem, outcome, status, r_s):
-    """The checks of a balanced answer ``r_s`` on the problem of a :func:`run` ``outcome``
-    (:func:`trial_checked`): ``(RouteOutcome, judge_guard)`` (``status`` the answer's), or
-    None when they are not finite."""
+def trial_outcome(problem, norm_q, status, r_s):
+    """The checks of a balanced answer ``r_s`` on ``problem`` (:func:`trial_checked`;
+    ``norm_q``: :func:`judge_norm`): ``(RouteOutcome, judge_guard)`` (``status`` the
+    answer's), or None when they are not finite."""
     indptr, indices, data = problem.csr_parts
-    q_s = outcome.vectors[3]
     vectors = np.empty((3, problem.q.shape[0]))
     ok, x, judge_guard = trial_checked(indptr, indices, data, problem.q, problem.mu,
-                                       problem.dim, r_s, float(np.sqrt(q_s.dot(q_s))), vectors)
+                                       problem.dim, r_s, norm_q, vectors)
     if not ok or not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
         return None
     return RouteOutcome(status, vectors, x), judge_guard
 
 
-__all__ = ["nsgs_checked", "run", "trial_run", "trial_checked", "trial_runner", "trial_outcome",
+__all__ = ["nsgs_checked", "run", "trial_run", "trial_checked", "trial_runner", "trial_outcome", "judge_norm",
            "checked_answer", "TRIAL_MAX_M", "TRIAL_CONSTANTS", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
            "MIN_TIME_LIMIT", "MAX_TIMED_WORK", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
            "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX", "GUARD_VALUE"]
