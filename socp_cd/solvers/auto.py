@@ -485,7 +485,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
         (after NSGS alone its ``info`` a
         :class:`~socp_cd.solvers.result.LazyInfo`, built on first read:
         :func:`_route_info`), the units guard's value and None; otherwise
-        the NSGS stage's result, its guard value and ``resume`` (for the rest of the chain: the
+        ``(None, None, resume)`` (for the rest of the chain: the
         dispatcher calls :func:`auto_backend` with ``resume=``): ``{"r": NSGS's
         iterate, "stage": its path record, "trials": the trials run, each
         ``{"r", "stage", "warm"}``}``.  None when
@@ -555,9 +555,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
                                               tx[ZERO_ERROR] <= tol), tx[GUARD_VALUE], None)
             trials = [{"r": d["vectors"][0], "stage": d["stage"], "warm": d["warm"]}
                       for d in done]
-    return (SolverResult.of_local(vectors[1], vectors[2], "stalled", x[ERROR], sweeps, info, "",
-                                  x[ZERO_ERROR] <= tol),
-            x[GUARD_VALUE], {"r": vectors[0], "stage": info["path"][0], "trials": trials})
+    return None, None, {"r": vectors[0], "stage": info["path"][0], "trials": trials}
 
 
 def _stop_test(problem, out, tol, lo):

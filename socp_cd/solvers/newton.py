@@ -807,9 +807,6 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     return status, r, it, hist, info
 
 
-_TWIN_STATUS = {nd.RUNNING: "max_iter", nd.CONVERGED: "converged", nd.STALLED: "stalled",
-                nd.NUMERICAL_ERROR: "numerical_error"}
-
 
 def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
                      stall_window, time_limit, rho, plain=False):
@@ -845,7 +842,7 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
                 _ARMIJO, _MAX_BACKTRACK, NONMONOTONE, r, best_r, fstate, istate, system.lapack)
     if time_limit is None:
         loop(*args, int(max_iter), *rest)
-        status = _TWIN_STATUS[int(istate[nd.I_STATUS])]
+        status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
     else:
         t0 = time.perf_counter()
         m = system.m
@@ -854,7 +851,7 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
         while True:
             it_before = int(istate[nd.I_IT])
             loop(*args, min(it_before + chunk, int(max_iter)), *rest)
-            status = _TWIN_STATUS[int(istate[nd.I_STATUS])]
+            status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
             if status != "max_iter" or istate[nd.I_IT] == it_before:
                 break        # stopped by a status, or the budget is spent
             if time.perf_counter() - t0 > time_limit:

@@ -84,9 +84,6 @@ TRIAL_MAX_M = 150
 #: the entries of :func:`trial_run`'s ``constants``, in order
 TRIAL_CONSTANTS = ("alpha0", "plain_regularization", "goldstein_m1", "max_backtrack",
                    "alpha_min", "alpha_max", "inner_max_iter", "armijo", "nonmonotone")
-#: the trial's statuses (the Newton backend's, :mod:`~socp_cd.solvers.kernels.newton_dense`)
-TRIAL_STATUS = {nd.RUNNING: "max_iter", nd.CONVERGED: "converged", nd.STALLED: "stalled",
-                nd.NUMERICAL_ERROR: "numerical_error"}
 
 
 #: the NSGS settings :func:`run` takes, in order (the keys of the NSGS backend's settings)
@@ -257,15 +254,6 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
 
 
 @njit(cache=True)
-def _balanced_dense(indptr, indices, data, q, mu, dim):
-    """The balanced problem (:func:`~socp_cd.solvers.kernels.scaling.balance_csr`) with
-    ``W~`` also dense: ``(a, b, data_s, q_s, q_norm, q_s_norm, err0, W~)``."""
-    m = q.shape[0]
-    a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, dim)
-    return a, b, data_s, q_s, q_norm, q_s_norm, err0, csr_to_dense(indptr, indices, data_s, m, m)
-
-
-@njit(cache=True)
 def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, stall_window,
               prox, constants, alpha0, r_s):
     """One run of the Newton backend's compiled loop on the balanced problem, from ``start``.
@@ -302,15 +290,15 @@ def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, s
     Returns
     -------
     code, iterations, internal_error, error_as_written
-        The loop's status (:data:`TRIAL_STATUS`), its outer iterations, its own error
+        The loop's status (:data:`~socp_cd.solvers.kernels.newton_dense.STATUS_NAMES`), its outer iterations, its own error
         (the smaller of the last and best), and Siconos' error of the problem as
         written (:func:`~socp_cd.solvers.kernels.scaling.origin_error` of ``r_s`` and
         ``W~ r_s + q~``, the backend's test).
     """
     nc = mu.shape[0]
     m = q.shape[0]
-    a, b, data_s, q_s, q_norm, q_s_norm, err0, W = _balanced_dense(indptr, indices, data, q,
-                                                                   mu, dim)
+    a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, dim)
+    W = csr_to_dense(indptr, indices, data_s, m, m)
     rho = np.empty(nc)
     wscale = block_rho_dense(W, dim, rho)
     fstate = np.zeros(nd.FSTATE)
@@ -465,7 +453,7 @@ def trial_runner(problem, norm_q, prox, stall_window, constants):
         r_s = np.empty(q.shape[0])
         code, its, internal, e = trial_run(indptr, indices, data, q, mu, dim, r, norm_q, tol,
                                            max_iter, stall_window, prox, constants, alpha0, r_s)
-        return (TRIAL_STATUS[code], r_s, int(its), None,
+        return (nd.STATUS_NAMES[code], r_s, int(its), None,
                 {"internal_error": float(internal), "error_as_written": float(e)})
     return run
 

@@ -252,7 +252,7 @@ def _routed(out, name, tol, time_limit, t0):
     res, value, resume = out
     if resume is not None:
         # the route stopped where the backend goes on (auto's chain past a stage that missed
-        # tol by its own judge): the backend's answer, not this stage's, is the call's
+        # tol by its own judge): the backend's answer is the call's
         return None, resume
     claimed = res.status
     res.solver, res.formulation, res.tol = name, "coulomb", tol

@@ -41,7 +41,8 @@ class SolverSpec:
         A compiled route for *plain* calls (a local problem, the exact Coulomb
         law, no solver options, ``inner_settings``, ``history``, ``verbose``
         or ``crosscheck``): ``route(problem, *, tol, max_iter, r0,
-        time_limit) -> (SolverResult, guard_value, resume) or None``, the
+        time_limit) -> (SolverResult, guard_value, None)``, ``(None, None,
+        resume)`` or None, the
         whole call in compiled code for problems whose Python overhead
         would dominate (e.g. :func:`socp_cd.solvers.nsgs.route`).  Its
         result carries what the dispatcher's checks would compute (``u``,
@@ -50,9 +51,9 @@ class SolverSpec:
         a lazily built ``info`` need not be built to judge it);
         :func:`socp_cd.solve` then decides ``converged`` as for any
         backend.  None: the route does not apply, take the general path.
-        ``resume``, when not None, is passed to ``func`` as ``resume=`` if
-        the dispatcher does not accept the result (the route did the first
-        part of the work; see :mod:`socp_cd.solvers.auto`).
+        ``resume`` is passed to ``func`` as ``resume=`` (the route did the
+        first part of the work and the backend goes on from there; see
+        :mod:`socp_cd.solvers.auto`).
     """
 
     name: str

@@ -33,6 +33,9 @@ from .newton_ac import ac_blocks, dense_jacobian
 
 #: run status codes (``RUNNING`` after the last chunk means the budget ran out)
 RUNNING, CONVERGED, STALLED, NUMERICAL_ERROR = 0, 1, 2, 3
+#: the solver statuses of the codes (``RUNNING``: the step cap was reached)
+STATUS_NAMES = {RUNNING: "max_iter", CONVERGED: "converged", STALLED: "stalled",
+                NUMERICAL_ERROR: "numerical_error"}
 #: slots of the float state: proximal parameter, largest one used, current error, best error
 F_ALPHA, F_ALPHA_MAX_USED, F_ERR, F_BEST_ERR = 0, 1, 2, 3
 FSTATE = 4
