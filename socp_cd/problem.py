@@ -276,7 +276,7 @@ class _ProblemBase:
     @property
     def m(self) -> int:
         """Number of contact unknowns, ``dim * n_contacts``."""
-        return self.dim * self.n_contacts
+        return self.dim * self.mu.shape[0]      # (not through n_contacts: read on every call)
 
     def reshape(self, x: np.ndarray) -> np.ndarray:
         """View a stacked contact vector as an ``(n_contacts, dim)`` array."""
@@ -389,7 +389,9 @@ class FrictionContactProblem(_ProblemBase):
     from them (the error of ``r = 0``, ``||q||``, the dispatcher's unit
     factors and balanced copy, NSGS's block storage) are computed once per
     object.  Changing ``W``, ``q`` or ``mu`` in place afterwards leaves those
-    stale: build a new problem instead (:meth:`with_`).
+    stale, and assigning other arrays to them breaks the types compiled code
+    relies on (contiguous float64 vectors, :mod:`socp_cd.solvers.kernels.entry`):
+    build a new problem instead (:meth:`with_`).
     """
 
     is_global = False

@@ -708,3 +708,28 @@ def test_route_stop_test_at_tol_equals_general_path(monkeypatch):
         _same(a, b)
         assert [(s["method"], s["iterations"]) for s in a.info["path"]] == \
                [(s["method"], s["iterations"]) for s in b.info["path"]]
+
+
+def test_route_kernel_entry_point_is_the_kernel_for_every_index_dtype(monkeypatch):
+    # the route calls nsgs_checked's compiled entry point (kernels/entry.py), which checks no
+    # argument type: CSR index arrays of int32 or int64 (one entry point each), read-only
+    # data, and index arrays of two dtypes (the dispatcher then) give the same answers
+    base = _random(3, 3, 11, mu=0.4)
+    indptr, indices, data = base.csr_parts
+    ro_q, ro_mu = base.q.copy(), base.mu.copy()
+    ro_q.flags.writeable = ro_mu.flags.writeable = False
+    variants = {
+        "int64": ((indptr.astype(np.int64), indices.astype(np.int64), data), base.q, base.mu),
+        "int32": ((indptr.astype(np.int32), indices.astype(np.int32), data), base.q, base.mu),
+        "read-only": ((indptr, indices, data), ro_q, ro_mu),
+        "mixed": ((indptr.astype(np.int64), indices.astype(np.int32), data), base.q, base.mu),
+    }
+    ref = _general(monkeypatch, base, solver="nsgs")
+    ref_auto = _general(monkeypatch, base)
+    for name, (parts, q, mu) in variants.items():
+        p = FrictionContactProblem.from_checked(parts, q, mu, 3)
+        a = socp_cd.solve(p, "nsgs")
+        assert a.info["route"] == "compiled", name
+        _same(a, ref)
+        _same(socp_cd.solve(p), ref_auto)
+    assert {np.dtype(np.int32), np.dtype(np.int64)} <= set(nsgs_route._CHECKED)

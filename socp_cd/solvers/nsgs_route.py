@@ -45,7 +45,7 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 # numba's own array -> fixed-length tuple (numba >= 0.57; in its "unsafe" namespace, which
 # only means it trusts the length given: here a module constant)
 from numba.np.unsafe.ndarray import to_fixed_tuple
@@ -53,7 +53,8 @@ from numba.np.unsafe.ndarray import to_fixed_tuple
 from .block_storage import csr_to_bsr
 from .kernels.cone import LAW_COULOMB, error_parts, relative_error, siconos_error
 from .kernels import newton_dense as nd
-from .kernels.dense import csr_matvec_add, csr_to_dense, matvec_into
+from .kernels.dense import csr_matvec_add, csr_matvec_add_into, csr_to_dense, matvec_into
+from .kernels.entry import F64_VECTOR, entry_point, index_vector
 from .kernels.newton_ac import block_rho_dense
 from .kernels.scaling import GUARD_KEYS, balance_csr, balanced_guard, factor_summary, origin_error
 from .nsgs_kernels import (STATUS_NAMES, BlockW, Law, LocalSolver, Origin, Sweeps,
@@ -115,15 +116,14 @@ def checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_
     :func:`~socp_cd.solvers.kernels.scaling.factor_summary`).  False (nothing filled)
     when ``r`` or ``u`` is not finite."""
     m = q.shape[0]
-    nc = mu.shape[0]
     r, u = vectors[1], vectors[2]
     for j in range(m):
         r[j] = r_s[j] * a[j]                          # = times_factors(r_s, a)
-    u[:] = csr_matvec_add(indptr, indices, data, r, q)
+    csr_matvec_add_into(indptr, indices, data, r, q, u)
     for j in range(m):
         if not (np.isfinite(r[j]) and np.isfinite(u[j])):
             return False
-    f2, r2, u2 = error_parts(r, u, mu, np.zeros(nc), dim, LAW_COULOMB)
+    f2, r2, u2 = error_parts(r, u, mu, mu, dim, LAW_COULOMB)  # (mu for the unread thresholds)
     g_finite, guard = balanced_guard(r, u, a, b, mu, dim, q_s_norm)
     sigma, d_min, d_max = factor_summary(a, b, dim)
     stats[ERROR] = relative_error(f2, r2, u2, q_norm)
@@ -222,7 +222,7 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
         start_error = siconos_error(r_s, csr_matvec_add(indptr, indices, data_s, r_s, q_s), mu,
                                     dim, q_s_norm)
     W = BlockW(bptr, bcol, blocks, diag)
-    law = Law(mu, np.zeros(nc), LAW_COULOMB)
+    law = Law(mu, mu, LAW_COULOMB)     # (the Coulomb law never reads its thresholds)
     origin = Origin(a, b, q_norm)       # the dispatcher's measure stops the sweeps too
     local = LocalSolver(kind, rhoN, rhoT, rhoP, loc_tol, newton_max_iter, projection_max_iter)
     hist = np.full(1, np.nan)
@@ -415,8 +415,11 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
             time_limit >= MIN_TIME_LIMIT and max_iter * int(indptr[-1]) <= MAX_TIMED_WORK)):
         return None
     q = problem.q
+    if r0 is not None:          # (the kernel's entry point reads a contiguous float64 vector)
+        r0 = np.ascontiguousarray(r0, dtype=np.float64)
     vectors = np.empty((3, q.shape[0]))
-    code, x = nsgs_checked(
+    kernel = _CHECKED.get(indptr.dtype) if indices.dtype is indptr.dtype else None
+    code, x = (kernel or _checked_entry(indptr, indices))(
         indptr, indices, data, q, mu, problem.dim, q if r0 is None else r0, r0 is not None, tol,
         max_iter, time_limit is not None, TIME_CHECK_SWEEPS, *settings, need_friction, *handoff,
         predict_window, vectors)
@@ -424,6 +427,27 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
         return None
     # (tuple.__new__: half the cost of the named tuple's own constructor, per call)
     return _new(RouteOutcome, (STATUS_NAMES[code], vectors, x))
+
+
+#: :func:`nsgs_checked`'s entry point (:mod:`~socp_cd.solvers.kernels.entry`) by the dtype of
+#: ``W``'s CSR index arrays: its other arguments' types are fixed (the problem classes keep
+#: ``data``, ``q``, ``mu`` and ``r0`` contiguous float64 vectors, :func:`run` makes the rest)
+_CHECKED = {}
+_INDEX_DTYPES = (np.dtype(np.int32), np.dtype(np.int64))
+
+
+def _checked_entry(indptr, indices):
+    """:func:`nsgs_checked`'s entry point for these index arrays (recorded in :data:`_CHECKED`
+    when both have the same dtype; else the dispatcher, which checks every argument)."""
+    if indices.dtype is not indptr.dtype or indptr.dtype not in _INDEX_DTYPES:
+        return nsgs_checked
+    ix = index_vector(indptr.dtype)
+    b, i = types.boolean, types.int64
+    sig = (ix, ix, F64_VECTOR, F64_VECTOR, F64_VECTOR, i, F64_VECTOR, b, types.float64, i, b, i,
+           i, types.float64, i, i, types.float64, i, i, b, i, i, i,
+           types.Array(types.float64, 2, "C"))
+    ep = _CHECKED[indptr.dtype] = entry_point(nsgs_checked, sig)
+    return ep
 
 
 def judge_norm(problem) -> float:

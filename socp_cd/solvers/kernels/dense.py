@@ -318,14 +318,19 @@ def csr_to_dense(indptr, indices, data, n_rows, n_cols):
 def csr_matvec_add(indptr, indices, data, x, b):
     """``A x + b`` for ``A`` in CSR form (the row sums in scipy's order: bit-identical to
     ``A @ x + b``), without scipy's per-call dispatch."""
-    n = indptr.shape[0] - 1
-    out = np.empty(n)
-    for i in range(n):
+    out = np.empty(indptr.shape[0] - 1)
+    csr_matvec_add_into(indptr, indices, data, x, b, out)
+    return out
+
+
+@njit(cache=True, inline="always")
+def csr_matvec_add_into(indptr, indices, data, x, b, out):
+    """:func:`csr_matvec_add` into ``out`` (not ``x``, not ``b``)."""
+    for i in range(indptr.shape[0] - 1):
         s = 0.0
         for k in range(indptr[i], indptr[i + 1]):
             s += data[k] * x[indices[k]]
         out[i] = s + b[i]
-    return out
 
 
 @njit(cache=True)
@@ -365,4 +370,4 @@ def matvec(A, x):
 
 __all__ = ["csr_to_dense", "dense_error", "dense_condense", "dense_split", "dense_solve", "matvec",
            "lu_solve", "lu_solve_many", "normal_matrix", "matvec_into", "NAIVE_LU_MAX_N",
-           "LAPACK_LU", "PIVOT_TOL", "envelope_fraction"]
+           "LAPACK_LU", "PIVOT_TOL", "envelope_fraction", "csr_matvec_add", "csr_matvec_add_into"]

@@ -45,6 +45,20 @@ def unit_factors(diag, q, dim):
     for i in range(nc):
         for k in range(dim):
             d[i] += abs(diag[i * dim + k])
+    a = np.empty(m)
+    b = np.empty(m)
+    q_s = np.empty(m)
+    q2, qs2 = factors_from_sums(d, q, dim, a, b, q_s)
+    return a, b, q_s, q2, qs2
+
+
+@njit(cache=True, inline="always")
+def factors_from_sums(d, q, dim, a, b, q_s):
+    """:func:`unit_factors` from ``d_i``, the sum of ``|diag|`` over contact ``i``'s
+    components, into ``a``, ``b``, ``q_s``; returns ``(||q||², ||q / b||²)``.  ``d`` is
+    overwritten (with the scales ``s_i``: no temporary array)."""
+    nc = d.shape[0]
+    m = q.shape[0]
     n_good = 0
     for i in range(nc):
         d[i] /= dim
@@ -59,7 +73,7 @@ def unit_factors(diag, q, dim):
         for i in range(nc):
             if not (np.isfinite(d[i]) and d[i] > 0.0):
                 d[i] = fill
-    s = np.empty(nc)
+    s = d
     sq = 0.0
     for i in range(nc):
         s[i] = 1.0 / np.sqrt(d[i])
@@ -69,9 +83,6 @@ def unit_factors(diag, q, dim):
     sigma = np.sqrt(sq) / np.sqrt(m)
     if not (np.isfinite(sigma) and sigma > 0.0):
         sigma = 1.0
-    a = np.empty(m)
-    b = np.empty(m)
-    q_s = np.empty(m)
     q2 = 0.0
     qs2 = 0.0
     for i in range(nc):
@@ -84,7 +95,7 @@ def unit_factors(diag, q, dim):
             q_s[j] = q[j] / bi
             q2 += q[j] * q[j]
             qs2 += q_s[j] * q_s[j]
-    return a, b, q_s, q2, qs2
+    return q2, qs2
 
 
 @njit(cache=True)
@@ -129,30 +140,52 @@ def balance_csr(indptr, indices, data, q, mu, dim):
     zero_error : float
         Siconos' relative error of ``r = 0`` (``u = q``) of the original problem.
     """
+    # (five arrays, four of them the outputs: a one-contact call of the compiled route runs this,
+    # and each allocation costs ~20 ns of its few microseconds)
     m = q.shape[0]
-    diag = np.zeros(m)
-    for row in range(m):
-        for k in range(indptr[row], indptr[row + 1]):
-            if indices[k] == row:
-                diag[row] += data[k]
-    a, b, q_s, q2, qs2 = unit_factors(diag, q, dim)
-    srt = np.empty(m)
-    for i in range(m // dim):          # a / b is one value per contact: one square root each
+    nc = m // dim
+    a = np.empty(m)
+    b = np.empty(m)
+    q_s = np.empty(m)
+    data_s = np.empty(data.shape[0])
+    d = np.zeros(m)     # the sums of |diag| per contact (d[:nc]), then sqrt(a / b) per unknown
+    for i in range(nc):
+        for k in range(dim):
+            row = i * dim + k
+            w = 0.0                      # W_row,row (duplicates summed in CSR order)
+            for p in range(indptr[row], indptr[row + 1]):
+                if indices[p] == row:
+                    w += data[p]
+            d[i] += abs(w)
+    # Siconos' error of r = 0, with ``a`` (not yet filled) as the zero vector
+    q2 = 0.0
+    for j in range(m):
+        q2 += q[j] * q[j]
+    q_norm = np.sqrt(q2)
+    a[:] = 0.0
+    zero_error = coulomb_zero_error_of(a, q, mu, dim, q_norm)
+    q2, qs2 = factors_from_sums(d[:nc], q, dim, a, b, q_s)
+    for i in range(nc):          # a / b is one value per contact: one square root each
         v = np.sqrt(a[i * dim] / b[i * dim])
         for k in range(dim):
-            srt[i * dim + k] = v
-    data_s = np.empty(data.shape[0])
+            d[i * dim + k] = v
     for row in range(m):
         for k in range(indptr[row], indptr[row + 1]):
-            data_s[k] = data[k] * (srt[row] * srt[indices[k]])
-    q_norm = np.sqrt(q2)
-    return a, b, data_s, q_s, q_norm, np.sqrt(qs2), coulomb_zero_error(q, mu, dim, q_norm)
+            data_s[k] = data[k] * (d[row] * d[indices[k]])
+    return a, b, data_s, q_s, q_norm, np.sqrt(qs2), zero_error
 
 
 @njit(cache=True)
 def coulomb_zero_error(q, mu, dim, q_norm):
     """Siconos' relative error of ``r = 0`` (``u = q``, ``q_norm = ||q||``) for the Coulomb law."""
-    f2, r2, u2 = error_parts(np.zeros(q.shape[0]), q, mu, np.zeros(mu.shape[0]), dim, LAW_COULOMB)
+    return coulomb_zero_error_of(np.zeros(q.shape[0]), q, mu, dim, q_norm)
+
+
+@njit(cache=True, inline="always")
+def coulomb_zero_error_of(zeros, q, mu, dim, q_norm):
+    """:func:`coulomb_zero_error` with ``zeros`` (a zero vector of ``q``'s length) for ``r``."""
+    # (``mu`` stands in for the thresholds, which the Coulomb law never reads)
+    f2, r2, u2 = error_parts(zeros, q, mu, mu, dim, LAW_COULOMB)
     return relative_error(f2, r2, u2, q_norm)
 
 
@@ -170,14 +203,14 @@ def balanced_guard_parts(r, u, a, b, mu, dim):
         balanced pair (the compiled pieces of :func:`socp_cd.residuals.guard`).
     """
     m = r.shape[0]
-    rs = np.empty(m)
-    us = np.empty(m)
+    both = np.empty((2, m))     # (one allocation)
+    rs, us = both[0], both[1]
     for j in range(m):
         rs[j] = r[j] / a[j]
         us[j] = u[j] / b[j]
         if not (np.isfinite(rs[j]) and np.isfinite(us[j])):
             return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    f2, r2, u2 = error_parts(rs, us, mu, np.zeros(mu.shape[0]), dim, LAW_COULOMB)
+    f2, r2, u2 = error_parts(rs, us, mu, mu, dim, LAW_COULOMB)   # (mu: unread thresholds)
     cone, normal, gap = coulomb_violations(rs, us, mu, dim)
     return True, f2, r2, u2, cone, normal, gap
 
