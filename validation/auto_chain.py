@@ -63,6 +63,12 @@ Session 16's:
     written-out one when the envelope of W's pattern fills at most this share of the lower
     triangle (-1: LAPACK above 72, session 15's rule; ``base`` keeps it).
 
+Session 19's:
+
+``TRIAL_STEPS``, ``TRIAL_STALL``
+    the hand-off's first Newton trial (plain steps from NSGS's iterate): its step cap (6
+    since session 12) and stall window (2); ``base`` keeps them.
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``) or ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``.  Problems:
@@ -96,7 +102,8 @@ from auto_probe import items, min_wall_time, record, write_csv
 OUT = Path(__file__).resolve().parent / "results"
 RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL",
          "NEWTON_STALL", "COLD_PROX_STEPS", "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS",
-         "COLD_ALPHA0", "COMPILED_LOOP_MAX_M", "ALT_ALPHA0", "HANDOFF_PREDICT", "COMPILED_LU_MAX_ENVELOPE")
+         "COLD_ALPHA0", "COMPILED_LOOP_MAX_M", "ALT_ALPHA0", "HANDOFF_PREDICT", "COMPILED_LU_MAX_ENVELOPE",
+         "TRIAL_STEPS", "TRIAL_STALL")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton}
@@ -105,8 +112,8 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "COLD_TRIAL_STALL": 10, "NEWTON_STALL": None, "COLD_PROX_STEPS": 0,
         "COLD_MAX_M": 72, "PREDICT_MAX_M": 72, "MAX_ROUNDS": 0, "COLD_ALPHA0": 1.0,
         "COMPILED_LOOP_MAX_M": 72, "ALT_ALPHA0": None, "HANDOFF_PREDICT": 20,
-        "COMPILED_LU_MAX_ENVELOPE": -1.0}
-INTS = ("REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
+        "COMPILED_LU_MAX_ENVELOPE": -1.0, "TRIAL_STEPS": 6, "TRIAL_STALL": 2}
+INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M", "HANDOFF_PREDICT")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 

@@ -10,6 +10,8 @@
 * :mod:`.newton_ac` — the Alart–Curnier function and its generalized Jacobian (Newton solver).
 * :mod:`.newton_dense` — the proximal Newton loop on a small dense ``W`` (the
   compiled twin of :func:`socp_cd.solvers.newton.prox_newton`).
+* :mod:`.entry` — a kernel's compiled entry point for fixed argument types (a
+  call without numba's per-call type dispatch).
 
 Modules here import nothing from ``socp_cd`` outside this package.
 """
