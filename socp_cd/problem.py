@@ -90,6 +90,9 @@ def _as_sparse(A, name: str, source: str | None) -> sp.csr_matrix:
             raise
         raise InvalidProblemError(name, f"cannot be converted to a float matrix ({exc})", source) from None
     A.sum_duplicates()
+    # contiguous CSR arrays (scipy keeps a caller's strided ones): compiled kernels read them
+    # as such (socp_cd.solvers.kernels.entry); no copy when they already are
+    A.indptr, A.indices, A.data = (np.ascontiguousarray(x) for x in (A.indptr, A.indices, A.data))
     if not np.all(np.isfinite(A.data)):
         bad = int(np.count_nonzero(~np.isfinite(A.data)))
         raise InvalidProblemError(name, f"contains {bad} NaN/Inf entries", source)
@@ -439,7 +442,7 @@ class FrictionContactProblem(_ProblemBase):
         For code that derives a problem from a validated one (e.g. the
         dispatcher's balanced copy, :mod:`socp_cd.solvers.scaling`): ``W`` a
         square float64 CSR matrix of size ``m = dim * n_contacts`` with summed
-        duplicates and finite entries, or its arrays ``(indptr, indices, data)``
+        duplicates, finite entries and contiguous arrays, or those arrays ``(indptr, indices, data)``
         (the scipy matrix is then built on first use of :attr:`W`), ``q`` a finite contiguous float64
         vector of length ``m``, ``mu`` a finite, non-negative contiguous float64
         vector with one entry per contact, ``dim`` 2 or 3.  Data from users or

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.sparse as sp
 import pytest
 
 import socp_cd
@@ -713,23 +714,64 @@ def test_route_stop_test_at_tol_equals_general_path(monkeypatch):
 def test_route_kernel_entry_point_is_the_kernel_for_every_index_dtype(monkeypatch):
     # the route calls nsgs_checked's compiled entry point (kernels/entry.py), which checks no
     # argument type: CSR index arrays of int32 or int64 (one entry point each), read-only
-    # data, and index arrays of two dtypes (the dispatcher then) give the same answers
+    # arrays, strided arrays given to the constructor (made contiguous there), and index
+    # arrays of two dtypes (the dispatcher then) give the general path's answers, warm
+    # started and under a time limit too
     base = _random(3, 3, 11, mu=0.4)
     indptr, indices, data = base.csr_parts
-    ro_q, ro_mu = base.q.copy(), base.mu.copy()
-    ro_q.flags.writeable = ro_mu.flags.writeable = False
+
+    def read_only(x):
+        x = x.copy()
+        x.flags.writeable = False
+        return x
+
+    def strided(x):
+        buf = np.zeros(2 * x.shape[0], dtype=x.dtype)
+        buf[::2] = x
+        return buf[::2]
+
+    W_strided = sp.csr_matrix((strided(data), strided(indices), strided(indptr)),
+                              shape=(base.m, base.m))
+    assert not W_strided.data.flags.c_contiguous
     variants = {
-        "int64": ((indptr.astype(np.int64), indices.astype(np.int64), data), base.q, base.mu),
-        "int32": ((indptr.astype(np.int32), indices.astype(np.int32), data), base.q, base.mu),
-        "read-only": ((indptr, indices, data), ro_q, ro_mu),
-        "mixed": ((indptr.astype(np.int64), indices.astype(np.int32), data), base.q, base.mu),
+        "int64": FrictionContactProblem.from_checked(
+            (indptr.astype(np.int64), indices.astype(np.int64), data), base.q, base.mu, 3),
+        "int32": FrictionContactProblem.from_checked(
+            (indptr.astype(np.int32), indices.astype(np.int32), data), base.q, base.mu, 3),
+        "read-only": FrictionContactProblem.from_checked(
+            tuple(read_only(x) for x in (indptr, indices, data)), read_only(base.q),
+            read_only(base.mu), 3),
+        "strided": FrictionContactProblem(W_strided, strided(base.q), base.mu, 3),
+        "mixed": FrictionContactProblem.from_checked(
+            (indptr.astype(np.int64), indices.astype(np.int32), data), base.q, base.mu, 3),
     }
-    ref = _general(monkeypatch, base, solver="nsgs")
-    ref_auto = _general(monkeypatch, base)
-    for name, (parts, q, mu) in variants.items():
-        p = FrictionContactProblem.from_checked(parts, q, mu, 3)
-        a = socp_cd.solve(p, "nsgs")
-        assert a.info["route"] == "compiled", name
-        _same(a, ref)
-        _same(socp_cd.solve(p), ref_auto)
-    assert {np.dtype(np.int32), np.dtype(np.int64)} <= set(nsgs_route._CHECKED)
+    r0 = np.random.default_rng(3).random(base.m)
+    calls = (dict(solver="nsgs"), dict(), dict(solver="nsgs", r0=r0, time_limit=5.0),
+             dict(r0=r0[::-1], max_iter=5))
+    refs = [_general(monkeypatch, base, **kw) for kw in calls]
+    for name, p in variants.items():
+        with monkeypatch.context() as m:
+            m.setattr(nsgs_route, "_CHECKED", {})
+            for kw, ref in zip(calls, refs):
+                a = socp_cd.solve(p, **kw)
+                if kw.get("solver") == "nsgs":
+                    assert a.info["route"] == "compiled", (name, kw)
+                _same(a, ref)
+            # one entry point per index dtype; the dispatcher for mixed ones
+            assert set(nsgs_route._CHECKED) == (set() if name == "mixed" else {p.csr_parts[0].dtype})
+
+
+def test_route_checks_a_start_it_is_handed_directly():
+    # the kernel's entry point reads r0 as a contiguous float64 vector of length m: a start of
+    # another length or shape, or a non-finite one, handed to the route directly (not through
+    # solve()) is refused with the error solve() gives, a strided one is read as its values
+    from socp_cd.errors import InvalidProblemError
+    from socp_cd.solvers import nsgs
+    p = _random(2, 3, 12, mu=0.3)
+    for bad in (np.ones(p.m - 1), np.ones((p.m, 2)), np.full(p.m, np.nan)):
+        with pytest.raises(InvalidProblemError, match="r0"):
+            nsgs.compiled_run(p, 1e-8, None, bad, None)
+    r0 = np.random.default_rng(4).random(2 * p.m)
+    a = nsgs.compiled_run(p, 1e-8, None, r0[::2], None)
+    b = nsgs.compiled_run(p, 1e-8, None, r0[::2].copy(), None)
+    assert a.status == b.status and np.array_equal(a.vectors, b.vectors) and a.stats == b.stats

@@ -415,8 +415,8 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
             time_limit >= MIN_TIME_LIMIT and max_iter * int(indptr[-1]) <= MAX_TIMED_WORK)):
         return None
     q = problem.q
-    if r0 is not None:          # (the kernel's entry point reads a contiguous float64 vector)
-        r0 = np.ascontiguousarray(r0, dtype=np.float64)
+    if r0 is not None:          # (the kernel's entry point reads a contiguous float64 vector
+        r0 = problem.check_reaction(r0, "r0")       # of length m: the checks of solve())
     vectors = np.empty((3, q.shape[0]))
     kernel = _CHECKED.get(indptr.dtype) if indices.dtype is indptr.dtype else None
     code, x = (kernel or _checked_entry(indptr, indices))(
@@ -439,14 +439,18 @@ _INDEX_DTYPES = (np.dtype(np.int32), np.dtype(np.int64))
 def _checked_entry(indptr, indices):
     """:func:`nsgs_checked`'s entry point for these index arrays (recorded in :data:`_CHECKED`
     when both have the same dtype; else the dispatcher, which checks every argument)."""
-    if indices.dtype is not indptr.dtype or indptr.dtype not in _INDEX_DTYPES:
+    dtype = indptr.dtype
+    if indices.dtype != dtype or dtype not in _INDEX_DTYPES:
         return nsgs_checked
-    ix = index_vector(indptr.dtype)
+    ep = _CHECKED.get(dtype)        # (an equal dtype that is not the same object: run's test)
+    if ep is not None:
+        return ep
+    ix = index_vector(dtype)
     b, i = types.boolean, types.int64
     sig = (ix, ix, F64_VECTOR, F64_VECTOR, F64_VECTOR, i, F64_VECTOR, b, types.float64, i, b, i,
            i, types.float64, i, i, types.float64, i, i, b, i, i, i,
            types.Array(types.float64, 2, "C"))
-    ep = _CHECKED[indptr.dtype] = entry_point(nsgs_checked, sig)
+    ep = _CHECKED[dtype] = entry_point(nsgs_checked, sig)
     return ep
 
 
