@@ -142,7 +142,8 @@ def run_ours(item, solver, tol, args) -> dict:
 
     Each call gets a new problem object (a shallow copy of the problem as read,
     made outside the timer), as the Siconos worker builds a new problem per
-    call: no per-problem cache (balanced copy, block storage) carries over.
+    call: no per-problem cache (balanced copy, block storage) carries over from one call
+    to the next (the problem as read is never solved itself: the warm-up solves copies).
     """
     p = item["problem"]
     best, res, spent = math.inf, None, 0.0

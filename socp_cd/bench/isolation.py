@@ -31,7 +31,8 @@ def solve_payload(task: RunTask, problem, repeat: int = REPEAT_CALLS) -> tuple:
     :data:`~socp_cd.bench.siconos_peer.REPEAT_BUDGET`, ``REPEAT_SECOND_BELOW``): while the
     calls have taken less than the budget (and a second call after a first one shorter
     than ``REPEAT_SECOND_BELOW``), up to ``repeat`` calls, each on a new problem object (a shallow copy
-    of ``problem`` as given: no per-problem cache carries over), and the fastest is
+    of ``problem`` as given: what one call caches on its copy does not reach the next; what
+    was cached on ``problem`` itself before, its copies share), and the fastest is
     reported (``time``): a per-call time without a first call's cold caches (in a forked
     child, the first call loads every compiled kernel the parent had not: up to 0.5 ms on
     a one-contact problem whose warm call takes 10 µs).  A call that does not converge is
