@@ -635,7 +635,9 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
         # the Newton backend's runs (newton.continued_runs: on the dispatcher's balanced copy
         # a run that meets tol there and not as written goes on), its default settings
         st, r_s, its, _, _ = newton.continued_runs(run, _as_written, start, tol, steps,
-                                                   constants[0], constants[4], None)
+                                                   constants[nsgs_route.C_ALPHA0],
+                                                   constants[nsgs_route.C_ALPHA_MIN],
+                                                   None)
         checked = nsgs_route.trial_outcome(problem, norm_q, st, r_s)
         if checked is None:
             break

@@ -85,6 +85,8 @@ TRIAL_MAX_M = 150
 #: the entries of :func:`trial_run`'s ``constants``, in order
 TRIAL_CONSTANTS = ("alpha0", "plain_regularization", "goldstein_m1", "max_backtrack",
                    "alpha_min", "alpha_max", "inner_max_iter", "armijo", "nonmonotone")
+(C_ALPHA0, C_PLAIN_REGULARIZATION, C_GOLDSTEIN_M1, C_MAX_BACKTRACK, C_ALPHA_MIN, C_ALPHA_MAX,
+ C_INNER_MAX_ITER, C_ARMIJO, C_NONMONOTONE) = range(len(TRIAL_CONSTANTS))
 
 
 #: the NSGS settings :func:`run` takes, in order (the keys of the NSGS backend's settings)
@@ -307,16 +309,18 @@ def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, s
     istate = np.zeros(nd.ISTATE, dtype=np.int64)
     r_s[:] = start
     best_r = np.empty(m)
-    max_backtrack = int(constants[3])
+    max_backtrack = int(constants[C_MAX_BACKTRACK])
     if prox:
         nd.prox_newton_dense(W, q_s, norm_q, mu, rho, rho, dim, tol, max_iter,
-                             constants[4] * wscale, constants[5] * wscale, int(constants[6]),
-                             stall_window, constants[7], max_backtrack, constants[8], r_s,
-                             best_r, fstate, istate, None)
+                             constants[C_ALPHA_MIN] * wscale, constants[C_ALPHA_MAX] * wscale,
+                             int(constants[C_INNER_MAX_ITER]), stall_window, constants[C_ARMIJO],
+                             max_backtrack, constants[C_NONMONOTONE], r_s, best_r, fstate, istate,
+                             None)
     else:
         nd.plain_newton_dense(W, q_s, norm_q, mu, rho, rho, dim, tol, max_iter,
-                              constants[1] * wscale, stall_window, constants[2], max_backtrack,
-                              r_s, best_r, fstate, istate, None)
+                              constants[C_PLAIN_REGULARIZATION] * wscale, stall_window,
+                              constants[C_GOLDSTEIN_M1], max_backtrack, r_s, best_r, fstate,
+                              istate, None)
     status = istate[nd.I_STATUS]
     err, best_err = fstate[nd.F_ERR], fstate[nd.F_BEST_ERR]
     if status != nd.CONVERGED and best_err < err:
@@ -500,6 +504,6 @@ def trial_outcome(problem, norm_q, status, r_s):
 
 
 __all__ = ["nsgs_checked", "run", "trial_run", "trial_checked", "trial_runner", "trial_outcome", "judge_norm",
-           "checked_answer", "TRIAL_MAX_M", "TRIAL_CONSTANTS", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
+           "checked_answer", "TRIAL_MAX_M", "TRIAL_CONSTANTS", "C_ALPHA0", "C_ALPHA_MIN", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
            "MIN_TIME_LIMIT", "MAX_TIMED_WORK", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
            "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX", "GUARD_VALUE"]
