@@ -310,6 +310,12 @@ def test_of_local_fills_the_fields_it_names():
             and res.status == "stalled" and res.error == res.coulomb_error == 0.25
             and res.iterations == 7 and res.info is info and res.message == "why"
             and res.trivial is True and res.history is None)
+    # the same object as the dataclass's constructor makes: every field, in order
+    ref = SolverResult(r, u, None, False, "stalled", 0.25, 0.25, 7, 0.0, "", "", 0.0, None,
+                       info, "why", True)
+    assert list(vars(res)) == list(vars(ref))
+    assert all(vars(res)[k] is vars(ref)[k] or vars(res)[k] == vars(ref)[k] for k in vars(ref))
+    assert res == ref and repr(res) == repr(ref)
 
 
 def test_handoff_route_equals_general_path(monkeypatch):
