@@ -656,8 +656,8 @@ def test_trial_runs_equal_newton_backend_on_the_balanced_copy():
             for prox, steps in ((False, 6), (True, 4)):
                 run = nsgs_route.trial_runner(p, nsgs_route.judge_norm(p), prox, 2, c)
                 st, r, its, _, info = newton.continued_runs(
-                    run, lambda r, i: i["error_as_written"], start, 1e-10, steps, c[0], c[4],
-                    None)
+                    run, lambda r, i: i["error_as_written"], start, 1e-10, steps,
+                    c[nsgs_route.C_ALPHA0], c[nsgs_route.C_ALPHA_MIN], None)
                 ref = newton.newton_backend(copy, "coulomb", tol=1e-10, max_iter=steps,
                                             r0=start if warm else None,
                                             policy="prox" if prox else "plain",

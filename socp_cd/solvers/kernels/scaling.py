@@ -148,7 +148,8 @@ def balance_csr(indptr, indices, data, q, mu, dim):
     b = np.empty(m)
     q_s = np.empty(m)
     data_s = np.empty(data.shape[0])
-    d = np.zeros(m)     # the sums of |diag| per contact (d[:nc]), then sqrt(a / b) per unknown
+    # d: the sums of |diag| per contact (d[:nc]), then the zero r, then sqrt(a / b) per unknown
+    d = np.zeros(m)
     for i in range(nc):
         for k in range(dim):
             row = i * dim + k
@@ -157,14 +158,10 @@ def balance_csr(indptr, indices, data, q, mu, dim):
                 if indices[p] == row:
                     w += data[p]
             d[i] += abs(w)
-    # Siconos' error of r = 0, with ``a`` (not yet filled) as the zero vector
-    q2 = 0.0
-    for j in range(m):
-        q2 += q[j] * q[j]
-    q_norm = np.sqrt(q2)
-    a[:] = 0.0
-    zero_error = coulomb_zero_error_of(a, q, mu, dim, q_norm)
     q2, qs2 = factors_from_sums(d[:nc], q, dim, a, b, q_s)
+    q_norm = np.sqrt(q2)
+    d[:] = 0.0      # Siconos' error of r = 0, with d (its scales no longer needed) as r
+    zero_error = coulomb_zero_error_of(d, q, mu, dim, q_norm)
     for i in range(nc):          # a / b is one value per contact: one square root each
         v = np.sqrt(a[i * dim] / b[i * dim])
         for k in range(dim):
