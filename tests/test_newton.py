@@ -10,6 +10,7 @@ from socp_cd.bench.generators import manufactured
 from socp_cd.data import shared_problems
 from socp_cd.errors import SocpCdError
 from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem
+from socp_cd.solvers import newton
 from socp_cd.solvers.kernels.newton_ac import ac_blocks, ac_blocks_reference
 
 MU = 0.5
@@ -273,20 +274,25 @@ def _rank_deficient_asymmetric(seed, mu=2.0, nc=20, n_dofs=36, skew=0.1):
     return FrictionContactProblem(W, u_star - W @ r_star, base.mu, 3)
 
 
-def test_hybrid_converges_where_the_proximal_loop_stalls():
+def test_hybrid_converges_where_the_proximal_loop_stalls(monkeypatch):
     # one of the random draws (seeds 0-39, mu 2, skew 0.1) on which the proximal loop
     # alone stalls near 2e-3; the reverse happens too (seed 3): see newton.md §7
     p = _rank_deficient_asymmetric(24)
     W = p.W.toarray() if sp.issparse(p.W) else np.asarray(p.W)
     assert np.linalg.matrix_rank(W + W.T) == 36 < p.m and p.asymmetry > 1e-3
-    # (with session 13's cold proximal parameter, alpha0 = 1; the default 0.1 of session 14
-    # solves this draw with the proximal loop too)
+    # the session-20 subproblem test (a full step that halves ||F_alpha||) solves this draw
+    # with the proximal loop alone, from session 13's cold alpha0 = 1 as from the default
+    for alpha0 in (1.0, None):
+        assert socp_cd.solve(p, "newton", tol=1e-8, policy="prox", alpha0=alpha0).converged
+    # with the nearly exact subproblems of sessions 9-19 (a full step cutting ||F_alpha||
+    # by 1e3) and alpha0 = 1 the proximal loop stalls, the hybrid policy converges
+    monkeypatch.setattr(newton, "INNER_GATE", 0.1)
+    monkeypatch.setattr(newton, "INNER_DECREASE", 1e-3)
     a = socp_cd.solve(p, "newton", tol=1e-8, policy="prox", alpha0=1.0)
     b = socp_cd.solve(p, "newton", tol=1e-8, policy="hybrid", alpha0=1.0)
     assert not a.converged and socp_cd.error(p, a.r) > 1e-6
     assert b.converged and socp_cd.error(p, b.r) <= 1e-8
     assert b.info["plain_steps"] > 0
-    assert socp_cd.solve(p, "newton", tol=1e-8, policy="prox").converged
 
 
 @pytest.mark.parametrize("seed", [3, 24])

@@ -84,9 +84,11 @@ DECLINED_NOT_FINITE = -4     # r or u not finite (the general path reports it)
 TRIAL_MAX_M = 150
 #: the entries of :func:`trial_run`'s ``constants``, in order
 TRIAL_CONSTANTS = ("alpha0", "plain_regularization", "goldstein_m1", "max_backtrack",
-                   "alpha_min", "alpha_max", "inner_max_iter", "armijo", "nonmonotone")
+                   "alpha_min", "alpha_max", "inner_max_iter", "armijo", "nonmonotone",
+                   "inner_gate", "inner_decrease")
 (C_ALPHA0, C_PLAIN_REGULARIZATION, C_GOLDSTEIN_M1, C_MAX_BACKTRACK, C_ALPHA_MIN, C_ALPHA_MAX,
- C_INNER_MAX_ITER, C_ARMIJO, C_NONMONOTONE) = range(len(TRIAL_CONSTANTS))
+ C_INNER_MAX_ITER, C_ARMIJO, C_NONMONOTONE, C_INNER_GATE,
+ C_INNER_DECREASE) = range(len(TRIAL_CONSTANTS))
 
 
 #: the NSGS settings :func:`run` takes, in order (the keys of the NSGS backend's settings)
@@ -281,7 +283,7 @@ def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, s
     tol, max_iter, stall_window, prox
         The run's tolerance, outer-iteration cap, stall window; the proximal method
         (else plain steps).
-    constants : ndarray (9,)
+    constants : ndarray (11,)
         The backend's loop constants (:data:`TRIAL_CONSTANTS` names them,
         :func:`socp_cd.solvers.newton.trial_constants` gives them); ``alpha0`` (relative
         to the block scale) replaces its first.
@@ -314,7 +316,8 @@ def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, s
         nd.prox_newton_dense(W, q_s, norm_q, mu, rho, rho, dim, tol, max_iter,
                              constants[C_ALPHA_MIN] * wscale, constants[C_ALPHA_MAX] * wscale,
                              int(constants[C_INNER_MAX_ITER]), stall_window, constants[C_ARMIJO],
-                             max_backtrack, constants[C_NONMONOTONE], r_s, best_r, fstate, istate,
+                             max_backtrack, constants[C_NONMONOTONE], constants[C_INNER_GATE],
+                             constants[C_INNER_DECREASE], r_s, best_r, fstate, istate,
                              None)
     else:
         nd.plain_newton_dense(W, q_s, norm_q, mu, rho, rho, dim, tol, max_iter,

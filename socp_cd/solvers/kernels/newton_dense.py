@@ -129,7 +129,7 @@ def _store(istate, fstate, status, it, best_it, n_newton, n_backtrack, n_ls_fail
 @njit(cache=True)
 def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_max,
                       inner_max_iter, stall_window, armijo, max_backtrack, nonmonotone,
-                      r, best_r, fstate, istate, lapack):
+                      inner_gate, inner_decrease, r, best_r, fstate, istate, lapack):
     """Run outer proximal iterations until ``it_end``, convergence, stall or a non-finite error.
 
     Parameters
@@ -149,6 +149,9 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
     inner_max_iter, stall_window : int
     armijo, max_backtrack, nonmonotone : float, int, float
         The line-search and acceptance constants of the reference.
+    inner_gate, inner_decrease : float
+        The reference's test of a solved subproblem (``newton.INNER_GATE``,
+        ``newton.INNER_DECREASE``).
     r, best_r : ndarray (m,)
         Current and best iterate, updated in place (``r`` is the start on the first call).
     fstate, istate : ndarray
@@ -219,11 +222,10 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
                 break
             r[:] = rt
             u[:] = ut
-            if nFt <= 0.1 * nF and t == 1.0:
-                e_try = siconos_error(r, u, mu, d, norm_q)
-                if e_try <= tol or nFt <= 1e-3 * nF:
-                    solved = True
-                    break
+            if t == 1.0 and nFt <= inner_gate * nF and (
+                    nFt <= inner_decrease * nF or siconos_error(r, u, mu, d, norm_q) <= tol):
+                solved = True
+                break
         err, best_it, best_err, status = _measure(W, q, norm_q, mu, d, tol, r, rk, u, best_r,
                                                   it, best_it, best_err, False)
         if status != RUNNING:
