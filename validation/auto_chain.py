@@ -69,6 +69,15 @@ Session 19's:
     the hand-off's first Newton trial (plain steps from NSGS's iterate): its step cap (6
     since session 12) and stall window (2); ``base`` keeps them.
 
+Session 20's:
+
+``INNER_GATE``, ``INNER_DECREASE``
+    ``newton.INNER_GATE``, ``newton.INNER_DECREASE``: a proximal subproblem of the Newton
+    method is solved by a full step that cut its residual to at most the gate times the
+    step's start and to at most the decrease times (or met the outer tolerance); 0.5 and
+    0.5 since session 20, 0.1 and 1e-3 before (``base`` keeps the old ones;
+    ``validation/newton_inner.py`` measures the method alone).
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``) or ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``.  Problems:
