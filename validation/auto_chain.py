@@ -74,9 +74,9 @@ Session 20's:
 ``INNER_GATE``, ``INNER_DECREASE``
     ``newton.INNER_GATE``, ``newton.INNER_DECREASE``: a proximal subproblem of the Newton
     method is solved by a full step that cut its residual to at most the gate times the
-    step's start and to at most the decrease times (or met the outer tolerance); 0.5 and
-    0.5 since session 20, 0.1 and 1e-3 before (``base`` keeps the old ones;
-    ``validation/newton_inner.py`` measures the method alone).
+    step's start and to at most the decrease times (or met the outer tolerance); 0.1 and
+    1e-3 (``base`` too).  0.5 and 0.5 measured in session 20, not adopted
+    (``validation/newton_inner.py`` measures the method alone; ``formulations/newton.md`` §4).
 
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.

@@ -166,7 +166,9 @@ PREDICT_MAX_M = 72
 #: ... and when that fails too, the proximal Newton method from ``r = 0`` for at most this many
 #: outer iterations (same stall window; 0: off): box stacks with redundant contacts, where plain
 #: Newton fails and the proximal method converges (formulations/auto.md, "The proximal cold
-#: trial")
+#: trial").  With session 20's looser subproblem test (not adopted: newton.INNER_GATE), an
+#: outer iteration is ~1 LU instead of 2-3; 30 and 45 measured on the tune split with it:
+#: no case won or lost, sgm within 0.5 % (validation/results/auto_chain_tune_s20prox.md)
 COLD_PROX_STEPS = 15
 #: stall window of the proximal Newton stages (None: the method's default, 50 outer iterations
 #: without a 10 % drop of the error).  Measured, not adopted (validation/results/

@@ -180,15 +180,13 @@ NONMONOTONE = 10.0
 #: the proximal subproblem is *solved* (the outer iteration ends) by a full Newton step
 #: (``t = 1``) that cut its residual ``||F_alpha||`` to at most ``INNER_GATE`` times the
 #: step's start and either to at most ``INNER_DECREASE`` times or to an iterate whose
-#: error meets the outer tolerance (a branch only a decrease below the gate reaches).
-#: 0.5 and 0.5 since session 20 (before: 0.1 and 1e-3, a nearly exact subproblem): one
-#: Newton step per outer iteration is the rule, not 2-3.  Tune split, proximal Newton
-#: alone from r = 0, tol 1e-8 (validation/results/newton_inner_tune.md): 3D 1-50
-#: contacts 197 solved either way, geometric mean of LU factorizations 6.3 -> 4.8
-#: (1-10) and 10.6 -> 7.9 (11-50); 3D 51-400 contacts 25 -> 30 of 41, 139 -> 76; 2D
-#: 51-400 11 -> 10 of 11, 26 -> 13.  In auto's chain: formulations/newton.md §4.
-INNER_GATE = 0.5
-INNER_DECREASE = 0.5
+#: error meets the outer tolerance: a nearly exact subproblem, 2-3 Newton steps per outer
+#: iteration.  Session 20 measured 0.5 and 0.5 (one step per outer iteration;
+#: validation/newton_inner.py, formulations/newton.md §4): on the tune split it solved 4
+#: more of the 257 tune cases with 25-50 % fewer LU factorizations, but on the held-out
+#: split it won 10 and lost 18 of 394 (proximal Newton alone), so it was not adopted
+INNER_GATE = 0.1
+INNER_DECREASE = 1e-3
 #: outer policies of :func:`prox_newton`
 POLICIES = ("prox", "hybrid", "plain")
 DEFAULT_POLICY = "prox"
