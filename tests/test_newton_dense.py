@@ -20,6 +20,7 @@ from socp_cd.data import shared_problems
 from socp_cd.errors import UnsupportedError
 from socp_cd.problem import FrictionContactProblem
 from socp_cd.solvers import newton as nt
+from socp_cd.solvers import nsgs_route
 from socp_cd.solvers.kernels.cone import project_cone_stacked
 from socp_cd.solvers.kernels.dense import envelope_fraction
 
@@ -145,6 +146,27 @@ def test_twin_equals_python_loop_on_asymmetric_w_and_real_w():
     for seed in range(3):
         q = manufacture_local(real, 0.4, (0.25, 0.35, 0.3, 0.1), seed)
         _assert_equal(*_both(q, np.zeros(q.m), 1e-10))
+
+
+@pytest.mark.parametrize("gate, decrease", [(0.5, 0.5), (0.3, 1e-2)])
+def test_twin_equals_python_loop_with_another_subproblem_test(gate, decrease, monkeypatch):
+    """The subproblem test's constants (newton.INNER_GATE, INNER_DECREASE) are read by both
+    loops at call time: a study that sets them gets the same iterates from both, and they
+    change the run (another count of factorizations than the default's)."""
+    cases = [manufactured(12, 3, 0.5, structure="redundant", seed=3),
+             manufactured(20, 2, 2.0, seed=5), _shared("OneObject-i1028-138.hdf5.dat")]
+    default = [_both(p, np.zeros(p.m), 1e-10)[0] for p in cases]
+    monkeypatch.setattr(nt, "INNER_GATE", gate)
+    monkeypatch.setattr(nt, "INNER_DECREASE", decrease)
+    changed = 0
+    for p, d in zip(cases, default):
+        a, b = _both(p, np.zeros(p.m), 1e-10)
+        _assert_equal(a, b)
+        assert a[0] == "converged"
+        changed += a[4]["factorizations"] != d[4]["factorizations"]
+    assert changed >= 1          # (the constants reach both loops)
+    c = nt.trial_constants()
+    assert (c[nsgs_route.C_INNER_GATE], c[nsgs_route.C_INNER_DECREASE]) == (gate, decrease)
 
 
 def test_twin_equals_python_loop_when_it_stalls_runs_out_or_overflows():
