@@ -184,7 +184,8 @@ NONMONOTONE = 10.0
 #: iteration.  Session 20 measured 0.5 and 0.5 (one step per outer iteration;
 #: validation/newton_inner.py, formulations/newton.md §4): on the tune split it solved 4
 #: more of the 257 tune cases with 25-50 % fewer LU factorizations, but on the held-out
-#: split it won 10 and lost 18 of 394 (proximal Newton alone), so it was not adopted
+#: split it won 10 and lost 18 of 394 (proximal Newton alone), on a fresh draw 7 and 14 of
+#: 336, so it was not adopted
 INNER_GATE = 0.1
 INNER_DECREASE = 1e-3
 #: outer policies of :func:`prox_newton`
