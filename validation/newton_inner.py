@@ -11,7 +11,8 @@ limit 5 s) under each setting on the local exact-Coulomb problems of a split
 (``auto_probe.items``: the shared problems on ``tune`` only, the evaluation set's
 manufactured and rescaled cases, the simulation collections) and reports per size band
 the cases solved, the geometric mean of LU factorizations (+1, -1) and the shifted
-geometric mean of the wall time (min of 3 on at most 50 contacts, else 1).
+geometric mean of the wall time (min of 3 on at most 50 contacts, else 1; a call over
+0.5 s is not repeated).
 
 Session 20 chose (0.5, 0.5) on ``--split tune`` (``evalset_sim_small_tune``: 4 more solved,
 25-50 % fewer factorizations) and then ran ``--split holdout`` (``evalset_sim_small``) once:
@@ -30,14 +31,8 @@ Writes ``validation/results/newton_inner_<split>.{csv,md}``.
 from __future__ import annotations
 
 import argparse
-import copy
-import csv
-import math
-import time
 from collections import defaultdict
 from pathlib import Path
-
-import numpy as np
 
 import socp_cd
 from socp_cd.bench.evalset import manufactured_cases
@@ -45,7 +40,7 @@ from socp_cd.bench.reports import shifted_geometric_mean
 from socp_cd.data import shared_problems_dir
 from socp_cd.solvers import newton
 
-from auto_probe import items
+from auto_probe import items, min_wall_time, write_csv
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "results"
@@ -61,15 +56,12 @@ def band(nc):
 
 
 def run_one(p, gate, decrease, repeats, time_limit=5.0):
+    """:func:`auto_probe.min_wall_time` of proximal Newton under ``(gate, decrease)`` (the
+    caller restores the module's constants)."""
     newton.INNER_GATE, newton.INNER_DECREASE = gate, decrease
-    best, res = math.inf, None
-    for _ in range(repeats):
-        target = copy.copy(p)
-        t0 = time.perf_counter()
-        res = socp_cd.solve(target, solver="newton", tol=1e-8, time_limit=time_limit,
-                            policy="prox")
-        best = min(best, time.perf_counter() - t0)
-    return best, res
+    return min_wall_time(p, lambda t: socp_cd.solve(t, solver="newton", tol=1e-8,
+                                                    time_limit=time_limit, policy="prox"),
+                         repeats)
 
 
 def main(argv=None) -> int:
@@ -110,10 +102,7 @@ def main(argv=None) -> int:
     finally:
         newton.INNER_GATE, newton.INNER_DECREASE = defaults
     OUT.mkdir(exist_ok=True)
-    with open(OUT / f"newton_inner_{tag}.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(rows, OUT / f"newton_inner_{tag}.csv")
     groups = defaultdict(list)
     for r in rows:
         groups[(r["dim"], band(r["nc"]), r["setting"])].append(r)
@@ -128,7 +117,7 @@ def main(argv=None) -> int:
              "sgm time (0.1 ms shift, s) |", "|---|---|---|---|---|---|---|"]
     for (dim, b, s), rs in sorted(groups.items(), key=lambda kv: (kv[0][0], kv[0][1],
                                                                    order[kv[0][2]])):
-        geo = math.exp(np.mean([math.log(r["factorizations"] + 1) for r in rs])) - 1
+        geo = shifted_geometric_mean([r["factorizations"] for r in rs], 1.0)
         lines.append(f"| {dim} | {b} | {s} | {len(rs)} | {sum(r['solved'] for r in rs)} | "
                      f"{geo:.1f} | {shifted_geometric_mean([r['time'] for r in rs], 1e-4):.6f} |")
     by_case = defaultdict(dict)
