@@ -316,6 +316,12 @@ def test_of_local_fills_the_fields_it_names():
     assert list(vars(res)) == list(vars(ref))
     assert all(vars(res)[k] is vars(ref)[k] or vars(res)[k] == vars(ref)[k] for k in vars(ref))
     assert res == ref and repr(res) == repr(ref)
+    # with the dispatcher's verdict fields (SolverSpec.plain's finished result)
+    res = SolverResult.of_local(r, u, "converged", 0.25, 7, info, "why", False, True, "auto",
+                                "coulomb", 1e-8, 0.5)
+    ref = SolverResult(r, u, None, True, "converged", 0.25, 0.25, 7, 0.5, "auto", "coulomb",
+                       1e-8, None, info, "why", False)
+    assert list(vars(res)) == list(vars(ref)) and res == ref and repr(res) == repr(ref)
 
 
 def test_handoff_route_equals_general_path(monkeypatch):
@@ -374,6 +380,72 @@ def test_plain_call_fast_dispatch_equals_the_full_checks():
                 _same(a, b)
                 assert (a.solver, a.formulation, a.tol, a.message) == (b.solver, b.formulation,
                                                                        b.tol, b.message)
+
+
+def _info_same(a, b):
+    """The routed results' ``info`` equal but for the stages' times (and their errors to
+    rounding, as the route reads NSGS's own final error)."""
+    ia, ib = a.info, b.info
+    assert set(ia) == set(ib)
+    for key in ia:
+        if key != "path":
+            assert ia[key] == ib[key], key
+    assert len(ia["path"]) == len(ib["path"])
+    for sa, sb in zip(ia["path"], ib["path"]):
+        assert {k: v for k, v in sa.items() if k != "time"} == \
+               {k: v for k, v in sb.items() if k != "time"}
+
+
+@pytest.mark.parametrize("name,p", CASES, ids=[c[0] for c in CASES])
+def test_auto_plain_equals_the_route_and_the_verdict(monkeypatch, name, p):
+    # SolverSpec.plain (auto.plain): solve(p) with max_iter and r0 None returns the route's
+    # answer judged; verbose=0 (an int) takes every check, auto.route and registry._routed.
+    # Both answers are the same, field by field; on small problems whose NSGS stage meets
+    # tol clear of the margin, plain builds the result itself (no route, no stage outcome)
+    from socp_cd.solvers import auto
+    calls = []
+    for fn in ("route", "_stage_outcome"):
+        original = getattr(auto, fn)
+        monkeypatch.setattr(auto, fn, lambda *a, _f=original, _n=fn, **k:
+                            calls.append(_n) or _f(*a, **k))
+    for kw in (dict(), dict(time_limit=5.0), dict(tol=1e-12), dict(tol=1e-3)):
+        calls.clear()
+        a = socp_cd.solve(p, **kw)
+        took = list(calls)
+        b = socp_cd.solve(p, verbose=0, **kw)
+        _same(a, b)
+        assert (a.solver, a.formulation, a.tol, a.message, a.history) == \
+               (b.solver, b.formulation, b.tol, b.message, b.history)
+        _info_same(a, b)
+        assert 0 <= a.time < 10.0 and type(a.time) is float
+        small = p.n_contacts <= auto.SMALL_NC
+        assert ("route" in took) == (not small)
+        if small and a.converged and len(a.info["path"]) == 1 \
+                and a.info["path"][0]["error"] <= 0.5 * a.tol:
+            assert took == []       # the clear branch: judged in plain itself
+
+
+def test_auto_plain_takes_the_route_under_a_study_knob(monkeypatch):
+    # a study's knob (auto.SMALL_SWEEPS, SMALL_STALL, HANDOFF_*) sends plain through
+    # auto.route, which applies or checks it: the same answer as the full checks give
+    from socp_cd.solvers import auto
+    p = coupled_pair()
+    calls = []
+    original = auto.route
+    monkeypatch.setattr(auto, "route", lambda *a, **k: calls.append(1) or original(*a, **k))
+    for knob, value in (("SMALL_SWEEPS", 3), ("SMALL_STALL", 7), ("HANDOFF_PREDICT", 0)):
+        with monkeypatch.context() as m:
+            m.setattr(auto, knob, value)
+            calls.clear()
+            a = socp_cd.solve(p, tol=1e-10)
+            assert calls == ([1] if knob != "HANDOFF_PREDICT" else [])
+            b = socp_cd.solve(p, tol=1e-10, verbose=0)
+            _same(a, b)
+            _info_same(a, b)
+    with monkeypatch.context() as m:
+        m.setattr(auto, "HANDOFF_SWEEPS", 0)        # a bad value: route names it
+        with pytest.raises(ValueError, match="HANDOFF_SWEEPS"):
+            socp_cd.solve(p)
 
 
 @pytest.mark.parametrize("kw", [dict(tol=0.0), dict(tol=float("nan")), dict(tol=-1e-8),

@@ -517,7 +517,58 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True, stall, handoff, predict)
     if out is None:
         return None
+    return _stage_outcome(problem, out, method, handoff, tol, max_iter, time_limit, t0)
+
+
+def plain(problem, tol, time_limit, t0):
+    """The whole plain ``solver="auto"`` call (``SolverSpec.plain``): :func:`route`'s work
+    with ``max_iter`` and ``r0`` None, and on a small problem whose NSGS stage meets
+    ``tol`` clear of the stop test's margin, the dispatcher's verdict too.
+
+    On at most :data:`SMALL_NC` contacts with the hand-off's default knobs (the common
+    case: a time step of a small scene, a benchmark's tiny problem), the NSGS stage's
+    compiled call is made here and, when its three measures (the stage judge's error, the
+    units guard's value and Siconos' error as written) are all at most ``tol *
+    (1 - JUDGE_MARGIN)``, the result is returned judged: ``converged``, with the
+    ``solver``, ``formulation``, ``tol`` and ``time`` (since ``t0``) the dispatcher would
+    set (:func:`socp_cd.solvers.registry._routed`'s verdict is "converged" on such
+    measures).  The layers between :func:`socp_cd.solve` and the compiled call cost ~4 µs
+    of a ~10 µs one-contact call.  Otherwise the route's outcome (``(result,
+    guard_value, resume)`` or None) for the dispatcher to judge, as :func:`route` returns
+    it.  The answer is the route's, bit for bit (``tests/test_route.py``)."""
+    nc = problem.mu.shape[0]
+    w = HANDOFF_PREDICT
+    if (nc > SMALL_NC or SMALL_SWEEPS is not None or SMALL_STALL is not None
+            or type(HANDOFF_SWEEPS) is not int or HANDOFF_SWEEPS < 1 or type(w) is not int
+            or w < 0):
+        # a study's knobs (or a bad value, which route reports), or a larger problem
+        return route(problem, tol=tol, max_iter=None, r0=None, time_limit=time_limit)
+    handoff = (HANDOFF_SWEEPS, int(HANDOFF_WORK))
+    dim = problem.dim
+    s0 = _clock()
+    # (nsgs.compiled_run's call, one layer less: NSGS's defaults, its sweep cap)
+    out = nsgs_route.run(problem, nsgs.route_settings(dim), tol, nsgs.DEFAULT_MAX_ITER, None,
+                         time_limit, True, handoff,
+                         w if dim * nc <= PREDICT_MAX_M else 0)     # (_predict_window's rule)
+    if out is None:
+        return None
+    x = out[2]
+    lo = tol * _JUDGE_LO
+    if x[INTERNAL_ERROR] <= lo and x[GUARD_VALUE] <= lo and x[ERROR] <= lo:
+        s = _clock()
+        vectors = out[1]
+        return SolverResult.of_local(vectors[1], vectors[2], "converged", x[ERROR], int(x[SWEEPS]),
+                                     LazyInfo((_route_info, dim, nc, x, "nsgs", s - s0, out[0])),
+                                     "nsgs met tol", x[ZERO_ERROR] <= tol, True, "auto",
+                                     "coulomb", tol, s - t0)
+    return _stage_outcome(problem, out, "nsgs", handoff, tol, None, time_limit, s0)
+
+
+def _stage_outcome(problem, out, method, handoff, tol, max_iter, time_limit, t0):
+    """:func:`route` after its first stage's compiled call ``out`` (``method``, started at
+    ``t0``): the route's outcome (see there)."""
     status, vectors, x = out
+    nc = problem.mu.shape[0]
     stage_error = x[INTERNAL_ERROR]         # the stage judge's measure (to rounding)
     if not stage_error < x[START_ERROR]:
         return None
@@ -942,9 +993,10 @@ SPEC = SolverSpec(
     description="portfolio: models only what the law needs, chains newton / nsgs / clarabel "
                 "from cheap problem features, warm-starting each stage from the best iterate",
     default_max_iter=newton.DEFAULT_MAX_ITER, options=OPTIONS,
-    inner_settings="not applicable (rejected)", check=check, route=route)
+    inner_settings="not applicable (rejected)", check=check, route=route,
+    plain=plain)
 
-__all__ = ["auto_backend", "route", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
+__all__ = ["auto_backend", "route", "plain", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
            "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS", "HANDOFF_WORK", "TRIAL_STEPS",
            "TRIAL_STALL", "HANDOFF_PREDICT",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",

@@ -227,6 +227,17 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                         history=hist_all if history else None, info=info, message=message)
 
 
+def route_settings(dim):
+    """NSGS's default settings in dimension ``dim`` as :func:`socp_cd.solvers.nsgs_route.run`
+    takes them (the tuple :data:`~socp_cd.solvers.nsgs_route.ROUTE_SETTINGS` names; checked
+    once per dimension)."""
+    settings = _ROUTE_SETTINGS.get(dim)
+    if settings is None:
+        st = _checked_settings(dim, {})
+        settings = _ROUTE_SETTINGS[dim] = tuple(st[k] for k in nsgs_route.ROUTE_SETTINGS)
+    return settings
+
+
 def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False, stall_window=None,
                  handoff=(0, 0), predict_window=0):
     """NSGS with its default settings through the compiled route (:mod:`~socp_cd.solvers.nsgs_route`).
@@ -245,11 +256,7 @@ def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False, st
         None when the route does not apply or declines
         (:func:`~socp_cd.solvers.nsgs_route.run`).
     """
-    d = problem.dim
-    if d not in _ROUTE_SETTINGS:
-        st = _settings(problem, {}, {})
-        _ROUTE_SETTINGS[d] = tuple(st[k] for k in nsgs_route.ROUTE_SETTINGS)
-    settings = _ROUTE_SETTINGS[d]
+    settings = route_settings(problem.dim)
     if stall_window is not None:
         settings = settings[:-1] + (int(stall_window),)
     return nsgs_route.run(problem, settings, tol,
@@ -310,4 +317,4 @@ def warmup() -> float:
     return time.perf_counter() - t0
 
 
-__all__ = ["SPEC", "OPTIONS", "nsgs_backend", "route", "compiled_run", "local_parameters", "warmup", "full_error", "DEFAULT_MAX_ITER"]
+__all__ = ["SPEC", "OPTIONS", "nsgs_backend", "route", "compiled_run", "route_settings", "local_parameters", "warmup", "full_error", "DEFAULT_MAX_ITER"]

@@ -344,6 +344,24 @@ def _plain(problem, spec, tol, max_iter, r0, time_limit):
                     t0, resume, routed)
 
 
+def _plain_call(problem, spec, tol, time_limit):
+    """:func:`_plain` with ``max_iter`` and ``r0`` None and ``tol``, ``time_limit`` checked,
+    through ``spec.plain`` (``SolverSpec.plain``: a finished result, or the route's
+    outcome for :func:`_routed`)."""
+    t0 = _time.perf_counter()
+    out = spec.plain(problem, tol, time_limit, t0)
+    if out.__class__ is SolverResult:
+        return out
+    routed = out is not None
+    resume = None
+    if routed:
+        res, resume = _routed(out, spec.name, tol, time_limit, t0)
+        if res is not None:
+            return res
+    return _general(problem, spec, "coulomb", tol, None, None, False, time_limit, False, {}, {},
+                    t0, resume, routed)
+
+
 def _try_route(problem, spec, tol, max_iter, r0, time_limit, t0):
     """Run ``spec``'s compiled route: ``(result, None, True)`` when its result stands,
     else ``(None, resume, routed)`` for :func:`_general` (``routed``: the route ran and its
@@ -431,6 +449,11 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
         spec = _TABLE.get(solver)
         if (spec is not None and spec.route is not None and "coulomb" in spec.formulations
                 and problem.dim in spec.dims):
+            if (spec.plain is not None and r0 is None and max_iter is None
+                    and type(tol) is float and 0.0 < tol < math.inf
+                    and (time_limit is None or type(time_limit) is float
+                         and 0.0 < time_limit < math.inf)):
+                return _plain_call(problem, spec, tol, time_limit)
             return _plain(problem, spec, tol, max_iter, r0, time_limit)
     _check_problem(problem)
     table = _table()

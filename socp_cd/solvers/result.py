@@ -93,8 +93,11 @@ class SolverResult:
     trivial: Optional[bool] = None
 
     @classmethod
-    def of_local(cls, r, u, status, error, iterations, info, message, trivial):
-        """A local problem's result with ``coulomb_error = error`` (compiled routes).
+    def of_local(cls, r, u, status, error, iterations, info, message, trivial, converged=False,
+                 solver="", formulation="", tol=0.0, time=0.0):
+        """A local problem's result with ``coulomb_error = error`` (compiled routes; the
+        last five fields as the dispatcher sets them when the route judged it itself,
+        ``SolverSpec.plain``).
 
         The fields set one by one, in the dataclass's order, on a bare instance: the
         generated ``__init__`` (its call, and ``info`` through the property's setter)
@@ -106,15 +109,15 @@ class SolverResult:
         res.r = r
         res.u = u
         res.v = None
-        res.converged = False
+        res.converged = converged
         res.status = status
         res.error = error
         res.coulomb_error = error
         res.iterations = iterations
-        res.time = 0.0
-        res.solver = ""
-        res.formulation = ""
-        res.tol = 0.0
+        res.time = time
+        res.solver = solver
+        res.formulation = formulation
+        res.tol = tol
         res.history = None
         res._info = info            # (the storage of the property ``info``)
         res.message = message

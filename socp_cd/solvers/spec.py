@@ -54,6 +54,18 @@ class SolverSpec:
         ``resume`` is passed to ``func`` as ``resume=`` (the route did the
         first part of the work and the backend goes on from there; see
         :mod:`socp_cd.solvers.auto`).
+    plain : callable, optional
+        The whole of a plain call with ``max_iter`` and ``r0`` None and a float
+        ``tol`` (and ``time_limit``, when given), for ``route`` solvers whose
+        most common call is tiny: ``plain(problem, tol, time_limit, t0)`` returns
+        a finished :class:`~socp_cd.solvers.result.SolverResult` (judged as the
+        dispatcher would judge the route's: ``converged``, ``solver``,
+        ``formulation``, ``tol``, ``time`` since ``t0``), or what ``route``
+        returns (the dispatcher judges it).  It replaces ``route`` and
+        ``check`` for these calls (no options or ``inner_settings`` to check:
+        a ``check`` that reads the problem must be repeated in ``plain``);
+        each layer of Python it saves is a few percent of a one-contact call
+        (:func:`socp_cd.solvers.auto.plain`).
     """
 
     name: str
@@ -67,6 +79,7 @@ class SolverSpec:
     inner_settings: str = "not used"
     check: Callable | None = None
     route: Callable | None = None
+    plain: Callable | None = None
 
 
 __all__ = ["SolverSpec"]
