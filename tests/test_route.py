@@ -853,3 +853,25 @@ def test_route_checks_a_start_it_is_handed_directly():
     a = nsgs.compiled_run(p, 1e-8, None, r0[::2], None)
     b = nsgs.compiled_run(p, 1e-8, None, r0[::2].copy(), None)
     assert a.status == b.status and np.array_equal(a.vectors, b.vectors) and a.stats == b.stats
+
+
+def test_timed_work_bound_declines_in_the_kernel():
+    # with a time limit the route takes max_iter * nnz(W) <= MAX_TIMED_WORK only (the kernel
+    # cannot read a clock): the compiled call declines above it before any work, at the
+    # bound it runs; without a time limit there is no bound; a limit below MIN_TIME_LIMIT
+    # is declined before the call
+    from socp_cd.solvers import nsgs
+    p = _random(1, 3, seed=0)
+    nnz = int(p.csr_parts[0][-1])
+    at = int(nsgs_route.MAX_TIMED_WORK) // nnz
+    st = nsgs.route_settings(3)
+    assert nsgs_route.run(p, st, 1e-8, at + 1, None, 1.0, True) is None
+    ran = nsgs_route.run(p, st, 1e-8, at, None, 1.0, True)
+    assert ran is not None and ran.status == "converged"
+    assert nsgs_route.run(p, st, 1e-8, at + 1, None, None, True) is not None
+    assert nsgs_route.run(p, st, 1e-8, 10, None, 0.5 * nsgs_route.MIN_TIME_LIMIT, True) is None
+    indptr, indices, data = p.csr_parts
+    code, _ = nsgs_route.nsgs_checked(indptr, indices, data, p.q, p.mu, 3, p.q, False, 1e-8,
+                                      at + 1, True, 10, *st, True, 0, 0, 0,
+                                      np.empty((3, p.m)))
+    assert code == nsgs_route.DECLINED_TOO_MUCH_WORK

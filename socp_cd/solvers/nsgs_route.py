@@ -77,6 +77,8 @@ TIME_CHECK_SWEEPS = 10
 DECLINED_FRICTIONLESS = -2   # every mu = 0 and friction was required
 DECLINED_ILL_POSED = -3      # a contact with W_NN <= 0 (the general path reports it)
 DECLINED_NOT_FINITE = -4     # r or u not finite (the general path reports it)
+DECLINED_UNCHECKED = -5      # Siconos' error overflows or the guard is not finite (ditto)
+DECLINED_TOO_MUCH_WORK = -6  # blocked (a time limit) and max_iter * nnz(W) > MAX_TIMED_WORK
 
 #: the compiled trials run on local problems of at most this many unknowns (``auto``'s cold
 #: trials' bound, ``auto.COLD_MAX_M``) whose Newton steps the backend computes with the
@@ -158,7 +160,9 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     blocked, first_block
         Run the sweeps in blocks of ``first_block``, twice that, ... sweeps, as
         the NSGS backend does when a time limit is given (each block restarts
-        the light-error and stall bookkeeping).
+        the light-error and stall bookkeeping); when ``blocked``, decline (code
+        :data:`DECLINED_TOO_MUCH_WORK`) before any work if ``max_iter * nnz(W)``
+        exceeds :data:`MAX_TIMED_WORK` (read when the kernel is compiled).
     kind, loc_tol, newton_max_iter, projection_max_iter
         The one-contact solver (:data:`~socp_cd.solvers.nsgs_kernels.LocalSolver`).
     need_friction
@@ -183,7 +187,9 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     Returns
     -------
     code : int
-        The sweeps' status, or a ``DECLINED_*`` code (then nothing else is meaningful).
+        The sweeps' status, or a ``DECLINED_*`` code (then nothing else is meaningful;
+        :data:`DECLINED_UNCHECKED`: the answer is finite, but Siconos' error of it
+        overflows or its units guard is not finite).
     stats : tuple of float
         A tuple, not an array (boxing floats costs a third of an array's and
         its ``tolist``): the entries named by :data:`STATS`, then the units guard's
@@ -198,6 +204,9 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     """
     nc = mu.shape[0]
     m = q.shape[0]
+    if blocked and max_iter * indptr[nc * dim] > MAX_TIMED_WORK:
+        # (run's bound, read here: MAX_TIMED_WORK is frozen into the compiled code)
+        return DECLINED_TOO_MUCH_WORK, to_fixed_tuple(np.zeros(_N_OUT), _N_OUT)
     if handoff_sweeps > 0:
         nnz = max(indptr[nc * dim], 1)
         cap = max(handoff_sweeps, (handoff_work + nnz - 1) // nnz)
@@ -247,6 +256,8 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     if not checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_s,
                           vectors, stats):
         return DECLINED_NOT_FINITE, to_fixed_tuple(stats, _N_OUT)
+    if stats[GUARD_FINITE] == 0.0 or not np.isfinite(stats[ERROR]):
+        return DECLINED_UNCHECKED, to_fixed_tuple(stats, _N_OUT)
     stats[SWEEPS] = done
     stats[INTERNAL_ERROR] = err
     stats[N_FULL] = n_full
@@ -417,9 +428,9 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     mu = problem.mu
     indptr, indices, data = problem.csr_parts
     nc = mu.shape[0]
-    # the bounds (MAX_CONTACTS; with a time limit, MIN_TIME_LIMIT and MAX_TIMED_WORK)
-    if (nc > MAX_CONTACTS or nc == 0 or time_limit is not None and not (
-            time_limit >= MIN_TIME_LIMIT and max_iter * int(indptr[-1]) <= MAX_TIMED_WORK)):
+    # the bounds (MAX_CONTACTS; with a time limit, MIN_TIME_LIMIT, and MAX_TIMED_WORK, which
+    # the kernel checks before any work: DECLINED_TOO_MUCH_WORK)
+    if nc > MAX_CONTACTS or nc == 0 or time_limit is not None and not time_limit >= MIN_TIME_LIMIT:
         return None
     q = problem.q
     if r0 is not None:          # (the kernel's entry point reads a contiguous float64 vector
@@ -430,7 +441,7 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
         indptr, indices, data, q, mu, problem.dim, q if r0 is None else r0, r0 is not None, tol,
         max_iter, time_limit is not None, TIME_CHECK_SWEEPS, *settings, need_friction, *handoff,
         predict_window, vectors)
-    if code < 0 or not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
+    if code < 0:            # (a declined problem, or an answer the checks cannot judge)
         return None
     # (tuple.__new__: half the cost of the named tuple's own constructor, per call)
     return _new(RouteOutcome, (STATUS_NAMES[code], vectors, x))
