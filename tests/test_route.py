@@ -403,6 +403,7 @@ def test_auto_plain_equals_the_route_and_the_verdict(monkeypatch, name, p):
     # Both answers are the same, field by field; on small problems whose NSGS stage meets
     # tol clear of the margin, plain builds the result itself (no route, no stage outcome)
     from socp_cd.solvers import auto
+    socp_cd.solvers()       # (the solver table loaded: a process's first solve takes every check)
     calls = []
     for fn in ("route", "_stage_outcome"):
         original = getattr(auto, fn)
@@ -420,20 +421,40 @@ def test_auto_plain_equals_the_route_and_the_verdict(monkeypatch, name, p):
         assert 0 <= a.time < 10.0 and type(a.time) is float
         small = p.n_contacts <= auto.SMALL_NC
         assert ("route" in took) == (not small)
-        if small and a.converged and len(a.info["path"]) == 1 \
-                and a.info["path"][0]["error"] <= 0.5 * a.tol:
-            assert took == []       # the clear branch: judged in plain itself
+        lo = a.tol * auto._JUDGE_LO
+        clear = (len(a.info["path"]) == 1 and a.info["path"][0]["error"] <= lo
+                 and a.error <= lo and a.info["guard"]["value"] <= lo)
+        if small:       # judged in plain itself, or handed to the route's remainder
+            assert took == ([] if clear else ["_stage_outcome"])
+
+
+def test_auto_plain_takes_both_branches(monkeypatch):
+    # the same small problem: clear of tol = 1e-3 (plain judges it), short of tol = 1e-17
+    # (the route's remainder: the hand-off's trials and the chain)
+    from socp_cd.solvers import auto
+    socp_cd.solvers()       # (the solver table loaded: a process's first solve takes every check)
+    calls = []
+    original = auto._stage_outcome
+    monkeypatch.setattr(auto, "_stage_outcome", lambda *a, **k: calls.append(1) or original(*a, **k))
+    p = _random(3, 3, seed=7)
+    for tol, took in ((1e-3, []), (1e-17, [1])):
+        calls.clear()
+        a = socp_cd.solve(p, tol=tol)
+        assert calls == took and a.converged == (tol == 1e-3)
+        _same(a, socp_cd.solve(p, tol=tol, verbose=0))
 
 
 def test_auto_plain_takes_the_route_under_a_study_knob(monkeypatch):
-    # a study's knob (auto.SMALL_SWEEPS, SMALL_STALL, HANDOFF_*) sends plain through
-    # auto.route, which applies or checks it: the same answer as the full checks give
+    # a study's knob (auto.SMALL_SWEEPS, SMALL_STALL, HANDOFF_SWEEPS None) sends plain through
+    # auto.route, which applies or checks it (HANDOFF_PREDICT = 0, a valid window, does not):
+    # the same answer as the full checks give
     from socp_cd.solvers import auto
     p = coupled_pair()
     calls = []
     original = auto.route
     monkeypatch.setattr(auto, "route", lambda *a, **k: calls.append(1) or original(*a, **k))
-    for knob, value in (("SMALL_SWEEPS", 3), ("SMALL_STALL", 7), ("HANDOFF_PREDICT", 0)):
+    for knob, value in (("SMALL_SWEEPS", 3), ("SMALL_STALL", 7), ("HANDOFF_SWEEPS", None),
+                        ("HANDOFF_PREDICT", 0)):
         with monkeypatch.context() as m:
             m.setattr(auto, knob, value)
             calls.clear()
@@ -450,6 +471,7 @@ def test_auto_plain_takes_the_route_under_a_study_knob(monkeypatch):
 
 @pytest.mark.parametrize("kw", [dict(tol=0.0), dict(tol=float("nan")), dict(tol=-1e-8),
                                 dict(tol="1e-8"), dict(max_iter=0), dict(max_iter=2.5),
+                                dict(max_iter=2 ** 62 + 1),
                                 dict(time_limit=-1.0), dict(time_limit=float("inf")),
                                 dict(r0=np.zeros(2)), dict(r0=np.full(9, np.nan))])
 def test_plain_call_rejects_what_the_full_checks_reject(kw):
@@ -871,7 +893,14 @@ def test_timed_work_bound_declines_in_the_kernel():
     assert nsgs_route.run(p, st, 1e-8, at + 1, None, None, True) is not None
     assert nsgs_route.run(p, st, 1e-8, 10, None, 0.5 * nsgs_route.MIN_TIME_LIMIT, True) is None
     indptr, indices, data = p.csr_parts
-    code, _ = nsgs_route.nsgs_checked(indptr, indices, data, p.q, p.mu, 3, p.q, False, 1e-8,
-                                      at + 1, True, 10, *st, True, 0, 0, 0,
-                                      np.empty((3, p.m)))
-    assert code == nsgs_route.DECLINED_TOO_MUCH_WORK
+    for cap, declined in ((at + 1, True), (at, False), (2 ** 62, True)):
+        # (2**62 * nnz wraps around in int64: the bound is compared in floats)
+        code, _ = nsgs_route.nsgs_checked(indptr, indices, data, p.q, p.mu, 3, p.q, False,
+                                          1e-8, cap, True, 10, *st, True, 0, 0, 0,
+                                          np.empty((3, p.m)))
+        assert (code == nsgs_route.DECLINED_TOO_MUCH_WORK) == declined
+    # a cap beyond the kernel's int64 goes the general path, with or without a time limit
+    assert nsgs_route.run(p, st, 1e-8, 2 ** 63, None, 1.0, True) is None
+    assert nsgs_route.run(p, st, 1e-8, 2 ** 63, None, None, True) is None
+    with pytest.raises(socp_cd.SocpCdError, match="max_iter"):
+        socp_cd.solve(p, "nsgs", max_iter=2 ** 62 + 1, time_limit=1.0)     # (options.MAX_ITER)

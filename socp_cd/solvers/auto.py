@@ -554,6 +554,9 @@ def plain(problem, tol, time_limit, t0):
         return None
     x = out[2]
     lo = tol * _JUDGE_LO
+    # (_stage_outcome's first tests: START_ERROR is inf without r0, so a stage whose
+    # measures pass is always an improvement; on such measures registry._routed's verdict is
+    # "converged", keep the two in step)
     if x[INTERNAL_ERROR] <= lo and x[GUARD_VALUE] <= lo and x[ERROR] <= lo:
         s = _clock()
         vectors = out[1]

@@ -69,6 +69,8 @@ MAX_CONTACTS = 20000
 #: a clock, so that work must fit well inside the limit (5e7 entry visits take ~0.1 s)
 MIN_TIME_LIMIT = 0.5
 MAX_TIMED_WORK = 5e7
+#: sweep caps above this go the general path (the kernel counts sweeps in int64)
+_MAX_SWEEPS = 2 ** 62
 #: first block of sweeps when a time limit is given (also the NSGS backend's, which checks
 #: the clock between blocks)
 TIME_CHECK_SWEEPS = 10
@@ -204,8 +206,9 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     """
     nc = mu.shape[0]
     m = q.shape[0]
-    if blocked and max_iter * indptr[nc * dim] > MAX_TIMED_WORK:
-        # (run's bound, read here: MAX_TIMED_WORK is frozen into the compiled code)
+    if blocked and max_iter > MAX_TIMED_WORK / max(indptr[nc * dim], 1):
+        # (run's bound, read here: MAX_TIMED_WORK is frozen into the compiled code; compared
+        # in floats, where the product max_iter * nnz would wrap around in int64)
         return DECLINED_TOO_MUCH_WORK, to_fixed_tuple(np.zeros(_N_OUT), _N_OUT)
     if handoff_sweeps > 0:
         nnz = max(indptr[nc * dim], 1)
@@ -428,9 +431,11 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     mu = problem.mu
     indptr, indices, data = problem.csr_parts
     nc = mu.shape[0]
-    # the bounds (MAX_CONTACTS; with a time limit, MIN_TIME_LIMIT, and MAX_TIMED_WORK, which
-    # the kernel checks before any work: DECLINED_TOO_MUCH_WORK)
-    if nc > MAX_CONTACTS or nc == 0 or time_limit is not None and not time_limit >= MIN_TIME_LIMIT:
+    # the bounds (MAX_CONTACTS; a sweep cap the kernel's int64 holds; with a time limit,
+    # MIN_TIME_LIMIT, and MAX_TIMED_WORK, which the kernel checks before any work:
+    # DECLINED_TOO_MUCH_WORK)
+    if (nc > MAX_CONTACTS or nc == 0 or max_iter > _MAX_SWEEPS
+            or time_limit is not None and not time_limit >= MIN_TIME_LIMIT):
         return None
     q = problem.q
     if r0 is not None:          # (the kernel's entry point reads a contiguous float64 vector

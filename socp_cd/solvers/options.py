@@ -86,9 +86,10 @@ def check_real(name, value, *, positive=False, minimum=None, maximum=None,
     return v
 
 
-def check_int(name, value, *, minimum=None) -> int:
+def check_int(name, value, *, minimum=None, maximum=None) -> int:
     """``value`` as an int (no bool, no str, no non-integral float) or ``InvalidProblemError``."""
-    if type(value) is int and (minimum is None or value >= minimum):
+    if (type(value) is int and (minimum is None or value >= minimum)
+            and (maximum is None or value <= maximum)):
         return value                                    # fast path
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         if isinstance(value, numbers.Real) and not isinstance(value, bool) \
@@ -100,6 +101,8 @@ def check_int(name, value, *, minimum=None) -> int:
     v = int(value)
     if minimum is not None and v < minimum:
         raise InvalidProblemError(name, f"must be >= {minimum}, got {v}")
+    if maximum is not None and v > maximum:
+        raise InvalidProblemError(name, f"must be <= {maximum}, got {v}")
     return v
 
 
@@ -110,6 +113,11 @@ def check_choice(name, value, choices):
     return value
 
 
+#: largest ``max_iter`` (the compiled loops count iterations in int64; 2**62 iterations are
+#: beyond any run's reach)
+MAX_ITER = 2 ** 62
+
+
 def check_common(tol, max_iter, time_limit, verbose, inner_settings):
     """Validated common options; returns ``(tol, max_iter, time_limit, verbose, inner_settings)``."""
     if tol is None:
@@ -117,7 +125,8 @@ def check_common(tol, max_iter, time_limit, verbose, inner_settings):
     if not (type(tol) is float and 0.0 < tol < math.inf):   # fast path: a positive float
         tol = check_real("tol", tol, positive=True)
     # None stays None: the solver applies its documented default (SolverSpec.default_max_iter)
-    max_iter = None if max_iter is None else check_int("max_iter", max_iter, minimum=1)
+    max_iter = None if max_iter is None else check_int("max_iter", max_iter, minimum=1,
+                                                       maximum=MAX_ITER)
     if time_limit is not None and not (type(time_limit) is float and 0.0 < time_limit < math.inf):
         time_limit = check_real("time_limit", time_limit, positive=True)
     if type(verbose) is not bool:
@@ -143,5 +152,5 @@ def check_unknown(solver_name, options, declared):
                                f"valid options: {valid}")
 
 
-__all__ = ["inner_tolerance", "tightened_tolerance", "COMMON_OPTIONS", "SOLVE_ARGUMENTS", "check_common", "check_unknown", "check_real",
+__all__ = ["inner_tolerance", "tightened_tolerance", "COMMON_OPTIONS", "SOLVE_ARGUMENTS", "check_common", "MAX_ITER", "check_unknown", "check_real",
            "check_int", "check_choice"]

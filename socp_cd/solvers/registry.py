@@ -247,7 +247,9 @@ def _routed(out, name, tol, time_limit, t0):
     it would on the general path).  The route filled ``u``, the residuals and the guard with
     the dispatcher's own kernels; the verdict is :func:`_verdict`'s, as on
     the general path (its test is made on ``guard_value`` first, so that a
-    result that converged never builds a lazy ``info``).
+    result that converged never builds a lazy ``info``).  ``SolverSpec.plain``
+    (``auto.plain``) applies the converged branch's rule itself to measures
+    clear of ``tol``: keep the two in step.
     """
     res, value, resume = out
     if resume is not None:
