@@ -41,7 +41,6 @@ Through the general path each trial cost ~60 µs of Python around a kernel of
 """
 from __future__ import annotations
 
-import math
 from collections import namedtuple
 
 import numpy as np
@@ -57,6 +56,7 @@ from .kernels.dense import csr_matvec_add, csr_matvec_add_into, csr_to_dense, ma
 from .kernels.entry import F64_VECTOR, entry_point, index_vector
 from .kernels.newton_ac import block_rho_dense
 from .kernels.scaling import GUARD_KEYS, balance_csr, balanced_guard, factor_summary, origin_error
+from .options import MAX_ITER
 from .nsgs_kernels import (STATUS_NAMES, BlockW, Law, LocalSolver, Origin, Sweeps,
                            local_parameters, next_block, nsgs_loop, whole_windows)
 
@@ -69,8 +69,6 @@ MAX_CONTACTS = 20000
 #: a clock, so that work must fit well inside the limit (5e7 entry visits take ~0.1 s)
 MIN_TIME_LIMIT = 0.5
 MAX_TIMED_WORK = 5e7
-#: sweep caps above this go the general path (the kernel counts sweeps in int64)
-_MAX_SWEEPS = 2 ** 62
 #: first block of sweeps when a time limit is given (also the NSGS backend's, which checks
 #: the clock between blocks)
 TIME_CHECK_SWEEPS = 10
@@ -78,8 +76,8 @@ TIME_CHECK_SWEEPS = 10
 #: kernel outcome codes besides the sweep statuses of :mod:`~socp_cd.solvers.nsgs_kernels`
 DECLINED_FRICTIONLESS = -2   # every mu = 0 and friction was required
 DECLINED_ILL_POSED = -3      # a contact with W_NN <= 0 (the general path reports it)
-DECLINED_NOT_FINITE = -4     # r or u not finite (the general path reports it)
-DECLINED_UNCHECKED = -5      # Siconos' error overflows or the guard is not finite (ditto)
+DECLINED_NOT_FINITE = -4     # r or u not finite, or the checks cannot judge them (the
+                             # general path reports it: checked_answer)
 DECLINED_TOO_MUCH_WORK = -6  # blocked (a time limit) and max_iter * nnz(W) > MAX_TIMED_WORK
 
 #: the compiled trials run on local problems of at most this many unknowns (``auto``'s cold
@@ -121,8 +119,10 @@ def checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_
     ``DIAG_MAX``, ``GUARD_FINITE`` and the units guard's of ``stats``
     (:func:`~socp_cd.solvers.kernels.cone.error_parts`,
     :func:`~socp_cd.solvers.kernels.scaling.balanced_guard`,
-    :func:`~socp_cd.solvers.kernels.scaling.factor_summary`).  False (nothing filled)
-    when ``r`` or ``u`` is not finite."""
+    :func:`~socp_cd.solvers.kernels.scaling.factor_summary`).  False when ``r`` or ``u`` is
+    not finite (nothing filled) or the checks cannot judge them: Siconos' error overflows or
+    the units guard is not finite (both kernels' callers then leave the answer to the
+    general path)."""
     m = q.shape[0]
     r, u = vectors[1], vectors[2]
     for j in range(m):
@@ -140,7 +140,7 @@ def checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_
     stats[DIAG_MAX] = d_max
     stats[GUARD_FINITE] = 1.0 if g_finite else 0.0
     stats[_N_STATS:] = guard
-    return True
+    return g_finite and np.isfinite(stats[ERROR])
 
 
 @njit(cache=True)
@@ -189,9 +189,7 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     Returns
     -------
     code : int
-        The sweeps' status, or a ``DECLINED_*`` code (then nothing else is meaningful;
-        :data:`DECLINED_UNCHECKED`: the answer is finite, but Siconos' error of it
-        overflows or its units guard is not finite).
+        The sweeps' status, or a ``DECLINED_*`` code (then nothing else is meaningful).
     stats : tuple of float
         A tuple, not an array (boxing floats costs a third of an array's and
         its ``tolist``): the entries named by :data:`STATS`, then the units guard's
@@ -206,12 +204,12 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     """
     nc = mu.shape[0]
     m = q.shape[0]
-    if blocked and max_iter > MAX_TIMED_WORK / max(indptr[nc * dim], 1):
+    nnz = max(indptr[nc * dim], 1)
+    if blocked and max_iter > MAX_TIMED_WORK / nnz:
         # (run's bound, read here: MAX_TIMED_WORK is frozen into the compiled code; compared
         # in floats, where the product max_iter * nnz would wrap around in int64)
         return DECLINED_TOO_MUCH_WORK, to_fixed_tuple(np.zeros(_N_OUT), _N_OUT)
     if handoff_sweeps > 0:
-        nnz = max(indptr[nc * dim], 1)
         cap = max(handoff_sweeps, (handoff_work + nnz - 1) // nnz)
         if cap < max_iter:
             max_iter = cap
@@ -259,8 +257,6 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     if not checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_s,
                           vectors, stats):
         return DECLINED_NOT_FINITE, to_fixed_tuple(stats, _N_OUT)
-    if stats[GUARD_FINITE] == 0.0 or not np.isfinite(stats[ERROR]):
-        return DECLINED_UNCHECKED, to_fixed_tuple(stats, _N_OUT)
     stats[SWEEPS] = done
     stats[INTERNAL_ERROR] = err
     stats[N_FULL] = n_full
@@ -358,7 +354,7 @@ def trial_checked(indptr, indices, data, q, mu, dim, r_s, norm_q, vectors):
     of ``r = a r~``; the counters 0); ``judge_guard`` the judge's ``guard_value``
     (the units guard of the balanced pair with unit factors 1, or Siconos' error as
     written when larger; ``inf`` when not finite); ``vectors`` (3, m) as there (row 0
-    ``r_s``); ``ok`` False when ``r`` or ``u`` is not finite.  ``norm_q``: ``||q~||``
+    ``r_s``); ``ok`` False when :func:`checked_answer` is.  ``norm_q``: ``||q~||``
     as the judge computes it.
     """
     nc = mu.shape[0]
@@ -431,10 +427,10 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     mu = problem.mu
     indptr, indices, data = problem.csr_parts
     nc = mu.shape[0]
-    # the bounds (MAX_CONTACTS; a sweep cap the kernel's int64 holds; with a time limit,
-    # MIN_TIME_LIMIT, and MAX_TIMED_WORK, which the kernel checks before any work:
-    # DECLINED_TOO_MUCH_WORK)
-    if (nc > MAX_CONTACTS or nc == 0 or max_iter > _MAX_SWEEPS
+    # the bounds (MAX_CONTACTS; a sweep cap the kernel's int64 holds, options.MAX_ITER;
+    # with a time limit, MIN_TIME_LIMIT, and MAX_TIMED_WORK, which the kernel checks before
+    # any work: DECLINED_TOO_MUCH_WORK)
+    if (nc > MAX_CONTACTS or nc == 0 or max_iter > MAX_ITER
             or time_limit is not None and not time_limit >= MIN_TIME_LIMIT):
         return None
     q = problem.q
@@ -517,7 +513,7 @@ def trial_outcome(problem, norm_q, status, r_s):
     vectors = np.empty((3, problem.q.shape[0]))
     ok, x, judge_guard = trial_checked(indptr, indices, data, problem.q, problem.mu,
                                        problem.dim, r_s, norm_q, vectors)
-    if not ok or not x[GUARD_FINITE] or not math.isfinite(x[ERROR]):
+    if not ok:              # (r, u not finite, or the checks cannot judge them)
         return None
     return RouteOutcome(status, vectors, x), judge_guard
 

@@ -354,12 +354,9 @@ def _plain_call(problem, spec, tol, time_limit):
     out = spec.plain(problem, tol, time_limit, t0)
     if out.__class__ is SolverResult:
         return out
-    routed = out is not None
-    resume = None
-    if routed:
-        res, resume = _routed(out, spec.name, tol, time_limit, t0)
-        if res is not None:
-            return res
+    res, resume, routed = _judged(out, spec.name, tol, time_limit, t0)
+    if res is not None:
+        return res
     return _general(problem, spec, "coulomb", tol, None, None, False, time_limit, False, {}, {},
                     t0, resume, routed)
 
@@ -369,9 +366,16 @@ def _try_route(problem, spec, tol, max_iter, r0, time_limit, t0):
     else ``(None, resume, routed)`` for :func:`_general` (``routed``: the route ran and its
     time counts; ``resume``: where it stopped, see :func:`_routed`)."""
     out = spec.route(problem, tol=tol, max_iter=max_iter, r0=r0, time_limit=time_limit)
+    return _judged(out, spec.name, tol, time_limit, t0)
+
+
+def _judged(out, name, tol, time_limit, t0):
+    """A route's outcome ``out`` (None: it did not apply) as :func:`_try_route` returns it:
+    ``(result, None, True)`` when its result stands (:func:`_routed`), else ``(None,
+    resume, routed)``."""
     if out is None:
         return None, None, False
-    res, resume = _routed(out, spec.name, tol, time_limit, t0)
+    res, resume = _routed(out, name, tol, time_limit, t0)
     return res, resume, True
 
 
