@@ -803,3 +803,44 @@ def test_a_stage_slow_to_stop_does_not_start_when_its_last_run_exceeds_the_time_
     clock[0] = 0.0
     socp_cd.solve(p, tol=1e-30, time_limit=10.0, methods=methods)
     assert log == ["clarabel", "newton", "clarabel", "newton"]
+
+
+def test_a_stage_slow_to_stop_does_not_first_start_on_a_sliver_of_the_budget(monkeypatch):
+    """MIN_SLOW_START: under a budget, the fixed point (not interruptible in its set-up and
+    first iteration) does not start after another stage with less than that share of the
+    budget left; with more left, or as the first stage, it starts."""
+    clock = [0.0]
+    monkeypatch.setattr(auto, "_clock", lambda: clock[0])
+    monkeypatch.setattr(auto._Judge, "__call__",
+                        lambda self, r: np.inf if r is None else float(r[0]))
+    monkeypatch.setattr(auto._Judge, "guard_value", lambda self, r: float(r[0]))
+    monkeypatch.setattr(auto, "MIN_SLOW_START", 0.1)
+    log = []
+
+    def stage(name, cost):
+        def func(problem, formulation, *, tol, max_iter, r0, history, time_limit, verbose,
+                 inner_settings, **options):
+            log.append(name)
+            clock[0] += cost[0]
+            return SolverResult(r=np.full(problem.m, 1e-7 / len(log)), status="max_iter",
+                                iterations=1)
+        return SolverSpec(name, func, ("coulomb",), global_native=("coulomb",))
+    newton_cost = [0.95]
+    monkeypatch.setitem(auto._STAGES, "clarabel", (stage("clarabel", [0.5]), {}))
+    monkeypatch.setitem(auto._STAGES, "newton", (stage("newton", newton_cost), {}))
+    p = _local(3, 3, 1)
+    res = socp_cd.solve(p, tol=1e-30, time_limit=1.0, methods=("newton", "clarabel"))
+    assert log == ["newton"] and res.status == "time_limit"
+    assert "clarabel not started" in res.message
+    for cost, methods, ran in ((0.85, ("newton", "clarabel"), ["newton", "clarabel"]),
+                               (0.0, ("clarabel", "newton"), ["clarabel", "newton"])):
+        log.clear()
+        clock[0], newton_cost[0] = 0.0, cost
+        socp_cd.solve(p, tol=1e-30, time_limit=1.0, methods=methods)
+        assert log == ran
+    # off (0): it starts on any time left
+    monkeypatch.setattr(auto, "MIN_SLOW_START", 0.0)
+    log.clear()
+    clock[0], newton_cost[0] = 0.0, 0.99
+    socp_cd.solve(p, tol=1e-30, time_limit=1.0, methods=("newton", "clarabel"))
+    assert log == ["newton", "clarabel"]

@@ -680,11 +680,17 @@ def test_scaled_error_parts_is_error_parts_of_the_products(dim):
             error_parts(a * r, b * u, mu, g, dim, law)          # the same bits
 
 
-def test_compiled_trials_equal_general_path_and_resume(monkeypatch):
+@pytest.mark.parametrize("prox_first", [False, True])
+def test_compiled_trials_equal_general_path_and_resume(monkeypatch, prox_first):
     # after the route's NSGS stage misses tol, the hand-off's Newton trials (plain from NSGS's
     # iterate, plain and proximal from r = 0) run compiled too (auto._compiled_trials): a trial
     # that meets tol ends the call on the route; a failed one is handed on (resume) and the
-    # chain goes on as on the general path, which runs every trial itself
+    # chain goes on as on the general path, which runs every trial itself; in either order of
+    # the cold trials (auto.COLD_PROX_FIRST, a study knob)
+    from socp_cd.solvers import auto
+    monkeypatch.setattr(auto, "COLD_PROX_FIRST", prox_first)
+    cold = ["newton_trial_prox", "newton_trial_cold"] if prox_first else \
+        ["newton_trial_cold", "newton_trial_prox"]
     seen = []
     real = nsgs_route.trial_runner
 
@@ -703,6 +709,8 @@ def test_compiled_trials_equal_general_path_and_resume(monkeypatch):
                         seed=0)
     cases = [(case(2, 6), plain), (case(3, 6), plain), (case(3, 7), (dict(tol=1e-14),)),
              (tree, plain[:1])]
+    if prox_first:      # (the proximal trial meets the tolerances above: one it misses)
+        cases.append((case(3, 10), (dict(tol=1e-12),)))
     outcomes = set()
     for p, kws in cases:
         for kw in kws:
@@ -715,11 +723,11 @@ def test_compiled_trials_equal_general_path_and_resume(monkeypatch):
             for sa, sb in zip(a.info["path"], b.info["path"]):
                 assert sa["error"] == pytest.approx(sb["error"], rel=1e-9, abs=1e-13)
             assert a.info["best_stage"] == b.info["best_stage"]
-            # the route ran the chain's trials, in its order: plain, plain, proximal
-            assert seen and seen == [False, False, True][:len(seen)]
+            # the route ran the chain's trials, in its order: plain, then the cold ones
+            assert seen and seen == [False] + [c == "newton_trial_prox"
+                                               for c in cold][:len(seen) - 1]
             methods = [s["method"] for s in a.info["path"]]
-            assert methods[1:1 + len(seen)] == ["newton_trial", "newton_trial_cold",
-                                                "newton_trial_prox"][:len(seen)]
+            assert methods[1:1 + len(seen)] == ["newton_trial"] + cold[:len(seen) - 1]
             if "route" in a.info:
                 assert a.converged and len(methods) == 1 + len(seen)    # met tol on the route
                 outcomes.add("route")

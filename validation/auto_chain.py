@@ -78,6 +78,20 @@ Session 20's:
     1e-3 (``base`` too).  0.5 and 0.5 measured in session 20, not adopted
     (``validation/newton_inner.py`` measures the method alone; ``formulations/newton.md`` §4).
 
+Session 22's:
+
+``COLD_PROX_FIRST``
+    the hand-off's cold trials in the other order: the proximal method from ``r = 0`` first,
+    then plain Newton from ``r = 0`` (False since session 13; tune: no case won or lost, sgm
+    unchanged, not adopted: ``results/auto_chain_tune_s22prox.md``);
+``MIN_SLOW_START``
+    the fixed point does not start for the first time, after another stage, with less than
+    this share of the time budget left (0 before session 22; 0.1 adopted:
+    ``results/auto_chain_tune_s22slow{,01}.md``, held out ``auto_chain_holdout_s22slow.md``);
+``STAGE_SHARE``
+    the share of the time left a stage receives (0.5; 0.65 and 0.8 measured, not adopted:
+    ``results/auto_chain_tune_s22share.md``).
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``) or ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``.  Problems:
@@ -112,17 +126,20 @@ OUT = Path(__file__).resolve().parent / "results"
 RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL",
          "NEWTON_STALL", "COLD_PROX_STEPS", "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS",
          "COLD_ALPHA0", "COMPILED_LOOP_MAX_M", "ALT_ALPHA0", "HANDOFF_PREDICT", "COMPILED_LU_MAX_ENVELOPE",
-         "TRIAL_STEPS", "TRIAL_STALL", "INNER_GATE", "INNER_DECREASE")
+         "TRIAL_STEPS", "TRIAL_STALL", "INNER_GATE", "INNER_DECREASE", "COLD_PROX_FIRST",
+         "MIN_SLOW_START", "STAGE_SHARE")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
-FLOATS = ("COLD_ALPHA0", "ALT_ALPHA0", "COMPILED_LU_MAX_ENVELOPE", "INNER_GATE", "INNER_DECREASE")
+FLOATS = ("COLD_ALPHA0", "ALT_ALPHA0", "COMPILED_LU_MAX_ENVELOPE", "INNER_GATE", "INNER_DECREASE",
+          "MIN_SLOW_START", "STAGE_SHARE")
 BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD_TRIAL_STEPS": 0,
         "COLD_TRIAL_STALL": 10, "NEWTON_STALL": None, "COLD_PROX_STEPS": 0,
         "COLD_MAX_M": 72, "PREDICT_MAX_M": 72, "MAX_ROUNDS": 0, "COLD_ALPHA0": 1.0,
         "COMPILED_LOOP_MAX_M": 72, "ALT_ALPHA0": None, "HANDOFF_PREDICT": 20,
         "COMPILED_LU_MAX_ENVELOPE": -1.0, "TRIAL_STEPS": 6, "TRIAL_STALL": 2,
-        "INNER_GATE": 0.1, "INNER_DECREASE": 1e-3}
+        "INNER_GATE": 0.1, "INNER_DECREASE": 1e-3, "COLD_PROX_FIRST": False,
+        "MIN_SLOW_START": 0.0, "STAGE_SHARE": 0.5}
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M", "HANDOFF_PREDICT")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))

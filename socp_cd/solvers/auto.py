@@ -170,6 +170,10 @@ PREDICT_MAX_M = 72
 #: outer iteration is ~1 LU instead of 2-3; 30 and 45 measured on the tune split with it:
 #: no case won or lost, sgm within 0.5 % (validation/results/auto_chain_tune_s20prox.md)
 COLD_PROX_STEPS = 15
+#: the order of the two cold trials: False, plain Newton from ``r = 0`` first, then the
+#: proximal method; True, the proximal method first (a study knob, see
+#: :func:`_cold_trial_order`)
+COLD_PROX_FIRST = False
 #: stall window of the proximal Newton stages (None: the method's default, 50 outer iterations
 #: without a 10 % drop of the error).  Measured, not adopted (validation/results/
 #: auto_chain_{tune,holdout}_stall.md): 30 solved 2 more on tune and lost none, but held out
@@ -218,6 +222,14 @@ WARM_MAX = 1e-5
 #: such a stage does not start again when its earlier run in this call took longer than
 #: all the time left (the refused stage's retry overran a 1 s budget by 4 s)
 SLOW_TO_STOP = ("clarabel", "clarabel_qp")
+#: ... and, before its first run in a call, such a stage does not start (after the first stage)
+#: with less than this share of the budget left (0: off): its set-up and first iteration are
+#: not interruptible (Kapla tower, 1710 unknowns: the fixed point started with 0.03 s of a 1 s
+#: budget left and returned after 0.18 s).  Chosen on the tune split (266 local problems, up
+#: to 2000 contacts): at 1 s, 0.1 lost no case and cut the Kapla case's 1.80 s to 1.05 s, 0.2
+#: lost two Capsules cases the fixed point solved in the last 10-20 % of the budget; at 0.1 s
+#: none lost (validation/results/auto_chain_tune_s22slow{,01}.md)
+MIN_SLOW_START = 0.1
 #: stages always started from ``r = 0`` (or the caller's ``r0`` when first)
 ALWAYS_COLD = ("newton_plain_cold", "newton_trial_cold", "newton_trial_prox", "newton_cold_alt")
 #: the hand-off's cold trials (run only after a failed first trial, on m <= COLD_MAX_M)
@@ -286,8 +298,9 @@ def stage_order(problem, formulation, feats) -> tuple:
         # the hand-off's stages: listed whenever it is on; auto_backend skips them when the
         # cap for this call (_handoff_cap with the caller's max_iter) leaves no sweeps to hand off
         # (nsgs_mid and the second trial run only after an early hand-off whose trial failed)
-        handoff = ((("newton_trial", "coulomb"), ("newton_trial_cold", "coulomb"),
-                    ("newton_trial_prox", "coulomb"), ("nsgs_mid", "coulomb"),
+        handoff = ((("newton_trial", "coulomb"),)
+                   + tuple((name, "coulomb") for name in _cold_trial_order())
+                   + (("nsgs_mid", "coulomb"),
                     ("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
                    if HANDOFF_SWEEPS is not None and not last else ())
         return ((("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),) + plain
@@ -454,6 +467,12 @@ def _predict_window(problem):
     if type(w) is not int or w < 0:         # (a bool is not an int here)
         raise ValueError(f"socp_cd.solvers.auto.HANDOFF_PREDICT must be an int >= 0, got {w!r}")
     return w if problem.m <= PREDICT_MAX_M else 0
+
+
+def _cold_trial_order() -> tuple:
+    """The hand-off's cold trials in the order they run (:data:`COLD_PROX_FIRST`); the stage
+    order and the compiled route's trials (:func:`_compiled_trials`) both read it."""
+    return tuple(reversed(_COLD_TRIALS)) if COLD_PROX_FIRST else _COLD_TRIALS
 
 
 def _cold_steps(method):
@@ -649,9 +668,9 @@ def _trials_compile(problem) -> bool:
 JUDGE_MARGIN = 1e-4
 _JUDGE_LO = 1.0 - JUDGE_MARGIN      # (per call: one multiplication)
 
-#: the hand-off's trials the compiled route can run: (method, from NSGS's iterate, proximal)
-_ROUTE_TRIALS = (("newton_trial", True, False), ("newton_trial_cold", False, False),
-                 ("newton_trial_prox", False, True))
+#: the hand-off's trials the compiled route can run: method -> (from NSGS's iterate, proximal)
+_ROUTE_TRIALS = {"newton_trial": (True, False), "newton_trial_cold": (False, False),
+                 "newton_trial_prox": (False, True)}
 
 
 def _as_written(r, info):
@@ -672,7 +691,8 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
     done = []
     constants = newton.trial_constants()
     norm_q = nsgs_route.judge_norm(problem)
-    for k, (method, warm, prox) in enumerate(_ROUTE_TRIALS, start=1):
+    for k, method in enumerate(("newton_trial",) + _cold_trial_order(), start=1):
+        warm, prox = _ROUTE_TRIALS[method]
         if method == "newton_trial":
             steps, stall = TRIAL_STEPS, TRIAL_STALL
         else:
@@ -875,6 +895,11 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                     short = (f"{method} not run again: it took {took[method]:.3g} s, "
                              f"{left:.3g} s of the budget left")
                     continue
+                if (method in SLOW_TO_STOP and method not in took and k > 0
+                        and left < MIN_SLOW_START * time_limit):
+                    short = (f"{method} not started: {left:.3g} s of the {time_limit:g} s "
+                             f"budget left (less than MIN_SLOW_START = {MIN_SLOW_START:g})")
+                    continue
                 share = _SHARES.get(method, STAGE_SHARE)
                 stage_limit = left if k == len(order) - 1 else max(share * left, 1e-6)
             spec, stage_opts = _STAGES[method]
@@ -1006,4 +1031,4 @@ __all__ = ["auto_backend", "route", "plain", "features", "stage_order", "SPEC", 
            "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC", "RETRY_REFUSED",
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
-           "ALT_ALPHA0"]
+           "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START"]
