@@ -912,3 +912,23 @@ def test_timed_work_bound_declines_in_the_kernel():
     assert nsgs_route.run(p, st, 1e-8, 2 ** 63, None, None, True) is None
     with pytest.raises(socp_cd.SocpCdError, match="max_iter"):
         socp_cd.solve(p, "nsgs", max_iter=2 ** 62 + 1, time_limit=1.0)     # (options.MAX_ITER)
+
+
+def test_checked_answer_refuses_an_error_that_overflows():
+    # the compiled checks both route kernels share (nsgs_route.checked_answer) judge only
+    # answers whose checks are finite: a finite r and u whose squares overflow (Siconos' error
+    # inf) is refused, the general path reports it; the same pair scaled down is judged
+    W = sp.csr_matrix(np.eye(3))
+    indptr, indices, data = (W.indptr.astype(np.int64), W.indices.astype(np.int64),
+                             W.data.astype(np.float64))
+    mu, q = np.array([0.5]), np.zeros(3)
+    ones = np.ones(3)
+    n_stats = len(nsgs_route.STATS) + 7
+    for big, judged in ((1e200, False), (1.0, True)):
+        r_s = np.array([big, 0.0, 0.0])
+        vectors, stats = np.zeros((3, 3)), np.zeros(n_stats)
+        ok = nsgs_route.checked_answer(indptr, indices, data, q, mu, 3, ones, ones, 0.0, 1.0,
+                                       r_s, vectors, stats)
+        assert ok is judged
+        assert np.all(np.isfinite(vectors[1:])) and vectors[2][0] == big     # u = W r finite
+        assert bool(np.isfinite(stats[nsgs_route.ERROR])) is judged     # (inf/inf: NaN)
