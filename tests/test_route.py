@@ -70,6 +70,58 @@ def _same(a, b):
     assert a.info["scaling"] == b.info["scaling"]
 
 
+def _newton_general(monkeypatch, p, **kw):
+    with monkeypatch.context() as m:
+        m.setattr(nsgs_route, "TRIAL_MAX_M", 0)       # (newton.route declines)
+        res = socp_cd.solve(p, "newton", **kw)
+    assert "route" not in res.info
+    return res
+
+
+@pytest.mark.parametrize("name,p", CASES, ids=[c[0] for c in CASES])
+@pytest.mark.parametrize("time_limit", [None, 5.0])
+def test_newton_route_equals_general_path(monkeypatch, name, p, time_limit):
+    # solver="newton"'s compiled route (newton.route: the backend's runs through
+    # nsgs_route.trial_runner, the checks compiled) gives the general path's result: r, u,
+    # status, iterations, the residuals, the guard and every entry of the backend's info
+    from socp_cd.solvers import newton
+    socp_cd.solvers()
+    routed = expected = 0
+    for kw in (dict(), dict(max_iter=3), dict(tol=1e-12),
+               dict(r0=np.random.default_rng(1).random(p.m))):
+        a = socp_cd.solve(p, "newton", time_limit=time_limit, **kw)
+        b = _newton_general(monkeypatch, p, time_limit=time_limit, **kw)
+        _same(a, b)
+        assert a.message == b.message
+        # the route takes a call within its bounds (unless the checks refute a claim)
+        takes = p.m <= nsgs_route.TRIAL_MAX_M and newton.compiled_written_out(p) and (
+            time_limit is None or newton._route_work(p.m, kw.get("max_iter", 200))
+            <= newton.ROUTE_TIMED_WORK)
+        expected += takes
+        if "route" in a.info:
+            assert takes
+            routed += 1
+            assert {k: v for k, v in a.info.items() if k != "route"} == b.info
+    assert (routed > 0) is (expected > 0)
+
+
+def test_newton_route_bounds_under_a_time_limit():
+    # with a time limit the route (one compiled call, no clock) takes a run whose worst case
+    # is bounded (ROUTE_TIMED_WORK) under a limit of at least ROUTE_MIN_TIME_LIMIT
+    from socp_cd.solvers import newton
+    socp_cd.solvers()
+    p = _random(3, 3, 0)
+    assert newton._route_work(p.m, 200) <= newton.ROUTE_TIMED_WORK
+    lim = newton.ROUTE_MIN_TIME_LIMIT
+    assert "route" in socp_cd.solve(p, "newton", time_limit=lim).info
+    assert "route" not in socp_cd.solve(p, "newton", time_limit=lim * 0.99).info
+    big = _random(20, 3, 4)         # (m = 60: within TRIAL_MAX_M, beyond the timed bound)
+    assert newton._route_work(big.m, 200) > newton.ROUTE_TIMED_WORK
+    assert "route" in socp_cd.solve(big, "newton").info
+    assert "route" not in socp_cd.solve(big, "newton", time_limit=10.0).info
+    assert "route" in socp_cd.solve(big, "newton", time_limit=10.0, max_iter=2).info
+
+
 @pytest.mark.parametrize("name,p", CASES, ids=[c[0] for c in CASES])
 @pytest.mark.parametrize("time_limit", [None, 5.0])
 def test_nsgs_route_equals_general_path(monkeypatch, name, p, time_limit):
@@ -614,6 +666,7 @@ def test_newton_goes_on_when_only_the_balanced_error_met_tol(monkeypatch, args):
     assert res.iterations > sum(run["iterations"] for run in runs)
     with monkeypatch.context() as m:
         m.setattr(newton, "origin", lambda problem: None)
+        m.setattr(nsgs_route, "TRIAL_MAX_M", 0)       # (the general path: newton.route off)
         before = socp_cd.solve(p, "newton")
     assert before.info["continued"] == [] and before.info["retry"]["first_error"] > 1e-8
     assert before.info["retry"]["first_iterations"] == runs[0]["iterations"]
@@ -642,6 +695,7 @@ def test_newton_continuation_keeps_its_contracts(monkeypatch):
             return ("stalled", np.full_like(out[1], 1e3)) + out[2:]
         return out
     monkeypatch.setattr(newton, "prox_newton", failing)
+    monkeypatch.setattr(nsgs_route, "TRIAL_MAX_M", 0)     # (the general path: newton.route off)
     kept = socp_cd.solve(p, "newton")
     assert len(runs) >= 3 and runs[1] == max(min(newton.COLD_ALPHA0, newton.WARM_ALPHA0), 1e-10)
     # the claim stood, the dispatcher refused it and its retry (a new backend call) ran

@@ -5,7 +5,8 @@ Prints one line per run: for each problem, the min over 5 × 5 000 calls of
 (a new problem per call, the benchmark's call) and ``solve(p, "nsgs")``, in µs,
 then the benchmark's call again with the copies made before the timer, as the
 benchmark makes them (``validation/newton_vs_siconos.py``): the second column
-also times ``copy.copy`` itself (~1.4 µs) and its effect on the caches.
+also times ``copy.copy`` itself (~1.4 µs) and its effect on the caches; then (since
+session 22) ``solve(p, "newton")``.
 Compare two trees in alternating rounds on the same machine (the README's
 session-9 table: two rounds each)::
 
@@ -57,11 +58,13 @@ def main() -> int:
         p = socp_cd.read_problem(shared_problems_dir() / name)
         socp_cd.solve(p)
         socp_cd.solve(p, "nsgs")
+        socp_cd.solve(p, "newton")
         same = per_call(lambda: socp_cd.solve(p))
         fresh = per_call(lambda: socp_cd.solve(copy.copy(p), time_limit=1.0))
         nsgs = per_call(lambda: socp_cd.solve(p, "nsgs"))
         outside = per_call_fresh(p)
-        out.append(f"{name}:{same:.1f}/{fresh:.1f}/{nsgs:.1f}/{outside:.1f}")
+        newton = per_call(lambda: socp_cd.solve(p, "newton"), number=2000)
+        out.append(f"{name}:{same:.1f}/{fresh:.1f}/{nsgs:.1f}/{outside:.1f}/{newton:.1f}")
     line = f"{Path(socp_cd.__file__).resolve().parents[1]} " + " ".join(out)
     print(line)
     results = Path(__file__).resolve().parent / "results"

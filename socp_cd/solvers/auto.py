@@ -673,11 +673,6 @@ _ROUTE_TRIALS = {"newton_trial": (True, False), "newton_trial_cold": (False, Fal
                  "newton_trial_prox": (False, True)}
 
 
-def _as_written(r, info):
-    """Siconos' error as written of a compiled trial's run (:func:`_compiled_trials`)."""
-    return info["error_as_written"]
-
-
 def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
     """The hand-off's Newton trials after the compiled route's NSGS stage ``out``, compiled
     (:func:`socp_cd.solvers.nsgs_route.trial_runner` in the Newton backend's
@@ -710,10 +705,9 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
         start = out.vectors[0].copy() if warm else np.zeros(problem.m)
         # the Newton backend's runs (newton.continued_runs: on the dispatcher's balanced copy
         # a run that meets tol there and not as written goes on), its default settings
-        st, r_s, its, _, _ = newton.continued_runs(run, _as_written, start, tol, steps,
-                                                   constants[nsgs_route.C_ALPHA0],
-                                                   constants[nsgs_route.C_ALPHA_MIN],
-                                                   None)
+        st, r_s, its, _, _ = newton.continued_runs(run, newton.as_written_of_run, start, tol,
+                                                   steps, constants[nsgs_route.C_ALPHA0],
+                                                   constants[nsgs_route.C_ALPHA_MIN], None)
         checked = nsgs_route.trial_outcome(problem, norm_q, st, r_s)
         if checked is None:
             break

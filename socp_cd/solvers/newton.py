@@ -90,7 +90,8 @@ from .kernels.cone import project_cone_stacked, siconos_error
 from .kernels.dense import (LAPACK_LU, NAIVE_LU_MAX_N, PIVOT_TOL, csr_to_dense, dense_solve,
                             envelope_fraction, matvec, matvec_into)
 from .kernels.newton_ac import ac_blocks, block_jacobian, block_rho_dense, dense_jacobian
-from .kernels.scaling import origin_error
+from .kernels.scaling import balance_csr, origin_error
+from . import nsgs_route
 from .options import check_choice, check_int, check_real, tightened_tolerance
 from .polish import associated_polish
 from .result import SolverResult
@@ -175,6 +176,8 @@ _ALPHA_MAX = 1e8
 #: defaults of the options alpha_min and inner_max_iter
 _DEFAULT_ALPHA_MIN = 1e-10
 _DEFAULT_INNER_MAX_ITER = 10
+#: outer iterations without a 10 % drop of the best error before a run stops (``stall_window``)
+DEFAULT_STALL_WINDOW = 50
 #: a solved proximal subproblem is accepted while its error <= NONMONOTONE * best
 NONMONOTONE = 10.0
 #: the proximal subproblem is *solved* (the outer iteration ends) by a full Newton step
@@ -874,15 +877,7 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
     if status != "converged" and best_err < err:
         r = best_r
     system.factorizations += ist[nd.I_FACTORIZATIONS]
-    alpha = fs[nd.F_ALPHA]
-    info = {"alpha": alpha, "alpha_relative": alpha / wscale,
-            "alpha_max_relative": fs[nd.F_ALPHA_MAX_USED] / wscale,
-            "newton_steps": ist[nd.I_NEWTON], "plain_steps": ist[nd.I_NEWTON] if plain else 0,
-            "policy": "plain" if plain else "prox",
-            "backtracks": ist[nd.I_BACKTRACK], "line_search_failures": ist[nd.I_LS_FAIL],
-            "singular_steps": ist[nd.I_SINGULAR], "rejected_outer": ist[nd.I_REJECTED],
-            "factorizations": system.factorizations, "linear_solver": system.kind,
-            "internal_error": min(err, best_err), "rho": rho}
+    info = nd.run_info(fs, ist, wscale, plain, system.factorizations, system.kind, rho)
     return status, r, ist[nd.I_IT], None, info
 
 
@@ -908,7 +903,8 @@ def _settings(problem, options, inner_settings=None) -> dict:
     return dict(alpha0=alpha0, alpha_min=alpha_min,
                 inner_max_iter=check_int("inner_max_iter",
                                          get("inner_max_iter", _DEFAULT_INNER_MAX_ITER), minimum=1),
-                stall_window=check_int("stall_window", get("stall_window", 50), minimum=0),
+                stall_window=check_int("stall_window", get("stall_window", DEFAULT_STALL_WINDOW),
+                                       minimum=0),
                 linear_solver=check_choice("linear_solver", get("linear_solver", "auto"),
                                            ("auto", "dense", "splu")),
                 global_mode=check_choice("global_mode", get("global_mode", "auto"),
@@ -948,11 +944,7 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
         status, r, iters, hist, info = continued_runs(run, as_written, r, tol, max_iter,
                                                       st["alpha0"], st["alpha_min"],
                                                       time_limit, history, t0)
-    message = ""
-    if status == "stalled":
-        message = f"no 10 % drop of the error over {st['stall_window']} outer iterations"
-    elif status == "numerical_error":
-        message = "non-finite error; r is the last finite iterate"
+    message = _message(status, st["stall_window"])
     if verbose:
         print(f"newton: {status} after {iters} outer iterations, error {info['internal_error']:.3e}")
     extra = system.result_extra()
@@ -962,6 +954,15 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
             extra["v"] = glob.global_velocity(r)
     return SolverResult(r=r, status=status, iterations=iters, history=hist, info=info,
                         message=message, **extra)
+
+
+def _message(status, stall_window) -> str:
+    """The backend's message for a run that ended with ``status``."""
+    if status == "stalled":
+        return f"no 10 % drop of the error over {stall_window} outer iterations"
+    if status == "numerical_error":
+        return "non-finite error; r is the last finite iterate"
+    return ""
 
 
 def continued_runs(run, as_written, r, tol, max_iter, alpha0, alpha_min, time_limit,
@@ -1118,12 +1119,85 @@ def resolve_polish(choice):
                            f"got {choice!r}")
 
 
+#: the compiled route (:func:`route`) takes a call with a time limit only when the limit is
+#: at least ROUTE_MIN_TIME_LIMIT seconds and the run's worst case, ``max_iter *
+#: inner_max_iter * (m³/3 + 64 m²)`` multiply-adds (LU factorizations and line searches), is
+#: at most ROUTE_TIMED_WORK (~30 ms at 1 Gmadd/s, a third of that limit): the route runs its
+#: loop in one compiled call, while the backend reads the clock between chunks
+#: (CHUNK_WORK), which on such a run cannot stop it before it ends
+ROUTE_MIN_TIME_LIMIT = 0.1
+ROUTE_TIMED_WORK = 3e7
+
+
+def _route_work(m, max_iter) -> float:
+    """The route's worst-case multiply-adds of a run (see :data:`ROUTE_TIMED_WORK`)."""
+    return float(max_iter) * _DEFAULT_INNER_MAX_ITER * (m ** 3 / 3.0 + 64.0 * m * m)
+
+
+def as_written_of_run(r, info):
+    """Siconos' error as written that a compiled run measured (``continued_runs``' test of a
+    :func:`~socp_cd.solvers.nsgs_route.trial_runner` run: :func:`route`, ``auto``'s trials)."""
+    return info["error_as_written"]
+
+
+def route(problem, *, tol, max_iter, r0, time_limit):
+    """The compiled route of a plain Newton call (``SolverSpec.route``).
+
+    For a local exact-Coulomb problem of at most
+    :data:`~socp_cd.solvers.nsgs_route.TRIAL_MAX_M` unknowns that the backend runs on the
+    compiled dense loop with the written-out LU (:func:`compiled_written_out`), called
+    with the default settings (and, with a time limit, within :data:`ROUTE_TIMED_WORK`):
+    the backend's runs on the balanced problem
+    (:func:`~socp_cd.solvers.nsgs_route.trial_runner` in :func:`continued_runs`, the same
+    iterates bit for bit) and the dispatcher's checks, in compiled calls
+    (:func:`~socp_cd.solvers.nsgs_route.trial_outcome`), as ``(result, guard_value,
+    None)``: ``info`` the backend's, with the dispatcher's ``guard`` and ``scaling`` records
+    and ``route = "compiled"``.  The general path's set-up (balanced copy, Newton system,
+    NumPy checks) cost ~50 of a ~70 µs call on a few contacts.  None when the route does
+    not apply or the checks cannot judge the answer (the general path reports it).
+    """
+    m = problem.q.shape[0]
+    if (m > nsgs_route.TRIAL_MAX_M or DEFAULT_POLICY != "prox" or DEFAULT_RHO != "block"
+            or problem.is_global):
+        return None
+    max_iter = DEFAULT_MAX_ITER if max_iter is None else int(max_iter)
+    if time_limit is not None and not (time_limit >= ROUTE_MIN_TIME_LIMIT
+                                       and _route_work(m, max_iter) <= ROUTE_TIMED_WORK):
+        return None
+    if not compiled_written_out(problem):
+        return None
+    constants = trial_constants()
+    norm_q = nsgs_route.judge_norm(problem)
+    run = nsgs_route.trial_runner(problem, norm_q, True, DEFAULT_STALL_WINDOW, constants)
+    if r0 is None:
+        start = np.zeros(m)
+    else:                   # (the dispatcher's Scaling.reaction_to_scaled: r~ = r0 / a)
+        indptr, indices, data = problem.csr_parts
+        start = np.asarray(r0, dtype=np.float64) / balance_csr(indptr, indices, data, problem.q,
+                                                               problem.mu, problem.dim)[0]
+    status, r_s, iters, _, info = continued_runs(run, as_written_of_run, start, tol, max_iter,
+                                                 COLD_ALPHA0, _DEFAULT_ALPHA_MIN, None)
+    checked = nsgs_route.trial_outcome(problem, norm_q, status, r_s)
+    if checked is None:
+        return None
+    out = checked[0]
+    x = out.stats
+    del info["error_as_written"]
+    info["scaling"] = nsgs_route.scaling_record(x)
+    info["guard"] = nsgs_route.guard_record(x)
+    info["route"] = "compiled"
+    return (SolverResult.of_local(out.vectors[1], out.vectors[2], status, x[nsgs_route.ERROR],
+                                  iters, info, _message(status, DEFAULT_STALL_WINDOW),
+                                  x[nsgs_route.ZERO_ERROR] <= tol),
+            x[nsgs_route.GUARD_VALUE], None)
+
+
 SPEC = SolverSpec(
     "newton", newton_backend, ("coulomb",), global_native=("coulomb",), dims=(2, 3),
     description="proximal-point semismooth Newton on the Alart–Curnier equation "
                 "(exact Coulomb law; local and global, dense LU or SuperLU)",
     default_max_iter=DEFAULT_MAX_ITER, options=OPTIONS,
-    check=lambda problem, options, inner_settings: _settings(problem, options))
+    check=lambda problem, options, inner_settings: _settings(problem, options), route=route)
 
 
 def warmup() -> float:
@@ -1151,4 +1225,5 @@ def warmup() -> float:
 
 __all__ = ["newton_backend", "trial_constants", "continued_runs", "compiled_written_out", "BlockJacobian", "prox_newton", "newton_polish", "resolve_polish", "POLISH_NAMES",
            "WARM_ALPHA0", "COLD_ALPHA0", "velocity_relative_error", "POLICIES", "warmup",
-           "DEFAULT_MAX_ITER", "OPTIONS", "SPEC"]
+           "DEFAULT_MAX_ITER", "DEFAULT_STALL_WINDOW", "OPTIONS", "SPEC", "route", "as_written_of_run", "ROUTE_MIN_TIME_LIMIT",
+           "ROUTE_TIMED_WORK"]

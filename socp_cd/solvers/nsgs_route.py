@@ -269,7 +269,7 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
 
 @njit(cache=True)
 def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, stall_window,
-              prox, constants, alpha0, r_s):
+              prox, constants, alpha0, r_s, fstate, istate):
     """One run of the Newton backend's compiled loop on the balanced problem, from ``start``.
 
     The loop the backend runs with its default settings — plain steps
@@ -300,14 +300,18 @@ def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, s
     r_s : ndarray (m,)
         Output: the run's answer (its last iterate, or its best one when it did not
         converge).
+    fstate, istate : ndarray
+        Output: the loop's state at its end (:func:`~socp_cd.solvers.kernels.newton_dense.new_state`'s
+        shapes; its counters, its proximal parameters).
 
     Returns
     -------
-    code, iterations, internal_error, error_as_written
+    code, iterations, internal_error, error_as_written, wscale
         The loop's status (:data:`~socp_cd.solvers.kernels.newton_dense.STATUS_NAMES`), its outer iterations, its own error
-        (the smaller of the last and best), and Siconos' error of the problem as
+        (the smaller of the last and best), Siconos' error of the problem as
         written (:func:`~socp_cd.solvers.kernels.scaling.origin_error` of ``r_s`` and
-        ``W~ r_s + q~``, the backend's test).
+        ``W~ r_s + q~``, the backend's test), and the block scale of ``W~`` (the unit of
+        the proximal parameter).
     """
     nc = mu.shape[0]
     m = q.shape[0]
@@ -315,10 +319,10 @@ def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, s
     W = csr_to_dense(indptr, indices, data_s, m, m)
     rho = np.empty(nc)
     wscale = block_rho_dense(W, dim, rho)
-    fstate = np.zeros(nd.FSTATE)
+    fstate[:] = 0.0
     fstate[nd.F_ALPHA] = alpha0 * wscale
     fstate[nd.F_ALPHA_MAX_USED] = alpha0 * wscale
-    istate = np.zeros(nd.ISTATE, dtype=np.int64)
+    istate[:] = 0
     r_s[:] = start
     best_r = np.empty(m)
     max_backtrack = int(constants[C_MAX_BACKTRACK])
@@ -341,7 +345,7 @@ def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, s
     u = np.empty(m)
     matvec_into(W, r_s, q_s, u)                 # the backend's system.start(r)
     return (status, istate[nd.I_IT], min(err, best_err),
-            origin_error(r_s, u, a, b, mu, dim, q_norm))
+            origin_error(r_s, u, a, b, mu, dim, q_norm), wscale)
 
 
 @njit(cache=True)
@@ -486,7 +490,9 @@ def trial_runner(problem, norm_q, prox, stall_window, constants):
     """``run(r, tol, max_iter, alpha0, time_left)`` of
     :func:`socp_cd.solvers.newton.continued_runs` through :func:`trial_run` on
     ``problem`` (as written; ``norm_q``: :func:`judge_norm`): returns ``(status, r~,
-    iterations, None, info)`` with ``info["internal_error"]`` and
+    iterations, None, info)``, ``info`` the Newton backend's of a run
+    (:func:`~socp_cd.solvers.kernels.newton_dense.run_info`: its counters, the
+    factorizations of all runs of this runner, as of one system) and
     ``info["error_as_written"]``; ``time_left`` is not read (a trial's work is
     bounded: at most :data:`TRIAL_MAX_M` unknowns, its step cap).  None when the
     problem has more than :data:`TRIAL_MAX_M` unknowns."""
@@ -495,13 +501,21 @@ def trial_runner(problem, norm_q, prox, stall_window, constants):
         return None
     indptr, indices, data = problem.csr_parts
     mu, dim = problem.mu, problem.dim
+    factorizations = [0]
 
     def run(r, tol, max_iter, alpha0, time_left):
         r_s = np.empty(q.shape[0])
-        code, its, internal, e = trial_run(indptr, indices, data, q, mu, dim, r, norm_q, tol,
-                                           max_iter, stall_window, prox, constants, alpha0, r_s)
-        return (nd.STATUS_NAMES[code], r_s, int(its), None,
-                {"internal_error": float(internal), "error_as_written": float(e)})
+        fstate, istate = np.empty(nd.FSTATE), np.empty(nd.ISTATE, dtype=np.int64)
+        code, its, internal, e, wscale = trial_run(indptr, indices, data, q, mu, dim, r, norm_q,
+                                                   tol, max_iter, stall_window, prox, constants,
+                                                   alpha0, r_s, fstate, istate)
+        ist = istate.tolist()
+        factorizations[0] += ist[nd.I_FACTORIZATIONS]
+        info = nd.run_info(fstate.tolist(), ist, wscale, not prox, factorizations[0], "dense",
+                           "block")
+        info["internal_error"] = float(internal)
+        info["error_as_written"] = float(e)
+        return nd.STATUS_NAMES[code], r_s, int(its), None, info
     return run
 
 

@@ -57,6 +57,24 @@ def new_state(alpha):
     return fstate, np.zeros(ISTATE, dtype=np.int64)
 
 
+def run_info(fs, ist, wscale, plain, factorizations, linear_solver, rho) -> dict:
+    """``info`` of a run of these loops as the Newton backend reports it
+    (:func:`socp_cd.solvers.newton.prox_newton`'s keys): ``fs``, ``ist`` the run's state
+    (:func:`new_state`) as lists, ``wscale`` the block scale of ``W`` (the proximal
+    parameter's unit), ``plain`` the plain-steps loop, ``factorizations`` the system's
+    count so far (this run's included), ``linear_solver`` its kind, ``rho`` the
+    Alart–Curnier strategy."""
+    alpha = fs[F_ALPHA]
+    return {"alpha": alpha, "alpha_relative": alpha / wscale,
+            "alpha_max_relative": fs[F_ALPHA_MAX_USED] / wscale,
+            "newton_steps": ist[I_NEWTON], "plain_steps": ist[I_NEWTON] if plain else 0,
+            "policy": "plain" if plain else "prox",
+            "backtracks": ist[I_BACKTRACK], "line_search_failures": ist[I_LS_FAIL],
+            "singular_steps": ist[I_SINGULAR], "rejected_outer": ist[I_REJECTED],
+            "factorizations": factorizations, "linear_solver": linear_solver,
+            "internal_error": min(fs[F_ERR], fs[F_BEST_ERR]), "rho": rho}
+
+
 @njit(cache=True)
 def _start(W, q, norm_q, mu, d, tol, r, best_r, fstate, istate, velocity):
     """``u = W r + q``; on a run's first call its error (Siconos', or :func:`velocity_error`
