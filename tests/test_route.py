@@ -19,7 +19,7 @@ import socp_cd
 from socp_cd import residuals
 from socp_cd.bench.generators import manufactured
 from socp_cd.problem import FrictionContactProblem
-from socp_cd.solvers import nsgs_route
+from socp_cd.solvers import newton, nsgs_route
 from socp_cd.solvers.kernels.cone import LAW_COULOMB, error_parts, relative_error
 from socp_cd.solvers.kernels.scaling import GUARD_KEYS, balanced_guard
 
@@ -72,7 +72,7 @@ def _same(a, b):
 
 def _newton_general(monkeypatch, p, **kw):
     with monkeypatch.context() as m:
-        m.setattr(nsgs_route, "TRIAL_MAX_M", 0)       # (newton.route declines)
+        m.setattr(newton, "ROUTE_MAX_M", 0)           # (newton.route declines)
         res = socp_cd.solve(p, "newton", **kw)
     assert "route" not in res.info
     return res
@@ -94,7 +94,7 @@ def test_newton_route_equals_general_path(monkeypatch, name, p, time_limit):
         _same(a, b)
         assert a.message == b.message
         # the route takes a call within its bounds (unless the checks refute a claim)
-        takes = p.m <= nsgs_route.TRIAL_MAX_M and newton.compiled_written_out(p) and (
+        takes = p.m <= newton.ROUTE_MAX_M and newton.compiled_written_out(p) and (
             time_limit is None or newton._route_work(p.m, kw.get("max_iter", 200))
             <= newton.ROUTE_TIMED_WORK)
         expected += takes
@@ -103,6 +103,29 @@ def test_newton_route_equals_general_path(monkeypatch, name, p, time_limit):
             routed += 1
             assert {k: v for k, v in a.info.items() if k != "route"} == b.info
     assert (routed > 0) is (expected > 0)
+
+
+def test_a_refuted_route_claim_runs_only_the_retry(monkeypatch):
+    # a route's claimed convergence that the checks refute is the general path's first
+    # answer: the general path goes on with its retry, without running the backend's first
+    # run again (a Newton run of up to 150 unknowns cost twice before); same result
+    from socp_cd.solvers import registry
+    socp_cd.solvers()
+    p = dict(CASES)["random-3d-3c-2"]
+    calls = []
+    real = registry._run_backend
+
+    def counting(*args, **kwargs):
+        calls.append(args[0].name)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(registry, "_run_backend", counting)
+    a = socp_cd.solve(p, "newton")
+    assert "retry" in a.info and "route" not in a.info and calls == ["newton"]
+    calls.clear()
+    b = _newton_general(monkeypatch, p)
+    assert calls == ["newton", "newton"]        # its first run, then the retry
+    _same(a, b)
+    assert a.info == b.info and a.message == b.message
 
 
 def test_newton_route_bounds_under_a_time_limit():
@@ -115,7 +138,7 @@ def test_newton_route_bounds_under_a_time_limit():
     lim = newton.ROUTE_MIN_TIME_LIMIT
     assert "route" in socp_cd.solve(p, "newton", time_limit=lim).info
     assert "route" not in socp_cd.solve(p, "newton", time_limit=lim * 0.99).info
-    big = _random(20, 3, 4)         # (m = 60: within TRIAL_MAX_M, beyond the timed bound)
+    big = _random(20, 3, 4)         # (m = 60: within ROUTE_MAX_M, beyond the timed bound)
     assert newton._route_work(big.m, 200) > newton.ROUTE_TIMED_WORK
     assert "route" in socp_cd.solve(big, "newton").info
     assert "route" not in socp_cd.solve(big, "newton", time_limit=10.0).info
@@ -666,7 +689,7 @@ def test_newton_goes_on_when_only_the_balanced_error_met_tol(monkeypatch, args):
     assert res.iterations > sum(run["iterations"] for run in runs)
     with monkeypatch.context() as m:
         m.setattr(newton, "origin", lambda problem: None)
-        m.setattr(nsgs_route, "TRIAL_MAX_M", 0)       # (the general path: newton.route off)
+        m.setattr(newton, "ROUTE_MAX_M", 0)           # (the general path: newton.route off)
         before = socp_cd.solve(p, "newton")
     assert before.info["continued"] == [] and before.info["retry"]["first_error"] > 1e-8
     assert before.info["retry"]["first_iterations"] == runs[0]["iterations"]
@@ -695,7 +718,7 @@ def test_newton_continuation_keeps_its_contracts(monkeypatch):
             return ("stalled", np.full_like(out[1], 1e3)) + out[2:]
         return out
     monkeypatch.setattr(newton, "prox_newton", failing)
-    monkeypatch.setattr(nsgs_route, "TRIAL_MAX_M", 0)     # (the general path: newton.route off)
+    monkeypatch.setattr(newton, "ROUTE_MAX_M", 0)         # (the general path: newton.route off)
     kept = socp_cd.solve(p, "newton")
     assert len(runs) >= 3 and runs[1] == max(min(newton.COLD_ALPHA0, newton.WARM_ALPHA0), 1e-10)
     # the claim stood, the dispatcher refused it and its retry (a new backend call) ran
@@ -748,9 +771,9 @@ def test_compiled_trials_equal_general_path_and_resume(monkeypatch, prox_first):
     seen = []
     real = nsgs_route.trial_runner
 
-    def spy(problem, norm_q, prox, stall_window, constants):
+    def spy(problem, norm_q, prox, stall_window, constants, full_info=False):
         seen.append(prox)
-        return real(problem, norm_q, prox, stall_window, constants)
+        return real(problem, norm_q, prox, stall_window, constants, full_info)
 
     monkeypatch.setattr(nsgs_route, "trial_runner", spy)
     def case(dim, seed):

@@ -6,7 +6,7 @@ Prints one line per run: for each problem, the min over 5 × 5 000 calls of
 then the benchmark's call again with the copies made before the timer, as the
 benchmark makes them (``validation/newton_vs_siconos.py``): the second column
 also times ``copy.copy`` itself (~1.4 µs) and its effect on the caches; then (since
-session 22) ``solve(p, "newton")``.
+session 22) ``solve(p, "newton")`` (min over 5 × 2 000 calls).
 Compare two trees in alternating rounds on the same machine (the README's
 session-9 table: two rounds each)::
 

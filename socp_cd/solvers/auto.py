@@ -613,7 +613,8 @@ def _stage_outcome(problem, out, method, handoff, tol, max_iter, time_limit, t0)
     info = _route_info(problem.dim, nc, x, method, t, status)
     trials = []
     if (handoff[0] and not met and problem.m <= nsgs_route.TRIAL_MAX_M
-            and _handoff_cap(problem, max_iter) is not None and _trials_compile(problem)):
+            and _handoff_cap(problem, max_iter) is not None
+            and newton.compiled_loop_takes(problem)):
         # the hand-off's trials, compiled too (_compiled_trials), when the chain runs them
         done = _compiled_trials(problem, out, tol, max_iter, time_limit, t0)
         if done:
@@ -651,16 +652,6 @@ def _stop_test(problem, out, tol, lo):
     return e <= tol and g <= tol and w <= tol, e <= tol
 
 
-def _trials_compile(problem) -> bool:
-    """Whether the compiled route can run the hand-off's trials on ``problem`` as
-    :func:`auto_backend` runs them: the Newton backend's steps on the compiled dense loop
-    with the written-out LU (``newton.compiled_written_out``), its default policy the
-    proximal one and its default Alart–Curnier parameters the block ones (a study may set
-    others: the general path then runs the trials)."""
-    return (newton.DEFAULT_POLICY == "prox" and newton.DEFAULT_RHO == "block"
-            and newton.compiled_written_out(problem))
-
-
 #: relative distance to tol within which the compiled route reads auto_backend's stop test on
 #: the stage judge's own measures of NSGS's iterate (nsgs_route.trial_outcome, ~2 us), not on
 #: the route's measures of the same quantities (computed in another order: they differ by up
@@ -675,8 +666,8 @@ _ROUTE_TRIALS = {"newton_trial": (True, False), "newton_trial_cold": (False, Fal
 
 def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
     """The hand-off's Newton trials after the compiled route's NSGS stage ``out``, compiled
-    (:func:`socp_cd.solvers.nsgs_route.trial_runner` in the Newton backend's
-    :func:`~socp_cd.solvers.newton.continued_runs`), in :func:`stage_order`'s order and under
+    (:func:`socp_cd.solvers.newton.compiled_runs`: the Newton backend's runs), in
+    :func:`stage_order`'s order and under
     :func:`auto_backend`'s rules (the cold trials only after a failed first trial, on at most
     :data:`COLD_MAX_M` unknowns, with their step caps): the list of those run, each
     ``{"stage": its path record, "vectors", "stats", "warm", "k" (its index in the stage
@@ -699,19 +690,15 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
         if time_limit is not None and _clock() - t0 >= time_limit:
             break
         t1 = _clock()
-        run = nsgs_route.trial_runner(problem, norm_q, prox, stall, constants)
-        if run is None:
-            break
         start = out.vectors[0].copy() if warm else np.zeros(problem.m)
         # the Newton backend's runs (newton.continued_runs: on the dispatcher's balanced copy
         # a run that meets tol there and not as written goes on), its default settings
-        st, r_s, its, _, _ = newton.continued_runs(run, newton.as_written_of_run, start, tol,
-                                                   steps, constants[nsgs_route.C_ALPHA0],
-                                                   constants[nsgs_route.C_ALPHA_MIN], None)
-        checked = nsgs_route.trial_outcome(problem, norm_q, st, r_s)
-        if checked is None:
+        ran = newton.compiled_runs(problem, norm_q, start, tol, steps, prox=prox,
+                                   stall_window=stall, constants=constants)
+        if ran is None or ran[3] is None:
             break
-        tout, judge_guard = checked
+        its = ran[1]
+        tout, judge_guard = ran[3]
         tx = tout.stats
         done.append({"stage": {"method": method, "formulation": "coulomb", "iterations": its,
                                "time": _clock() - t1, "error": tx[INTERNAL_ERROR],

@@ -1119,12 +1119,15 @@ def resolve_polish(choice):
                            f"got {choice!r}")
 
 
-#: the compiled route (:func:`route`) takes a call with a time limit only when the limit is
-#: at least ROUTE_MIN_TIME_LIMIT seconds and the run's worst case, ``max_iter *
-#: inner_max_iter * (m³/3 + 64 m²)`` multiply-adds (LU factorizations and line searches), is
-#: at most ROUTE_TIMED_WORK (~30 ms at 1 Gmadd/s, a third of that limit): the route runs its
-#: loop in one compiled call, while the backend reads the clock between chunks
-#: (CHUNK_WORK), which on such a run cannot stop it before it ends
+#: the compiled route (:func:`route`) takes local problems of at most this many unknowns
+#: (within ``nsgs_route.TRIAL_MAX_M``, the compiled runs' bound; 0: off)
+ROUTE_MAX_M = 150
+#: ... and a call with a time limit only when the limit is at least ROUTE_MIN_TIME_LIMIT
+#: seconds and the run's worst case, ``max_iter * inner_max_iter * (m³/3 + 64 m²)``
+#: multiply-adds (LU factorizations and line searches), is at most ROUTE_TIMED_WORK (~30 ms
+#: at 1 Gmadd/s, a third of that limit): the route runs its loop in one compiled call, while
+#: the backend reads the clock between chunks (CHUNK_WORK), which on such a run cannot stop
+#: it before it ends
 ROUTE_MIN_TIME_LIMIT = 0.1
 ROUTE_TIMED_WORK = 3e7
 
@@ -1134,53 +1137,77 @@ def _route_work(m, max_iter) -> float:
     return float(max_iter) * _DEFAULT_INNER_MAX_ITER * (m ** 3 / 3.0 + 64.0 * m * m)
 
 
-def as_written_of_run(r, info):
-    """Siconos' error as written that a compiled run measured (``continued_runs``' test of a
-    :func:`~socp_cd.solvers.nsgs_route.trial_runner` run: :func:`route`, ``auto``'s trials)."""
+def _as_written_of_run(r, info):
+    """Siconos' error as written that a compiled run measured (``continued_runs``' test)."""
     return info["error_as_written"]
+
+
+def compiled_loop_takes(problem) -> bool:
+    """Whether the backend with its default settings runs ``problem`` (local) on the compiled
+    dense loop with the written-out LU (:func:`compiled_written_out`), its default policy the
+    proximal one and its Alart–Curnier parameters the block ones: what :func:`compiled_runs`
+    reproduces (a study may set other defaults: the general path then runs)."""
+    return (DEFAULT_POLICY == "prox" and DEFAULT_RHO == "block"
+            and compiled_written_out(problem))
+
+
+def compiled_runs(problem, norm_q, start, tol, max_iter, *, prox, stall_window, constants,
+                  full_info=False):
+    """The backend's runs from the balanced ``start`` (:func:`continued_runs`) through the
+    compiled loop (:func:`~socp_cd.solvers.nsgs_route.trial_runner`), and the checks of the
+    answer (:func:`~socp_cd.solvers.nsgs_route.trial_outcome`), on a problem
+    :func:`compiled_loop_takes` (``norm_q``: ``nsgs_route.judge_norm``; ``constants``:
+    :func:`trial_constants`; ``prox``: the proximal method, else plain steps).
+
+    Returns ``(status, iterations, info, checked)`` (``info`` the runs', the backend's with
+    ``full_info``; ``checked`` ``(RouteOutcome, judge_guard)``, None when the checks are not
+    finite), or None beyond ``nsgs_route.TRIAL_MAX_M`` unknowns.  ``route`` and ``auto``'s
+    hand-off trials run it.
+    """
+    run = nsgs_route.trial_runner(problem, norm_q, prox, stall_window, constants, full_info)
+    if run is None:
+        return None
+    status, r_s, iters, _, info = continued_runs(run, _as_written_of_run, start, tol, max_iter,
+                                                 constants[nsgs_route.C_ALPHA0],
+                                                 constants[nsgs_route.C_ALPHA_MIN], None)
+    return status, iters, info, nsgs_route.trial_outcome(problem, norm_q, status, r_s)
 
 
 def route(problem, *, tol, max_iter, r0, time_limit):
     """The compiled route of a plain Newton call (``SolverSpec.route``).
 
-    For a local exact-Coulomb problem of at most
-    :data:`~socp_cd.solvers.nsgs_route.TRIAL_MAX_M` unknowns that the backend runs on the
-    compiled dense loop with the written-out LU (:func:`compiled_written_out`), called
-    with the default settings (and, with a time limit, within :data:`ROUTE_TIMED_WORK`):
-    the backend's runs on the balanced problem
-    (:func:`~socp_cd.solvers.nsgs_route.trial_runner` in :func:`continued_runs`, the same
-    iterates bit for bit) and the dispatcher's checks, in compiled calls
-    (:func:`~socp_cd.solvers.nsgs_route.trial_outcome`), as ``(result, guard_value,
-    None)``: ``info`` the backend's, with the dispatcher's ``guard`` and ``scaling`` records
-    and ``route = "compiled"``.  The general path's set-up (balanced copy, Newton system,
-    NumPy checks) cost ~50 of a ~70 µs call on a few contacts.  None when the route does
-    not apply or the checks cannot judge the answer (the general path reports it).
+    For a local exact-Coulomb problem of at most :data:`ROUTE_MAX_M` unknowns that
+    :func:`compiled_loop_takes`, called with the default settings (and, with a time limit,
+    within :data:`ROUTE_TIMED_WORK`): the backend's runs on the balanced problem and the
+    dispatcher's checks in compiled calls (:func:`compiled_runs`: the same iterates, bit for
+    bit), as ``(result, guard_value, None)``: ``info`` the backend's, with the dispatcher's
+    ``guard`` and ``scaling`` records and ``route = "compiled"``.  The general path's set-up
+    (balanced copy, Newton system, NumPy checks) cost ~50 of a ~70 µs call on a few
+    contacts.  None when the route does not apply or the checks cannot judge the answer
+    (the general path reports it).
     """
     m = problem.q.shape[0]
-    if (m > nsgs_route.TRIAL_MAX_M or DEFAULT_POLICY != "prox" or DEFAULT_RHO != "block"
-            or problem.is_global):
+    if m > ROUTE_MAX_M or problem.is_global:
         return None
     max_iter = DEFAULT_MAX_ITER if max_iter is None else int(max_iter)
     if time_limit is not None and not (time_limit >= ROUTE_MIN_TIME_LIMIT
                                        and _route_work(m, max_iter) <= ROUTE_TIMED_WORK):
         return None
-    if not compiled_written_out(problem):
+    if not compiled_loop_takes(problem):
         return None
-    constants = trial_constants()
     norm_q = nsgs_route.judge_norm(problem)
-    run = nsgs_route.trial_runner(problem, norm_q, True, DEFAULT_STALL_WINDOW, constants)
     if r0 is None:
         start = np.zeros(m)
     else:                   # (the dispatcher's Scaling.reaction_to_scaled: r~ = r0 / a)
         indptr, indices, data = problem.csr_parts
         start = np.asarray(r0, dtype=np.float64) / balance_csr(indptr, indices, data, problem.q,
                                                                problem.mu, problem.dim)[0]
-    status, r_s, iters, _, info = continued_runs(run, as_written_of_run, start, tol, max_iter,
-                                                 COLD_ALPHA0, _DEFAULT_ALPHA_MIN, None)
-    checked = nsgs_route.trial_outcome(problem, norm_q, status, r_s)
-    if checked is None:
+    done = compiled_runs(problem, norm_q, start, tol, max_iter, prox=True,
+                         stall_window=DEFAULT_STALL_WINDOW, constants=trial_constants(),
+                         full_info=True)
+    if done is None or done[3] is None:
         return None
-    out = checked[0]
+    status, iters, info, (out, _) = done
     x = out.stats
     del info["error_as_written"]
     info["scaling"] = nsgs_route.scaling_record(x)
@@ -1223,7 +1250,9 @@ def warmup() -> float:
     return time.perf_counter() - t0
 
 
-__all__ = ["newton_backend", "trial_constants", "continued_runs", "compiled_written_out", "BlockJacobian", "prox_newton", "newton_polish", "resolve_polish", "POLISH_NAMES",
-           "WARM_ALPHA0", "COLD_ALPHA0", "velocity_relative_error", "POLICIES", "warmup",
-           "DEFAULT_MAX_ITER", "DEFAULT_STALL_WINDOW", "OPTIONS", "SPEC", "route", "as_written_of_run", "ROUTE_MIN_TIME_LIMIT",
-           "ROUTE_TIMED_WORK"]
+__all__ = ["newton_backend", "trial_constants", "continued_runs", "compiled_written_out",
+           "compiled_loop_takes", "compiled_runs", "BlockJacobian", "prox_newton",
+           "newton_polish", "resolve_polish", "POLISH_NAMES", "WARM_ALPHA0", "COLD_ALPHA0",
+           "velocity_relative_error", "POLICIES", "warmup", "DEFAULT_MAX_ITER",
+           "DEFAULT_STALL_WINDOW", "OPTIONS", "SPEC", "route", "ROUTE_MAX_M",
+           "ROUTE_MIN_TIME_LIMIT", "ROUTE_TIMED_WORK"]

@@ -26,7 +26,8 @@ arrays, in one compiled call:
 So the answer is the general path's, bit for bit (``tests/test_route.py``
 holds the two equal); the verdict (``converged``) stays the dispatcher's.
 Backends offer the route through ``SolverSpec.route``
-(:mod:`socp_cd.solvers.nsgs`, :mod:`socp_cd.solvers.auto`).
+(:mod:`socp_cd.solvers.nsgs`, :mod:`socp_cd.solvers.auto`, and
+:mod:`socp_cd.solvers.newton` with the Newton pieces below).
 
 ``solver="auto"`` hands a small problem's NSGS stage that misses ``tol`` to
 Newton trials.  On at most :data:`TRIAL_MAX_M` unknowns (where the Newton
@@ -38,6 +39,8 @@ the backend's own run logic (:func:`socp_cd.solvers.newton.continued_runs`), and
 checks of the answer (:func:`checked_answer`, shared with :func:`nsgs_checked`).
 Through the general path each trial cost ~60 µs of Python around a kernel of
 10–500 µs (the backend's set-up, the chain's and the dispatcher's bookkeeping).
+``solver="newton"``'s own route (:func:`socp_cd.solvers.newton.route`) runs a whole
+Newton solve with the same pieces.
 """
 from __future__ import annotations
 
@@ -80,9 +83,10 @@ DECLINED_NOT_FINITE = -4     # r or u not finite, or the checks cannot judge the
                              # general path reports it: checked_answer)
 DECLINED_TOO_MUCH_WORK = -6  # blocked (a time limit) and max_iter * nnz(W) > MAX_TIMED_WORK
 
-#: the compiled trials run on local problems of at most this many unknowns (``auto``'s cold
-#: trials' bound, ``auto.COLD_MAX_M``) whose Newton steps the backend computes with the
-#: compiled dense loop and the written-out LU (``newton.compiled_written_out``)
+#: the compiled Newton runs (:func:`trial_run`: ``auto``'s trials, ``newton``'s route) take
+#: local problems of at most this many unknowns (``auto``'s cold trials' bound,
+#: ``auto.COLD_MAX_M``) whose Newton steps the backend computes with the compiled dense loop
+#: and the written-out LU (``newton.compiled_written_out``)
 TRIAL_MAX_M = 150
 #: the entries of :func:`trial_run`'s ``constants``, in order
 TRIAL_CONSTANTS = ("alpha0", "plain_regularization", "goldstein_m1", "max_backtrack",
@@ -301,14 +305,16 @@ def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, s
         Output: the run's answer (its last iterate, or its best one when it did not
         converge).
     fstate, istate : ndarray
-        Output: the loop's state at its end (:func:`~socp_cd.solvers.kernels.newton_dense.new_state`'s
-        shapes; its counters, its proximal parameters).
+        Output: the loop's state at its end (the shapes of
+        :func:`~socp_cd.solvers.kernels.newton_dense.new_state`: counters, proximal
+        parameters).
 
     Returns
     -------
     code, iterations, internal_error, error_as_written, wscale
-        The loop's status (:data:`~socp_cd.solvers.kernels.newton_dense.STATUS_NAMES`), its outer iterations, its own error
-        (the smaller of the last and best), Siconos' error of the problem as
+        The loop's status (:data:`~socp_cd.solvers.kernels.newton_dense.STATUS_NAMES`), its
+        outer iterations, its own error (the smaller of the last and best), Siconos' error of
+        the problem as
         written (:func:`~socp_cd.solvers.kernels.scaling.origin_error` of ``r_s`` and
         ``W~ r_s + q~``, the backend's test), and the block scale of ``W~`` (the unit of
         the proximal parameter).
@@ -486,16 +492,17 @@ def judge_norm(problem) -> float:
     return float(np.sqrt(q_s.dot(q_s)))
 
 
-def trial_runner(problem, norm_q, prox, stall_window, constants):
+def trial_runner(problem, norm_q, prox, stall_window, constants, full_info=False):
     """``run(r, tol, max_iter, alpha0, time_left)`` of
     :func:`socp_cd.solvers.newton.continued_runs` through :func:`trial_run` on
     ``problem`` (as written; ``norm_q``: :func:`judge_norm`): returns ``(status, r~,
-    iterations, None, info)``, ``info`` the Newton backend's of a run
-    (:func:`~socp_cd.solvers.kernels.newton_dense.run_info`: its counters, the
-    factorizations of all runs of this runner, as of one system) and
-    ``info["error_as_written"]``; ``time_left`` is not read (a trial's work is
-    bounded: at most :data:`TRIAL_MAX_M` unknowns, its step cap).  None when the
-    problem has more than :data:`TRIAL_MAX_M` unknowns."""
+    iterations, None, info)`` with ``info["internal_error"]`` and
+    ``info["error_as_written"]``, and with ``full_info`` the Newton backend's ``info`` of
+    a run (:func:`~socp_cd.solvers.kernels.newton_dense.run_info`: its counters, the
+    factorizations of all runs of this runner, as of one system).  ``time_left`` is not
+    read: the caller bounds the work (at most :data:`TRIAL_MAX_M` unknowns; ``auto``'s
+    trials by their step caps, ``newton.route`` by ``newton.ROUTE_TIMED_WORK`` under a
+    time limit).  None when the problem has more than :data:`TRIAL_MAX_M` unknowns."""
     q = problem.q
     if q.shape[0] > TRIAL_MAX_M:
         return None
@@ -509,10 +516,13 @@ def trial_runner(problem, norm_q, prox, stall_window, constants):
         code, its, internal, e, wscale = trial_run(indptr, indices, data, q, mu, dim, r, norm_q,
                                                    tol, max_iter, stall_window, prox, constants,
                                                    alpha0, r_s, fstate, istate)
-        ist = istate.tolist()
-        factorizations[0] += ist[nd.I_FACTORIZATIONS]
-        info = nd.run_info(fstate.tolist(), ist, wscale, not prox, factorizations[0], "dense",
-                           "block")
+        if full_info:
+            ist = istate.tolist()
+            factorizations[0] += ist[nd.I_FACTORIZATIONS]
+            info = nd.run_info(fstate.tolist(), ist, wscale, not prox, factorizations[0],
+                               "dense", "block")
+        else:
+            info = {}
         info["internal_error"] = float(internal)
         info["error_as_written"] = float(e)
         return nd.STATUS_NAMES[code], r_s, int(its), None, info

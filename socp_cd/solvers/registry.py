@@ -240,9 +240,10 @@ def _routed(out, name, tol, time_limit, t0):
     """Judge a compiled route's outcome ``out = (result, guard_value, resume)`` (``SolverSpec.route``).
 
     Returns ``(result, None)`` when the result stands, ``(None, resume)``
-    when the general path must run: from the start (``resume`` None) when
-    the checks refute a claimed convergence (the general path's retry
-    handles that), or from where the route stopped (``resume``: the backend
+    when the general path must run: its retry when the checks refute a claimed
+    convergence (``resume`` is then that judged result: the route's answer is the
+    general path's first one, which the general path does not compute again), or
+    the backend from where the route stopped (``resume`` a dict: the backend
     goes on from there, whatever the checks say of that stage's answer, as
     it would on the general path).  The route filled ``u``, the residuals and the guard with
     the dispatcher's own kernels; the verdict is :func:`_verdict`'s, as on
@@ -263,7 +264,7 @@ def _routed(out, name, tol, time_limit, t0):
     else:
         _verdict(res, res.error, res.info["guard"], tol)
         if claimed == "converged":
-            return None, None
+            return None, res
     res.time = _time.perf_counter() - t0
     if not res.converged and time_limit is not None and res.time > time_limit:
         res.status = "time_limit"
@@ -299,7 +300,9 @@ def _general(problem, spec, formulation, tol, max_iter, r0, history, time_limit,
     """:func:`solve`'s general path, its arguments checked: balance, run the backend (from
     ``resume`` when a compiled route did the first part of the work), judge, retry.
 
-    ``routed``: a route ran and its time counts (``t0`` is then its start).
+    ``routed``: a route ran and its time counts (``t0`` is then its start); ``resume`` a
+    :class:`SolverResult`: the route's judged answer, a claim the checks refuted (the
+    backend's first run, done: only the retry follows, see :func:`_routed`).
     """
     target = problem
     if problem.is_global and formulation not in spec.global_native:
@@ -309,15 +312,19 @@ def _general(problem, spec, formulation, tol, max_iter, r0, history, time_limit,
     scaling = None if target.is_global else balance(target)
     run = dict(max_iter=max_iter, history=history, verbose=verbose,
                inner_settings=inner_settings, options=options)
-    if resume is None:
-        res = _run_backend(spec, target, scaling, formulation, tol, r0, time_limit, **run)
-    else:       # the route did the first part of the work: the backend goes on from there
-        left = None if time_limit is None else time_limit - (_time.perf_counter() - t0)
-        res = _run_backend(spec, target, scaling, formulation, tol, r0, left,
-                           **dict(run, options=dict(options, resume=resume)))
-    claimed = res.status
-    res.solver, res.formulation = spec.name, formulation
-    res = _finalize(problem, res, formulation, tol, options)
+    if resume.__class__ is SolverResult:
+        res, claimed = resume, "converged"
+        res.info.pop("route", None)   # (the general path's answer from here on)
+    else:
+        if resume is None:
+            res = _run_backend(spec, target, scaling, formulation, tol, r0, time_limit, **run)
+        else:   # the route did the first part of the work: the backend goes on from there
+            left = None if time_limit is None else time_limit - (_time.perf_counter() - t0)
+            res = _run_backend(spec, target, scaling, formulation, tol, r0, left,
+                               **dict(run, options=dict(options, resume=resume)))
+        claimed = res.status
+        res.solver, res.formulation = spec.name, formulation
+        res = _finalize(problem, res, formulation, tol, options)
     if claimed == "converged" and not res.converged and np.isfinite(res.error):
         res = _retry(res, problem, spec, target, scaling, formulation, tol, options,
                      time_limit, t0, run)
