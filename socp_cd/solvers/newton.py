@@ -90,7 +90,7 @@ from .kernels.cone import project_cone_stacked, siconos_error
 from .kernels.dense import (LAPACK_LU, NAIVE_LU_MAX_N, PIVOT_TOL, csr_to_dense, dense_solve,
                             envelope_fraction, matvec, matvec_into)
 from .kernels.newton_ac import ac_blocks, block_jacobian, block_rho_dense, dense_jacobian
-from .kernels.scaling import balance_csr, origin_error
+from .kernels.scaling import origin_error
 from . import nsgs_route
 from .options import check_choice, check_int, check_real, tightened_tolerance
 from .polish import associated_polish
@@ -1195,13 +1195,9 @@ def route(problem, *, tol, max_iter, r0, time_limit):
         return None
     if not compiled_loop_takes(problem):
         return None
-    norm_q = nsgs_route.judge_norm(problem)
-    if r0 is None:
-        start = np.zeros(m)
-    else:                   # (the dispatcher's Scaling.reaction_to_scaled: r~ = r0 / a)
-        indptr, indices, data = problem.csr_parts
-        start = np.asarray(r0, dtype=np.float64) / balance_csr(indptr, indices, data, problem.q,
-                                                               problem.mu, problem.dim)[0]
+    a, norm_q = nsgs_route.judge_units(problem)
+    # (the dispatcher's Scaling.reaction_to_scaled: r~ = r0 / a)
+    start = np.zeros(m) if r0 is None else np.asarray(r0, dtype=np.float64) / a
     done = compiled_runs(problem, norm_q, start, tol, max_iter, prox=True,
                          stall_window=DEFAULT_STALL_WINDOW, constants=trial_constants(),
                          full_info=True)

@@ -487,9 +487,15 @@ def judge_norm(problem) -> float:
     """``||q~||`` of the dispatcher's balanced copy of ``problem`` (local) as ``solver="auto"``'s
     stage judge and the Newton backend compute it (NumPy's dot of ``q~``: the balancing kernel's
     own sum differs in the last bits), for :func:`trial_runner` and :func:`trial_outcome`."""
+    return judge_units(problem)[1]
+
+
+def judge_units(problem):
+    """``(a, ||q~||)``: the unit factors ``r = a r~`` of the dispatcher's balanced copy of
+    ``problem`` (local) and :func:`judge_norm`, from one balancing pass."""
     indptr, indices, data = problem.csr_parts
-    q_s = balance_csr(indptr, indices, data, problem.q, problem.mu, problem.dim)[3]
-    return float(np.sqrt(q_s.dot(q_s)))
+    a, _, _, q_s = balance_csr(indptr, indices, data, problem.q, problem.mu, problem.dim)[:4]
+    return a, float(np.sqrt(q_s.dot(q_s)))
 
 
 def trial_runner(problem, norm_q, prox, stall_window, constants, full_info=False):
@@ -542,7 +548,7 @@ def trial_outcome(problem, norm_q, status, r_s):
     return RouteOutcome(status, vectors, x), judge_guard
 
 
-__all__ = ["nsgs_checked", "run", "trial_run", "trial_checked", "trial_runner", "trial_outcome", "judge_norm",
+__all__ = ["nsgs_checked", "run", "trial_run", "trial_checked", "trial_runner", "trial_outcome", "judge_norm", "judge_units",
            "checked_answer", "TRIAL_MAX_M", "TRIAL_CONSTANTS", "C_ALPHA0", "C_ALPHA_MIN", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
            "MIN_TIME_LIMIT", "MAX_TIMED_WORK", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
            "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX", "GUARD_VALUE"]
