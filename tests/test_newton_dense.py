@@ -475,3 +475,41 @@ def test_envelope_fraction_of_simple_patterns():
         ref = (np.arange(20) - first).sum() / 200.0
         S = sp.csr_matrix(A)
         assert envelope_fraction(S.indptr, S.indices, 20) == pytest.approx(ref, abs=1e-15)
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_dense_jacobian_equals_the_entrywise_products(d):
+    # kernels/newton_ac.dense_jacobian builds J = Dr + Du (W + alpha I) row by row (its rows
+    # vectorize): bit for bit the entry-by-entry dot products sum_b Du[i,a,b] W[o+b,c] summed
+    # from 0 in b's order (the former kernel), zeros of either sign, and the NumPy product to
+    # rounding
+    from socp_cd.solvers.kernels.newton_ac import dense_jacobian
+    rng = np.random.default_rng(d)
+    for nc in (1, 4, 17):
+        m = nc * d
+        W = rng.standard_normal((m, m))
+        W[0, -1] = -0.0
+        Dr, Du = rng.standard_normal((nc, d, d)), rng.standard_normal((nc, d, d))
+        Du[0, 0, :] = 0.0           # a zero row of Du (a separated contact's)
+        Du[-1, -1, 0] = -0.0
+        alpha = 0.37
+        J = np.empty((m, m))
+        dense_jacobian(Dr, Du, W, alpha, d, J)
+        ref = np.empty((m, m))
+        for i in range(nc):
+            o = i * d
+            for a in range(d):
+                for c in range(m):
+                    s = 0.0
+                    for b in range(d):
+                        s += Du[i, a, b] * W[o + b, c]
+                    ref[o + a, c] = s
+                for c in range(d):
+                    ref[o + a, o + c] += Dr[i, a, c] + alpha * Du[i, a, c]
+        assert np.array_equal(J.view(np.int64), ref.view(np.int64))
+        block = np.zeros((m, m)), np.zeros((m, m))
+        for i in range(nc):
+            block[0][i * d:(i + 1) * d, i * d:(i + 1) * d] = Dr[i]
+            block[1][i * d:(i + 1) * d, i * d:(i + 1) * d] = Du[i]
+        np.testing.assert_allclose(J, block[0] + block[1] @ (W + alpha * np.eye(m)),
+                                   rtol=1e-13, atol=1e-13)

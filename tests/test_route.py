@@ -769,13 +769,13 @@ def test_compiled_trials_equal_general_path_and_resume(monkeypatch, prox_first):
     cold = ["newton_trial_prox", "newton_trial_cold"] if prox_first else \
         ["newton_trial_cold", "newton_trial_prox"]
     seen = []
-    real = nsgs_route.trial_runner
+    real = newton.compiled_runs
 
-    def spy(problem, norm_q, prox, stall_window, constants, full_info=False):
+    def spy(problem, norm_q, start, tol, max_iter, *, prox, **kw):
         seen.append(prox)
-        return real(problem, norm_q, prox, stall_window, constants, full_info)
+        return real(problem, norm_q, start, tol, max_iter, prox=prox, **kw)
 
-    monkeypatch.setattr(nsgs_route, "trial_runner", spy)
+    monkeypatch.setattr(newton, "compiled_runs", spy)
     def case(dim, seed):
         return manufactured(12, dim, mu=0.6, structure="redundant", mass_ratio=1e6,
                             contact_scale=1e4, seed=seed)
@@ -849,9 +849,33 @@ def test_trial_runs_equal_newton_backend_on_the_balanced_copy():
                 judge = auto._Judge(copy, "coulomb", {}, 1e-10)
                 assert t.stats[nsgs_route.INTERNAL_ERROR] == judge(r)   # the judge's, exactly
                 assert judge_guard == judge.guard_value(r)
+                # newton.compiled_runs: the first run and the checks in one compiled call
+                # (nsgs_route.newton_checked), the runs above when one goes on; ||q~|| given
+                # or computed in the call
+                for norm_q in (nsgs_route.judge_norm(p), -1.0):
+                    for full in (False, True):
+                        fst, fits, finfo, (fout, fguard) = newton.compiled_runs(
+                            p, norm_q, start, 1e-10, steps, prox=prox, stall_window=2,
+                            constants=c, full_info=full)
+                        assert (fst, fits, fguard) == (st, its, judge_guard)
+                        assert np.array_equal(fout.vectors, t.vectors)
+                        assert fout.stats == t.stats and fout.status == t.status
+                        assert finfo["continued"] == info["continued"]
+                        assert finfo["internal_error"] == info["internal_error"]
+                        if full:
+                            assert finfo == run_info_of(p, prox, start, steps, c)
                 compared += 1
                 went_on += bool(info["continued"])
     assert compared == 20 and went_on >= 1
+
+
+def run_info_of(p, prox, start, steps, c):
+    """The backend's info of newton.continued_runs through nsgs_route.trial_runner with
+    ``full_info`` (what newton.compiled_runs gives with ``full_info``)."""
+    from socp_cd.solvers import newton
+    run = nsgs_route.trial_runner(p, nsgs_route.judge_norm(p), prox, 2, c, True)
+    return newton.continued_runs(run, lambda r, i: i["error_as_written"], start, 1e-10, steps,
+                                 c[nsgs_route.C_ALPHA0], c[nsgs_route.C_ALPHA_MIN], None)[4]
 
 
 @pytest.mark.parametrize("structure,seed,tol,setting", [

@@ -94,7 +94,7 @@ from .kernels.scaling import origin_error
 from . import nsgs_route
 from .options import check_choice, check_int, check_real, tightened_tolerance
 from .polish import associated_polish
-from .result import SolverResult
+from .result import LazyInfo, SolverResult
 from .scaling import origin
 from .spec import SolverSpec
 
@@ -886,10 +886,40 @@ def trial_constants():
     the array :func:`socp_cd.solvers.nsgs_route.trial_run` takes (entries named by
     ``nsgs_route.TRIAL_CONSTANTS``; ``alpha0``, ``plain_regularization``, ``alpha_min``
     and ``alpha_max`` relative to the block scale), for a compiled route that runs those
-    loops itself."""
-    return np.array([COLD_ALPHA0, PLAIN_REGULARIZATION, GOLDSTEIN_M1, _MAX_BACKTRACK,
-                     _DEFAULT_ALPHA_MIN, _ALPHA_MAX, _DEFAULT_INNER_MAX_ITER, _ARMIJO,
-                     NONMONOTONE, INNER_GATE, INNER_DECREASE])
+    loops itself.  One read-only array per set of values (a study may change the module's
+    constants: the array follows them)."""
+    key = (COLD_ALPHA0, PLAIN_REGULARIZATION, GOLDSTEIN_M1, _MAX_BACKTRACK,
+           _DEFAULT_ALPHA_MIN, _ALPHA_MAX, _DEFAULT_INNER_MAX_ITER, _ARMIJO,
+           NONMONOTONE, INNER_GATE, INNER_DECREASE)
+    c = _TRIAL_CONSTANTS.get(key)
+    if c is None:
+        c = np.array(key, dtype=np.float64)
+        c.flags.writeable = False
+        _TRIAL_CONSTANTS[key] = c
+    return c
+
+
+#: :func:`trial_constants`' arrays by their values (building one cost 0.4 µs of a
+#: one-contact ``solver="newton"`` call)
+_TRIAL_CONSTANTS = {}
+
+
+def _check(problem, options, inner_settings) -> None:
+    """``SPEC.check``: :func:`_settings` of the caller's ``options``; without options, of the
+    module's defaults once per set of their values (a plain call's check cost ~3 µs, a fifth
+    of a one-contact call)."""
+    if options:
+        _settings(problem, options)
+        return
+    key = (COLD_ALPHA0, _DEFAULT_ALPHA_MIN, _DEFAULT_INNER_MAX_ITER, DEFAULT_STALL_WINDOW,
+           DEFAULT_RHO, DEFAULT_POLICY)
+    if key not in _CHECKED_DEFAULTS:
+        _settings(problem, {})
+        _CHECKED_DEFAULTS.add(key)
+
+
+#: :func:`_check`'s default settings found valid
+_CHECKED_DEFAULTS = set()
 
 
 def _settings(problem, options, inner_settings=None) -> dict:
@@ -1154,23 +1184,66 @@ def compiled_loop_takes(problem) -> bool:
 def compiled_runs(problem, norm_q, start, tol, max_iter, *, prox, stall_window, constants,
                   full_info=False):
     """The backend's runs from the balanced ``start`` (:func:`continued_runs`) through the
-    compiled loop (:func:`~socp_cd.solvers.nsgs_route.trial_runner`), and the checks of the
-    answer (:func:`~socp_cd.solvers.nsgs_route.trial_outcome`), on a problem
-    :func:`compiled_loop_takes` (``norm_q``: ``nsgs_route.judge_norm``; ``constants``:
-    :func:`trial_constants`; ``prox``: the proximal method, else plain steps).
+    compiled loop, and the checks of the answer, on a problem :func:`compiled_loop_takes`
+    (``norm_q``: ``nsgs_route.judge_norm``, or a negative number: computed here the same
+    way; ``constants``: :func:`trial_constants`; ``prox``: the proximal method, else plain
+    steps).
+
+    The first run and the checks are one compiled call
+    (:func:`~socp_cd.solvers.nsgs_route.newton_checked`); only when
+    :func:`continued_runs` would go on from that run (it met ``tol`` in balanced units and
+    not as written) do the runs start over in :func:`continued_runs` with
+    :func:`~socp_cd.solvers.nsgs_route.trial_runner` and
+    :func:`~socp_cd.solvers.nsgs_route.trial_outcome` (the same first run, bit for bit).
 
     Returns ``(status, iterations, info, checked)`` (``info`` the runs', the backend's with
-    ``full_info``; ``checked`` ``(RouteOutcome, judge_guard)``, None when the checks are not
+    ``full_info``, with ``full_info="lazy"`` a :class:`~.result.LazyInfo` of it when one run
+    was made; ``checked`` ``(RouteOutcome, judge_guard)``, None when the checks are not
     finite), or None beyond ``nsgs_route.TRIAL_MAX_M`` unknowns.  ``route`` and ``auto``'s
     hand-off trials run it.
     """
-    run = nsgs_route.trial_runner(problem, norm_q, prox, stall_window, constants, full_info)
-    if run is None:
+    q = problem.q
+    m = q.shape[0]
+    if m > nsgs_route.TRIAL_MAX_M:
         return None
-    status, r_s, iters, _, info = continued_runs(run, _as_written_of_run, start, tol, max_iter,
-                                                 constants[nsgs_route.C_ALPHA0],
-                                                 constants[nsgs_route.C_ALPHA_MIN], None)
-    return status, iters, info, nsgs_route.trial_outcome(problem, norm_q, status, r_s)
+    indptr, indices, data = problem.csr_parts
+    vectors = np.empty((3, m))
+    fstate, istate = np.empty(nd.FSTATE), np.empty(nd.ISTATE, dtype=np.int64)
+    code, its, internal, e, wscale, norm_q, ok, x, judge_guard = nsgs_route.newton_checked(
+        indptr, indices, data, q, problem.mu, problem.dim, start, float(norm_q), tol,
+        max_iter, stall_window, prox, constants, constants[nsgs_route.C_ALPHA0], vectors,
+        fstate, istate)
+    status = nd.STATUS_NAMES[code]
+    if status == "converged" and tol < e < math.inf and its < max_iter and MAX_CONTINUED:
+        # continued_runs goes on from this run's answer: the runs as it makes them
+        run = nsgs_route.trial_runner(problem, norm_q, prox, stall_window, constants, full_info)
+        status, r_s, iters, _, info = continued_runs(
+            run, _as_written_of_run, start, tol, max_iter, constants[nsgs_route.C_ALPHA0],
+            constants[nsgs_route.C_ALPHA_MIN], None)
+        return status, iters, info, nsgs_route.trial_outcome(problem, norm_q, status, r_s)
+    if full_info == "lazy":
+        info = LazyInfo((_one_run_info, fstate, istate, wscale, prox, internal, e))
+    else:
+        info = _one_run_info(fstate, istate, wscale, prox, internal, e, full_info)
+    return (status, int(its), info,
+            (nsgs_route.RouteOutcome(status, vectors, x), judge_guard) if ok else None)
+
+
+def _one_run_info(fstate, istate, wscale, prox, internal, e, full_info=True):
+    """The info :func:`continued_runs` gives one compiled run (:func:`compiled_runs`): the
+    backend's (:func:`~.kernels.newton_dense.run_info` of the run's end state) with
+    ``full_info``, then ``internal_error``, ``error_as_written`` and no ``continued`` run (in
+    the order ``trial_runner`` and :func:`continued_runs` make them)."""
+    if full_info:
+        ist = istate.tolist()
+        info = nd.run_info(fstate.tolist(), ist, wscale, not prox, ist[nd.I_FACTORIZATIONS],
+                           "dense", "block")
+    else:
+        info = {}
+    info["internal_error"] = float(internal)
+    info["error_as_written"] = float(e)
+    info["continued"] = []
+    return info
 
 
 def route(problem, *, tol, max_iter, r0, time_limit):
@@ -1195,24 +1268,37 @@ def route(problem, *, tol, max_iter, r0, time_limit):
         return None
     if not compiled_loop_takes(problem):
         return None
-    a, norm_q = nsgs_route.judge_units(problem)
-    # (the dispatcher's Scaling.reaction_to_scaled: r~ = r0 / a)
-    start = np.zeros(m) if r0 is None else np.asarray(r0, dtype=np.float64) / a
+    if r0 is None:      # (||q~|| computed in the compiled call)
+        start, norm_q = np.zeros(m), -1.0
+    else:               # (the dispatcher's Scaling.reaction_to_scaled: r~ = r0 / a)
+        a, norm_q = nsgs_route.judge_units(problem)
+        start = np.asarray(r0, dtype=np.float64) / a
     done = compiled_runs(problem, norm_q, start, tol, max_iter, prox=True,
                          stall_window=DEFAULT_STALL_WINDOW, constants=trial_constants(),
-                         full_info=True)
+                         full_info="lazy")
     if done is None or done[3] is None:
         return None
     status, iters, info, (out, _) = done
     x = out.stats
+    return (SolverResult.of_local(out.vectors[1], out.vectors[2], status, x[nsgs_route.ERROR],
+                                  iters, LazyInfo((_route_info, info, x)),
+                                  _message(status, DEFAULT_STALL_WINDOW),
+                                  x[nsgs_route.ZERO_ERROR] <= tol),
+            x[nsgs_route.GUARD_VALUE], None)
+
+
+def _route_info(info, x) -> dict:
+    """:func:`route`'s ``result.info``, built on first read: the runs' ``info``
+    (:func:`compiled_runs`', built first when lazy) without ``error_as_written``, with the
+    dispatcher's ``scaling`` and ``guard`` records from the checks' stats tuple ``x`` and
+    ``route = "compiled"``."""
+    if type(info) is LazyInfo:
+        info = info[0](*info[1:])
     del info["error_as_written"]
     info["scaling"] = nsgs_route.scaling_record(x)
     info["guard"] = nsgs_route.guard_record(x)
     info["route"] = "compiled"
-    return (SolverResult.of_local(out.vectors[1], out.vectors[2], status, x[nsgs_route.ERROR],
-                                  iters, info, _message(status, DEFAULT_STALL_WINDOW),
-                                  x[nsgs_route.ZERO_ERROR] <= tol),
-            x[nsgs_route.GUARD_VALUE], None)
+    return info
 
 
 SPEC = SolverSpec(
@@ -1220,7 +1306,7 @@ SPEC = SolverSpec(
     description="proximal-point semismooth Newton on the Alart–Curnier equation "
                 "(exact Coulomb law; local and global, dense LU or SuperLU)",
     default_max_iter=DEFAULT_MAX_ITER, options=OPTIONS,
-    check=lambda problem, options, inner_settings: _settings(problem, options), route=route)
+    check=_check, route=route)
 
 
 def warmup() -> float:

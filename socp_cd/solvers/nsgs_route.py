@@ -319,10 +319,21 @@ def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, s
         ``W~ r_s + q~``, the backend's test), and the block scale of ``W~`` (the unit of
         the proximal parameter).
     """
-    nc = mu.shape[0]
     m = q.shape[0]
     a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, dim)
     W = csr_to_dense(indptr, indices, data_s, m, m)
+    return _balanced_run(W, q_s, a, b, q_norm, mu, dim, start, norm_q, tol, max_iter,
+                         stall_window, prox, constants, alpha0, r_s, fstate, istate)
+
+
+@njit(cache=True, inline="always")
+def _balanced_run(W, q_s, a, b, q_norm, mu, dim, start, norm_q, tol, max_iter, stall_window,
+                  prox, constants, alpha0, r_s, fstate, istate):
+    """:func:`trial_run` on the balanced problem ``W~`` (dense), ``q~`` of
+    :func:`~socp_cd.solvers.kernels.scaling.balance_csr` (``a``, ``b``, ``q_norm`` its unit
+    factors and ``||q||``): the same returns."""
+    nc = mu.shape[0]
+    m = q_s.shape[0]
     rho = np.empty(nc)
     wscale = block_rho_dense(W, dim, rho)
     fstate[:] = 0.0
@@ -367,11 +378,21 @@ def trial_checked(indptr, indices, data, q, mu, dim, r_s, norm_q, vectors):
     ``r_s``); ``ok`` False when :func:`checked_answer` is.  ``norm_q``: ``||q~||``
     as the judge computes it.
     """
+    a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, dim)
+    vectors[0] = r_s
+    return _checked_balanced(indptr, indices, data, q, mu, dim, a, b, data_s, q_s, q_norm,
+                             q_s_norm, err0, norm_q, vectors)
+
+
+@njit(cache=True, inline="always")
+def _checked_balanced(indptr, indices, data, q, mu, dim, a, b, data_s, q_s, q_norm, q_s_norm,
+                      err0, norm_q, vectors):
+    """:func:`trial_checked` of the balanced answer ``vectors[0]``, the outputs of
+    :func:`~socp_cd.solvers.kernels.scaling.balance_csr` given: the same returns."""
     nc = mu.shape[0]
     m = q.shape[0]
     stats = np.zeros(_N_OUT)
-    a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, dim)
-    vectors[0] = r_s
+    r_s = vectors[0]
     if not checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_s,
                           vectors, stats):
         return False, to_fixed_tuple(stats, _N_OUT), np.inf
@@ -392,6 +413,37 @@ def trial_checked(indptr, indices, data, q, mu, dim, r_s, norm_q, vectors):
         mu_max = max(mu_max, mu[i])
     stats[MU_MAX] = mu_max
     return True, to_fixed_tuple(stats, _N_OUT), judge_guard
+
+
+@njit(cache=True)
+def newton_checked(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter,
+                   stall_window, prox, constants, alpha0, vectors, fstate, istate):
+    """:func:`trial_run` then :func:`trial_checked` of its answer, in one call, balancing once.
+
+    The arguments are :func:`trial_run`'s, with ``vectors`` (3, m) for ``r_s`` (its row 0)
+    and :func:`trial_checked`'s output; ``norm_q < 0`` computes ``||q~||`` here as
+    :func:`judge_norm` does (NumPy's dot, BLAS ``ddot`` in both).
+
+    Returns
+    -------
+    code, iterations, internal_error, error_as_written, wscale
+        :func:`trial_run`'s.
+    norm_q : float
+        ``||q~||`` as used.
+    ok, stats, judge_guard
+        :func:`trial_checked`'s (``ok`` False: the checks cannot judge the answer).
+    """
+    m = q.shape[0]
+    a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, dim)
+    if norm_q < 0.0:
+        norm_q = np.sqrt(np.dot(q_s, q_s))
+    W = csr_to_dense(indptr, indices, data_s, m, m)
+    code, its, internal, e, wscale = _balanced_run(W, q_s, a, b, q_norm, mu, dim, start, norm_q,
+                                                   tol, max_iter, stall_window, prox, constants,
+                                                   alpha0, vectors[0], fstate, istate)
+    ok, stats, judge_guard = _checked_balanced(indptr, indices, data, q, mu, dim, a, b, data_s,
+                                               q_s, q_norm, q_s_norm, err0, norm_q, vectors)
+    return code, its, internal, e, wscale, norm_q, ok, stats, judge_guard
 
 
 #: What :func:`run` gives a backend's route.  ``status``: the sweeps' own status
@@ -548,7 +600,7 @@ def trial_outcome(problem, norm_q, status, r_s):
     return RouteOutcome(status, vectors, x), judge_guard
 
 
-__all__ = ["nsgs_checked", "run", "trial_run", "trial_checked", "trial_runner", "trial_outcome", "judge_norm", "judge_units",
+__all__ = ["nsgs_checked", "run", "trial_run", "trial_checked", "newton_checked", "trial_runner", "trial_outcome", "judge_norm", "judge_units",
            "checked_answer", "TRIAL_MAX_M", "TRIAL_CONSTANTS", "C_ALPHA0", "C_ALPHA_MIN", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
            "MIN_TIME_LIMIT", "MAX_TIMED_WORK", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
            "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX", "GUARD_VALUE"]

@@ -113,17 +113,28 @@ def ac_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch):
 
 @njit(cache=True)
 def dense_jacobian(Dr, Du, W, alpha, d, J):
-    """``J = Dr + Du (W + alpha I)`` for a dense ``W`` (block-diagonal ``Dr``, ``Du``)."""
+    """``J = Dr + Du (W + alpha I)`` for a dense ``W`` (block-diagonal ``Dr``, ``Du``).
+
+    Row by row: row ``o + a`` of ``Du W`` is ``sum_b Du[i, a, b] W[o + b, :]``, summed in
+    ``b``'s order from 0 (the same operations, in the same order, as the entry-by-entry
+    dot products), with unsigned loop bounds over the contiguous rows, which LLVM
+    vectorizes (a 42 x 42 Jacobian 4.8 -> 1.2 µs, 3D; ``validation/newton_jacobian_assembly.py``).
+    """
     nc = Dr.shape[0]
-    m = W.shape[1]
+    um = np.uint64(W.shape[1])
     for i in range(nc):
         o = i * d
         for a in range(d):
-            for c in range(m):
-                s = 0.0
-                for b in range(d):
-                    s += Du[i, a, b] * W[o + b, c]
-                J[o + a, c] = s
+            row = J[o + a]
+            f = Du[i, a, 0]
+            w = W[o]
+            for c in range(um):
+                row[c] = 0.0 + f * w[c]
+            for b in range(1, d):
+                f = Du[i, a, b]
+                w = W[o + b]
+                for c in range(um):
+                    row[c] += f * w[c]
             for c in range(d):
                 J[o + a, o + c] += Dr[i, a, c] + alpha * Du[i, a, c]
 
