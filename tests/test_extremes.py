@@ -8,6 +8,7 @@ import socp_cd
 from socp_cd.bench.extremes import CASES, COPIES, build, extremes_markdown, honest, run_extremes
 from socp_cd.bench.records import RUN_STATUSES
 from socp_cd.errors import InvalidProblemError
+from socp_cd.solvers.result import STATUSES
 
 
 def test_extreme_cases_have_their_advertised_property():
@@ -147,3 +148,33 @@ def test_copies_of_a_shared_problem():
     assert [r.name.split(" ")[0] for r in refs[:7]] == ["default", *COPIES]
     with pytest.raises(ValueError, match="not a copy"):
         build("mu=10", source=SHARED_BASES[1])
+
+
+@pytest.mark.parametrize("solver", ["newton", "nsgs", "auto"])
+def test_runaway_start_is_a_reported_outcome(solver):
+    # a start of 1e300 with mu = 0 made 0 * inf = NaN in the cone tests, and the compiled
+    # projection (kernels/cone.cone_projection) and the Alart-Curnier block
+    # (kernels/newton_ac.ac_blocks) divided by t = ||x_T|| = 0, which raises
+    # ZeroDivisionError in numba: now a status (the NaN goes on, as in NumPy's reference)
+    from socp_cd.bench.generators import manufactured
+    for mu in (0.0, 0.5):
+        for dim in (2, 3):
+            p = manufactured(3, dim, mu=mu, structure="tree", mass_ratio=10.0,
+                             contact_scale=1e2, seed=1)
+            for v in (1e300, -1e300):
+                res = socp_cd.solve(p, solver, r0=np.full(p.m, v), time_limit=5.0)
+                assert res.status in STATUSES
+                assert res.converged == (res.error <= 1e-8)
+
+
+def test_cone_projection_of_a_nan_side_block():
+    # the compiled projection equals NumPy's reference where t = 0 reaches the side formula
+    # (x_N = inf, mu = 0: 0 * inf in both cone tests)
+    from socp_cd.cones import project_cone
+    from socp_cd.solvers.kernels.cone import project_cone_stacked
+    for dim in (2, 3):
+        x = np.zeros(dim)
+        x[0] = np.inf
+        out = np.empty(dim)
+        project_cone_stacked(x, np.zeros(1), dim, out)
+        np.testing.assert_array_equal(out, project_cone(x, 0.0, dim))

@@ -20,6 +20,7 @@ from socp_cd import residuals
 from socp_cd.bench.generators import manufactured
 from socp_cd.problem import FrictionContactProblem
 from socp_cd.solvers import newton, nsgs_route
+from socp_cd.solvers.result import STATUSES, LazyInfo
 from socp_cd.solvers.kernels.cone import LAW_COULOMB, error_parts, relative_error
 from socp_cd.solvers.kernels.scaling import GUARD_KEYS, balanced_guard
 
@@ -81,8 +82,9 @@ def _newton_general(monkeypatch, p, **kw):
 @pytest.mark.parametrize("name,p", CASES, ids=[c[0] for c in CASES])
 @pytest.mark.parametrize("time_limit", [None, 5.0])
 def test_newton_route_equals_general_path(monkeypatch, name, p, time_limit):
-    # solver="newton"'s compiled route (newton.route: the backend's runs through
-    # nsgs_route.trial_runner, the checks compiled) gives the general path's result: r, u,
+    # solver="newton"'s compiled route (newton.route: the backend's run and the checks in
+    # one compiled call, nsgs_route.newton_checked, and a run that goes on through
+    # nsgs_route.trial_runner in newton.continued_runs) gives the general path's result: r, u,
     # status, iterations, the residuals, the guard and every entry of the backend's info
     from socp_cd.solvers import newton
     socp_cd.solvers()
@@ -853,17 +855,21 @@ def test_trial_runs_equal_newton_backend_on_the_balanced_copy():
                 # (nsgs_route.newton_checked), the runs above when one goes on; ||q~|| given
                 # or computed in the call
                 for norm_q in (nsgs_route.judge_norm(p), -1.0):
-                    for full in (False, True):
+                    for full in (False, True, "lazy"):
                         fst, fits, finfo, (fout, fguard) = newton.compiled_runs(
                             p, norm_q, start, 1e-10, steps, prox=prox, stall_window=2,
                             constants=c, full_info=full)
                         assert (fst, fits, fguard) == (st, its, judge_guard)
                         assert np.array_equal(fout.vectors, t.vectors)
                         assert fout.stats == t.stats and fout.status == t.status
+                        if type(finfo) is LazyInfo:     # (one run: built on first read)
+                            assert not info["continued"]
+                            finfo = finfo[0](*finfo[1:])
                         assert finfo["continued"] == info["continued"]
                         assert finfo["internal_error"] == info["internal_error"]
-                        if full:
-                            assert finfo == run_info_of(p, prox, start, steps, c)
+                        if full:        # the backend's info, its keys in the same order
+                            assert list(finfo.items()) == list(
+                                run_info_of(p, prox, start, steps, c).items())
                 compared += 1
                 went_on += bool(info["continued"])
     assert compared == 20 and went_on >= 1
@@ -1033,3 +1039,43 @@ def test_checked_answer_refuses_an_error_that_overflows():
         assert ok is judged
         assert np.all(np.isfinite(vectors[1:])) and vectors[2][0] == big     # u = W r finite
         assert bool(np.isfinite(stats[nsgs_route.ERROR])) is judged     # (inf/inf: NaN)
+
+
+def test_newton_checked_computes_judge_norm():
+    # newton.route passes norm_q < 0 when there is no r0: nsgs_route.newton_checked computes
+    # ||q~|| itself, and the route's answer equals the general path's only if that is
+    # judge_norm's value to the last bit (both BLAS ddot on a contiguous vector; an install
+    # whose two BLAS builds sum differently fails here)
+    from socp_cd.solvers.kernels import newton_dense as nd
+    c = newton.trial_constants()
+    rng = np.random.default_rng(7)
+    for nc in (2, 3, 5, 8, 13, 21, 34, 50):
+        for dim in (2, 3):
+            p = manufactured(nc, dim, mu=float(rng.uniform(0.1, 1.5)), structure="tree",
+                             mass_ratio=float(10 ** rng.uniform(0, 6)),
+                             contact_scale=float(10 ** rng.uniform(0, 8)),
+                             q_scale=float(10 ** rng.uniform(-6, 6)), seed=nc)
+            out = nsgs_route.newton_checked(
+                *p.csr_parts, p.q, p.mu, p.dim, np.zeros(p.m), -1.0, 1e-8, 2, 5, True, c,
+                c[nsgs_route.C_ALPHA0], np.empty((3, p.m)), np.empty(nd.FSTATE),
+                np.empty(nd.ISTATE, dtype=np.int64))
+            assert out[5] == nsgs_route.judge_norm(p)
+
+
+def test_newton_default_settings_checked_once_per_value(monkeypatch):
+    # SPEC.check validates the module's default settings once per set of values (and types:
+    # True == 1, but a bool is not a stall window); a caller's options every call
+    p = manufactured(2, 3, mu=0.5, structure="tree", seed=0)
+    monkeypatch.setattr(newton, "DEFAULT_STALL_WINDOW", 1)
+    assert socp_cd.solve(p, "newton").status in STATUSES
+    monkeypatch.setattr(newton, "DEFAULT_STALL_WINDOW", True)
+    with pytest.raises(socp_cd.InvalidProblemError, match="stall_window"):
+        socp_cd.solve(p, "newton")
+    monkeypatch.setattr(newton, "DEFAULT_STALL_WINDOW", 50)
+    monkeypatch.setattr(newton, "COLD_ALPHA0", -1.0)
+    for _ in range(2):          # (an invalid default is never recorded as checked)
+        with pytest.raises(socp_cd.InvalidProblemError, match="alpha0"):
+            socp_cd.solve(p, "newton")
+    monkeypatch.setattr(newton, "COLD_ALPHA0", 0.1)
+    with pytest.raises(socp_cd.InvalidProblemError, match="stall_window"):
+        socp_cd.solve(p, "newton", stall_window=-1)

@@ -302,7 +302,8 @@ def _linear_solver(indptr, indices, m, choice):
 def compiled_written_out(problem) -> bool:
     """Whether the backend's default linear solver runs ``problem`` (local) on the compiled
     dense loop with the written-out LU (no BLAS): the loop a compiled route can run
-    itself (:func:`socp_cd.solvers.nsgs_route.trial_run`)."""
+    itself (:func:`socp_cd.solvers.nsgs_route.newton_checked`,
+    :func:`socp_cd.solvers.nsgs_route.trial_run`)."""
     indptr, indices, _ = problem.csr_parts
     _, compiled, lapack = _linear_solver(indptr, indices, problem.m, "auto")
     return compiled and lapack is None
@@ -883,7 +884,8 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
 
 def trial_constants():
     """The constants :func:`_newton_compiled` passes its loops with the default settings, as
-    the array :func:`socp_cd.solvers.nsgs_route.trial_run` takes (entries named by
+    the array :func:`socp_cd.solvers.nsgs_route.newton_checked` and
+    :func:`~socp_cd.solvers.nsgs_route.trial_run` take (entries named by
     ``nsgs_route.TRIAL_CONSTANTS``; ``alpha0``, ``plain_regularization``, ``alpha_min``
     and ``alpha_max`` relative to the block scale), for a compiled route that runs those
     loops itself.  One read-only array per set of values (a study may change the module's
@@ -911,8 +913,10 @@ def _check(problem, options, inner_settings) -> None:
     if options:
         _settings(problem, options)
         return
-    key = (COLD_ALPHA0, _DEFAULT_ALPHA_MIN, _DEFAULT_INNER_MAX_ITER, DEFAULT_STALL_WINDOW,
-           DEFAULT_RHO, DEFAULT_POLICY)
+    # (with each value's type: True == 1, and a bool is not a valid count)
+    a, b, c, d = COLD_ALPHA0, _DEFAULT_ALPHA_MIN, _DEFAULT_INNER_MAX_ITER, DEFAULT_STALL_WINDOW
+    key = (type(a), a, type(b), b, type(c), c, type(d), d, DEFAULT_RHO, DEFAULT_POLICY,
+           RHO_STRATEGIES, POLICIES)
     if key not in _CHECKED_DEFAULTS:
         _settings(problem, {})
         _CHECKED_DEFAULTS.add(key)
@@ -1315,7 +1319,8 @@ def warmup() -> float:
     Both twins (:func:`~.kernels.newton_dense.prox_newton_dense`,
     :func:`~.kernels.newton_dense.plain_newton_dense`) on tiny dense problems in 2D and
     3D, with and without a time limit, with the written-out LU and with LAPACK's
-    (:func:`~.kernels.dense.dense_solve`).  A benchmark calls it before timing: otherwise
+    (:func:`~.kernels.dense.dense_solve`), and the compiled routes' run-and-checks call
+    (:func:`compiled_runs`).  A benchmark calls it before timing: otherwise
     the first solve that reaches a twin pays its compilation (``solver="auto"`` reaches
     the plain one only when its first Newton stage misses ``tol``).
     """
@@ -1329,6 +1334,9 @@ def warmup() -> float:
                 for limit in (None, 1.0):
                     newton_backend(prob, "coulomb", tol=1e-14, max_iter=2, time_limit=limit,
                                    policy=policy)
+                # (the compiled route's and auto's trials' one call, nsgs_route.newton_checked)
+                compiled_runs(prob, -1.0, np.zeros(prob.m), 1e-14, 2, prox=policy == "prox",
+                              stall_window=DEFAULT_STALL_WINDOW, constants=trial_constants())
     return time.perf_counter() - t0
 
 

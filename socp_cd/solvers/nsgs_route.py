@@ -33,10 +33,13 @@ Backends offer the route through ``SolverSpec.route``
 Newton trials.  On at most :data:`TRIAL_MAX_M` unknowns (where the Newton
 backend runs the compiled dense loop with the written-out LU) its route runs them
 compiled too: :func:`trial_run` is one run of the Newton backend's compiled
-loop on the same balanced problem (dense ``W~``), :func:`trial_runner` feeds it to
-the backend's own run logic (:func:`socp_cd.solvers.newton.continued_runs`), and
-:func:`trial_checked` computes the stage judge's measure and the dispatcher's
-checks of the answer (:func:`checked_answer`, shared with :func:`nsgs_checked`).
+loop on the same balanced problem (dense ``W~``), :func:`trial_checked` computes the
+stage judge's measure and the dispatcher's checks of the answer
+(:func:`checked_answer`, shared with :func:`nsgs_checked`), and
+:func:`newton_checked` is the two in one call, balancing once
+(:func:`socp_cd.solvers.newton.compiled_runs` makes it; only when the backend's own
+run logic, :func:`socp_cd.solvers.newton.continued_runs`, would go on from that run
+does :func:`trial_runner` feed :func:`trial_run` to it).
 Through the general path each trial cost ~60 µs of Python around a kernel of
 10–500 µs (the backend's set-up, the chain's and the dispatcher's bookkeeping).
 ``solver="newton"``'s own route (:func:`socp_cd.solvers.newton.route`) runs a whole
@@ -422,7 +425,10 @@ def newton_checked(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_it
 
     The arguments are :func:`trial_run`'s, with ``vectors`` (3, m) for ``r_s`` (its row 0)
     and :func:`trial_checked`'s output; ``norm_q < 0`` computes ``||q~||`` here as
-    :func:`judge_norm` does (NumPy's dot, BLAS ``ddot`` in both).
+    :func:`judge_norm` does: ``np.dot`` of the contiguous ``q~``, which numba hands to
+    BLAS ``ddot`` (scipy's build) and NumPy to its own build's ``ddot``; on this machine
+    the two agree to the last bit on every length (``tests/test_route.py`` checks it),
+    which an install whose two builds sum in another order would break.
 
     Returns
     -------
@@ -538,7 +544,9 @@ def _checked_entry(indptr, indices):
 def judge_norm(problem) -> float:
     """``||q~||`` of the dispatcher's balanced copy of ``problem`` (local) as ``solver="auto"``'s
     stage judge and the Newton backend compute it (NumPy's dot of ``q~``: the balancing kernel's
-    own sum differs in the last bits), for :func:`trial_runner` and :func:`trial_outcome`."""
+    own sum differs in the last bits), for :func:`trial_runner` and :func:`trial_outcome`
+    (:func:`newton_checked` computes the same with numba's ``np.dot``; ``tests/test_route.py``
+    holds the two equal)."""
     return judge_units(problem)[1]
 
 

@@ -90,7 +90,9 @@ def cone_projection(x0, x1, x2, dim, mu):
     if t <= mu * x0:
         return x0, x1, (x2 if dim == 3 else 0.0)
     pn = (x0 + mu * t) / (1.0 + mu * mu)
-    s = mu * pn / t
+    # (t = 0 here only when x0 or mu * x0 is NaN, as 0 * inf: x_T = 0 projects to 0; a
+    # division by zero would raise in numba)
+    s = mu * pn / t if t > 0.0 else 0.0
     return pn, s * x1, (s * x2 if dim == 3 else 0.0)
 
 
@@ -186,6 +188,11 @@ def project_cone_jacobian_block(x, dim, mu, J):
     if t <= mu * xn:             # inside: P = identity
         for a in range(dim):
             J[a, a] = 1.0
+        return
+    if not t > 0.0:             # (NaN or 0 * inf in the tests above: no derivative)
+        for a in range(dim):
+            for b in range(dim):
+                J[a, b] = np.nan
         return
     a_ = 1.0 / (1.0 + mu * mu)
     pn = (xn + mu * t) * a_

@@ -87,13 +87,19 @@ def ac_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch):
                     Du[i, a, a] = pt
                 branch[i] = (NORMAL_ACTIVE if active else NORMAL_OPEN) * 2 + TANGENT_STICK
         else:
-            n1 = x1 / t
-            n2 = x2 / t
+            if t > 0.0:
+                n1 = x1 / t
+                n2 = x2 / t
+            else:
+                # (t = 0 > R fails for every R >= 0: R is NaN, mu * a_n = 0 * inf on a
+                # runaway iterate; the NaN goes on into F, where numba's division by zero
+                # would raise)
+                n1 = n2 = 0.0
             F[o + 1] = r[o + 1] - R * n1
             if d == 3:
                 F[o + 2] = r[o + 2] - R * n2
             if want_jac:
-                k = R / t
+                k = R / t if t > 0.0 else R
                 # d P_B(x)/dx = k (I - n n^T); dx = dr_T - rho_T du_T; dR = mu (dr_N - rho_N du_N)
                 for a in range(1, d):
                     na = n1 if a == 1 else n2
@@ -117,8 +123,10 @@ def dense_jacobian(Dr, Du, W, alpha, d, J):
 
     Row by row: row ``o + a`` of ``Du W`` is ``sum_b Du[i, a, b] W[o + b, :]``, summed in
     ``b``'s order from 0 (the same operations, in the same order, as the entry-by-entry
-    dot products), with unsigned loop bounds over the contiguous rows, which LLVM
-    vectorizes (a 42 x 42 Jacobian 4.8 -> 1.2 µs, 3D; ``validation/newton_jacobian_assembly.py``).
+    dot products: bit for bit the same, signed zeros included, NaN entries at the same places
+    with their sign or payload possibly another), with unsigned loop bounds over the
+    contiguous rows, which LLVM vectorizes (a 42 x 42 Jacobian 4.8 -> 1.2 µs, 3D;
+    formulations/newton.md §11).
     """
     nc = Dr.shape[0]
     um = np.uint64(W.shape[1])
