@@ -234,6 +234,10 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=OUT)
     ap.add_argument("--from-csv", type=Path, default=None,
                     help="rewrite the report and figure from a previous run's CSV (no solving)")
+    ap.add_argument("--siconos-from", type=Path, default=None,
+                    help="run ours only and judge them against the Siconos rows at --tol of a "
+                         "previous run's CSV (the same problems: another tree of ours against "
+                         "one Siconos run on the same machine)")
     args = ap.parse_args(argv)
     if args.from_csv is not None:
         args.out.mkdir(parents=True, exist_ok=True)
@@ -242,7 +246,7 @@ def main(argv=None) -> int:
     if args.quick:
         args.n_eval, args.max_contacts, args.sweep, args.repeats = 6, 60, [], 1
         args.repeats_small = 3
-    have_sic = siconos_available()
+    have_sic = siconos_available() if args.siconos_from is None else False
     items = problem_set(args)
     print(f"{len(items)} problems; Siconos {'available' if have_sic else 'NOT available'}", flush=True)
 
@@ -284,6 +288,11 @@ def main(argv=None) -> int:
                 it = items[k]
                 rows.append(dict(tol=tol, set=it["set"], split=it["split"], kind=it["kind"], problem=it["id"],
                                  nc=it["nc"], solver=f"siconos:{s}", side="siconos", **rec))
+    if args.siconos_from is not None:
+        ids = {(it["set"], it["id"]) for it in items}
+        rows += [r for r in read_rows(args.siconos_from) if r["side"] == "siconos"
+                 and r["tol"] == args.tol and (r["set"], r["problem"]) in ids]
+        have_sic = True
     args.out.mkdir(parents=True, exist_ok=True)
     write(rows, args, have_sic)
     return 0
