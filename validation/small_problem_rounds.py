@@ -4,7 +4,8 @@ The problems are those of ``validation/newton_vs_siconos.py`` (shared, the evalu
 set's sampled cases, the small simulation collections) with at most ``--max-contacts``
 contacts; each call gets a new problem object (a shallow copy made before the timer) and
 ``time_limit=1``, as in the benchmark, and a problem's time is the min over calls that
-stop once they have taken 0.05 s (at least 3).  One run writes one CSV per solver::
+stop once they have taken 0.05 s (the benchmark's rule, ``newton_vs_siconos.run_ours``, here
+on every size; the record of session 23 was made with at least 3 calls each).  One run writes one CSV per solver::
 
     python validation/small_problem_rounds.py run --tag NAME [--solvers auto newton]
 
@@ -27,7 +28,6 @@ import csv
 import math
 import statistics
 import sys
-import time
 from pathlib import Path
 
 import socp_cd
@@ -40,7 +40,6 @@ import newton_vs_siconos as nvs  # noqa: E402  (the benchmark's problem set)
 #: Siconos solvers timed with ``--siconos`` (the fastest ones on problems of a few contacts
 #: in the session-22 benchmark)
 SICONOS = ("nsgs", "nsn_ac", "nsn_nm")
-BUDGET = 0.05       #: seconds of calls per problem (the benchmark's repeat rule)
 CLASSES = ((1, 10), (11, 50))
 
 
@@ -52,18 +51,17 @@ def problems(max_contacts):
             if it["kind"] == "local3" and it["nc"] <= max_contacts]
 
 
-def per_call(p, solver) -> tuple[float, str, float]:
-    """``(seconds, status, error)``: min over calls of ``solve(copy(p), solver)``."""
-    best, spent, k = math.inf, 0.0, 0
-    while k < 3 or spent < BUDGET:
-        c = copy.copy(p)
-        t0 = time.perf_counter()
-        res = socp_cd.solve(c, solver=solver, tol=1e-8, time_limit=1.0)
-        dt = time.perf_counter() - t0
-        best, spent, k = min(best, dt), spent + dt, k + 1
-        if not res.converged:
-            break
-    return (best if res.converged else math.inf), res.status, float(res.error)
+def per_call(item, solver) -> tuple[float, str, float]:
+    """``(seconds, status, error)``: the benchmark's timed call
+    (``newton_vs_siconos.run_ours``, its repeat rule on every size; ``inf`` when not
+    converged)."""
+    rec = nvs.run_ours(item, solver, 1e-8, _RUN)
+    return (rec["time"] if rec["claimed"] else math.inf), rec["status"], rec["error"]
+
+
+#: ``run_ours``' settings: the benchmark's ``time_limit=1``, and its many-call rule (stop
+#: after 0.05 s of calls) on every problem, not only on those of at most 10 contacts
+_RUN = argparse.Namespace(time_limit=1.0, repeats=200, repeats_small=200)
 
 
 def run(args) -> int:
@@ -80,7 +78,7 @@ def run(args) -> int:
             w = csv.writer(fh)
             w.writerow(["set", "id", "nc", "solver", "time", "status", "error", "tree"])
             for it in items:
-                t, st, e = per_call(it["problem"], s)
+                t, st, e = per_call(it, s)
                 w.writerow([it["set"], it["id"], it["nc"], s, t, st, e, tree])
         print(f"wrote {path}")
     if args.siconos:

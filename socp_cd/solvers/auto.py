@@ -676,7 +676,6 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
     whose checks are not finite (the chain runs it and what follows)."""
     done = []
     constants = newton.trial_constants()
-    norm_q = nsgs_route.judge_norm(problem)
     for k, method in enumerate(("newton_trial",) + _cold_trial_order(), start=1):
         warm, prox = _ROUTE_TRIALS[method]
         if method == "newton_trial":
@@ -693,7 +692,8 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
         start = out.vectors[0].copy() if warm else np.zeros(problem.m)
         # the Newton backend's runs (newton.continued_runs: on the dispatcher's balanced copy
         # a run that meets tol there and not as written goes on), its default settings
-        ran = newton.compiled_runs(problem, norm_q, start, tol, steps, prox=prox,
+        # (norm_q -1: ||q~||, judge_norm's value, computed in the trial's compiled call)
+        ran = newton.compiled_runs(problem, -1.0, start, tol, steps, prox=prox,
                                    stall_window=stall, constants=constants)
         if ran is None or ran[3] is None:
             break

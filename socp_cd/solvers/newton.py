@@ -1234,18 +1234,9 @@ def compiled_runs(problem, norm_q, start, tol, max_iter, *, prox, stall_window, 
 
 
 def _one_run_info(fstate, istate, wscale, prox, internal, e, full_info=True):
-    """The info :func:`continued_runs` gives one compiled run (:func:`compiled_runs`): the
-    backend's (:func:`~.kernels.newton_dense.run_info` of the run's end state) with
-    ``full_info``, then ``internal_error``, ``error_as_written`` and no ``continued`` run (in
-    the order ``trial_runner`` and :func:`continued_runs` make them)."""
-    if full_info:
-        ist = istate.tolist()
-        info = nd.run_info(fstate.tolist(), ist, wscale, not prox, ist[nd.I_FACTORIZATIONS],
-                           "dense", "block")
-    else:
-        info = {}
-    info["internal_error"] = float(internal)
-    info["error_as_written"] = float(e)
+    """The info :func:`continued_runs` gives one compiled run (:func:`compiled_runs`):
+    ``nsgs_route.run_record``'s (what ``trial_runner`` gives it), then no ``continued`` run."""
+    info = nsgs_route.run_record(fstate, istate, wscale, prox, internal, e, full_info)
     info["continued"] = []
     return info
 

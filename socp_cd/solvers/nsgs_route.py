@@ -582,17 +582,28 @@ def trial_runner(problem, norm_q, prox, stall_window, constants, full_info=False
         code, its, internal, e, wscale = trial_run(indptr, indices, data, q, mu, dim, r, norm_q,
                                                    tol, max_iter, stall_window, prox, constants,
                                                    alpha0, r_s, fstate, istate)
+        info = run_record(fstate, istate, wscale, prox, internal, e, full_info,
+                          factorizations[0])
         if full_info:
-            ist = istate.tolist()
-            factorizations[0] += ist[nd.I_FACTORIZATIONS]
-            info = nd.run_info(fstate.tolist(), ist, wscale, not prox, factorizations[0],
-                               "dense", "block")
-        else:
-            info = {}
-        info["internal_error"] = float(internal)
-        info["error_as_written"] = float(e)
+            factorizations[0] = info["factorizations"]
         return nd.STATUS_NAMES[code], r_s, int(its), None, info
     return run
+
+
+def run_record(fstate, istate, wscale, prox, internal, e, full_info, factorizations=0):
+    """The ``info`` of one compiled Newton run (:func:`trial_run`'s returns and end state):
+    with ``full_info`` the Newton backend's (:func:`~socp_cd.solvers.kernels.newton_dense.run_info`,
+    ``factorizations`` the earlier runs' count, this run's added), then ``internal_error``
+    and ``error_as_written`` (what :func:`socp_cd.solvers.newton.continued_runs` reads)."""
+    if full_info:
+        ist = istate.tolist()
+        info = nd.run_info(fstate.tolist(), ist, wscale, not prox,
+                           factorizations + ist[nd.I_FACTORIZATIONS], "dense", "block")
+    else:
+        info = {}
+    info["internal_error"] = float(internal)
+    info["error_as_written"] = float(e)
+    return info
 
 
 def trial_outcome(problem, norm_q, status, r_s):
@@ -608,7 +619,7 @@ def trial_outcome(problem, norm_q, status, r_s):
     return RouteOutcome(status, vectors, x), judge_guard
 
 
-__all__ = ["nsgs_checked", "run", "trial_run", "trial_checked", "newton_checked", "trial_runner", "trial_outcome", "judge_norm", "judge_units",
+__all__ = ["nsgs_checked", "run", "trial_run", "trial_checked", "newton_checked", "trial_runner", "run_record", "trial_outcome", "judge_norm", "judge_units",
            "checked_answer", "TRIAL_MAX_M", "TRIAL_CONSTANTS", "C_ALPHA0", "C_ALPHA_MIN", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
            "MIN_TIME_LIMIT", "MAX_TIMED_WORK", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
            "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX", "GUARD_VALUE"]
