@@ -183,17 +183,29 @@ def test_twin_equals_python_loop_when_it_stalls_runs_out_or_overflows():
     assert a[0] == "numerical_error"
 
 
-def test_time_limit_chunks_give_the_same_iterates(monkeypatch):
+def test_time_limit_stops_the_twin_where_it_stops_the_python_loop(monkeypatch):
     p = manufactured(9, 3, 0.5, seed=5)
     a, b = _both(p, np.zeros(p.m), 1e-10)
+    c = _both(p, np.zeros(p.m), 1e-10, time_limit=1e9)      # a deadline far away
+    _assert_equal(a, c[0])
+    _assert_equal(b, c[1])
+    # a spent budget: both loops stop after one outer iteration (the twin reads the
+    # compiled clock where the Python loop reads its own)
+    py, tw = _both(p, np.zeros(p.m), 1e-10, time_limit=0.0)
+    _assert_equal(py, tw)
+    assert py[0] == "time_limit" and py[2] == 1
+
+
+def test_time_limit_chunks_without_the_compiled_clock(monkeypatch):
+    from socp_cd.solvers.kernels import clock
+    p = manufactured(9, 3, 0.5, seed=5)
+    a = _both(p, np.zeros(p.m), 1e-10)[1]
+    monkeypatch.setattr(clock, "AVAILABLE", False)
     c = _both(p, np.zeros(p.m), 1e-10, time_limit=1e9)[1]     # chunks of outer iterations
     _assert_equal(a, c)
-    _assert_equal(b, c)
-    # a spent budget: the Python loop stops after one outer iteration, the twin after one
-    # chunk (newton.CHUNK_WORK: here 3e6 / (10 * 27^3 / 3) = 45 iterations, capped at
-    # CHUNK_MAX = 64: enough to converge)
-    py, tw = _both(p, np.zeros(p.m), 1e-10, time_limit=0.0)
-    assert py[0] == "time_limit" and py[2] == 1
+    # a spent budget: the twin stops after one chunk (newton.CHUNK_WORK: here
+    # 3e6 / (10 * 27^3 / 3) = 45 iterations, capped at CHUNK_MAX = 64: enough to converge)
+    tw = _both(p, np.zeros(p.m), 1e-10, time_limit=0.0)[1]
     assert tw[0] == "converged" and tw[2] == a[2]
     monkeypatch.setattr(nt, "CHUNK_WORK", 1.0)                 # one iteration per chunk
     d = _both(p, np.zeros(p.m), 1e-10, time_limit=0.0)
@@ -353,8 +365,9 @@ def test_velocity_error_is_the_guard_error():
 
 def test_warmup_runs_both_twins(monkeypatch):
     # newton.warmup (called by the benchmarks before timing) reaches both compiled loops, in
-    # 2D and 3D, with and without a time limit (the chunked path)
+    # 2D and 3D, with and without a time limit
     from socp_cd.solvers.kernels import newton_dense as nd
+    nt.warmup()     # (compiled kernels that call the loops are typed before the spies go in)
     calls = []
     for name in ("prox_newton_dense", "plain_newton_dense"):
         original = getattr(nd, name)

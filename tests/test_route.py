@@ -96,9 +96,7 @@ def test_newton_route_equals_general_path(monkeypatch, name, p, time_limit):
         _same(a, b)
         assert a.message == b.message
         # the route takes a call within its bounds (unless the checks refute a claim)
-        takes = p.m <= newton.ROUTE_MAX_M and newton.compiled_written_out(p) and (
-            time_limit is None or newton._route_work(p.m, kw.get("max_iter", 200))
-            <= newton.ROUTE_TIMED_WORK)
+        takes = p.m <= newton.ROUTE_MAX_M and newton.compiled_written_out(p)
         expected += takes
         if "route" in a.info:
             assert takes
@@ -130,18 +128,30 @@ def test_a_refuted_route_claim_runs_only_the_retry(monkeypatch):
     assert a.info == b.info and a.message == b.message
 
 
-def test_newton_route_bounds_under_a_time_limit():
-    # with a time limit the route (one compiled call, no clock) takes a run whose worst case
-    # is bounded (ROUTE_TIMED_WORK) under a limit of at least ROUTE_MIN_TIME_LIMIT
+def test_newton_route_under_a_time_limit(monkeypatch):
+    # with a time limit the route runs to a deadline on the compiled clock (kernels.clock):
+    # it takes time-limited calls of any size it takes, and one whose deadline has passed
+    # stops after one outer iteration, "time_limit", as the general path does
     from socp_cd.solvers import newton
+    from socp_cd.solvers.kernels import clock
     socp_cd.solvers()
+    assert clock.AVAILABLE          # (Linux, macOS: the platforms the suite runs on)
+    big = _random(20, 3, 4)         # (m = 60: beyond the work bound of the clockless route)
+    assert newton._route_work(big.m, 200) > newton.ROUTE_TIMED_WORK
+    for lim in (10.0, 1e-3):
+        assert socp_cd.solve(big, "newton", time_limit=lim).info["route"] == "compiled"
+    a = socp_cd.solve(big, "newton", time_limit=1e-300)
+    b = _newton_general(monkeypatch, big, time_limit=1e-300)
+    assert a.info["route"] == "compiled"
+    assert a.status == b.status == "time_limit" and a.iterations == b.iterations == 1
+    assert np.array_equal(a.r, b.r)
+    # without the compiled clock: the bounds on the work of a time-limited call
+    monkeypatch.setattr(clock, "AVAILABLE", False)
     p = _random(3, 3, 0)
     assert newton._route_work(p.m, 200) <= newton.ROUTE_TIMED_WORK
     lim = newton.ROUTE_MIN_TIME_LIMIT
     assert "route" in socp_cd.solve(p, "newton", time_limit=lim).info
     assert "route" not in socp_cd.solve(p, "newton", time_limit=lim * 0.99).info
-    big = _random(20, 3, 4)         # (m = 60: within ROUTE_MAX_M, beyond the timed bound)
-    assert newton._route_work(big.m, 200) > newton.ROUTE_TIMED_WORK
     assert "route" in socp_cd.solve(big, "newton").info
     assert "route" not in socp_cd.solve(big, "newton", time_limit=10.0).info
     assert "route" in socp_cd.solve(big, "newton", time_limit=10.0, max_iter=2).info
@@ -185,17 +195,18 @@ def test_route_runs_for_plain_calls_only():
     assert socp_cd.solve(p).info.get("route") == "compiled"
     assert socp_cd.solve(p, "nsgs").info.get("route") == "compiled"
     assert socp_cd.solve(p, "nsgs", time_limit=1.0).info.get("route") == "compiled"
+    assert socp_cd.solve(p, time_limit=0.01).info.get("route") == "compiled"
     for kw in (dict(solver="nsgs", omega=1.0), dict(history=True),
                dict(solver="nsgs", inner_settings={"local_tol": 1e-12}),
-               dict(time_limit=0.01),
                dict(formulation="associated"), dict(crosscheck="nsgs")):
         assert "route" not in socp_cd.solve(p, **kw).info, kw
     with pytest.MonkeyPatch.context() as m:
         m.setattr(nsgs_route, "MAX_CONTACTS", 2)
         assert "route" not in socp_cd.solve(p, "nsgs").info
-    # under a time limit, the sweeps' work must fit (nsgs: 1000 sweeps of 150 dense contacts)
+    # under a time limit the route runs to its deadline, whatever the sweeps' work (nsgs:
+    # 1000 sweeps of 150 dense contacts; test_timed_work_bound_without_the_compiled_clock)
     big = _random(150, 2, seed=8, spread=0.5)
-    assert "route" not in socp_cd.solve(big, "nsgs", max_iter=1000, time_limit=5.0).info
+    assert socp_cd.solve(big, "nsgs", max_iter=1000, time_limit=5.0).info["route"] == "compiled"
     assert socp_cd.solve(big, "nsgs", max_iter=3).info.get("route") == "compiled"
     # auto on a frictionless problem models Signorini's QP first: no NSGS stage to route
     frictionless = _random(3, 3, seed=9, mu=0.0)
@@ -992,28 +1003,44 @@ def test_route_checks_a_start_it_is_handed_directly():
     assert a.status == b.status and np.array_equal(a.vectors, b.vectors) and a.stats == b.stats
 
 
-def test_timed_work_bound_declines_in_the_kernel():
-    # with a time limit the route takes max_iter * nnz(W) <= MAX_TIMED_WORK only (the kernel
-    # cannot read a clock): the compiled call declines above it before any work, at the
-    # bound it runs; without a time limit there is no bound; a limit below MIN_TIME_LIMIT
-    # is declined before the call
+def test_nsgs_route_runs_to_a_deadline():
+    # with a time limit the route's kernel stops at its deadline on the compiled clock, as
+    # the NSGS backend stops on its own clock: between blocks of sweeps (the first of
+    # TIME_CHECK_SWEEPS), status "time_limit"; any limit, any size
+    from socp_cd.solvers import nsgs
+    p = _random(20, 3, 4, mu=0.8)
+    slow = dict(solver="nsgs", tol=1e-14, max_iter=10 ** 6)
+    a = socp_cd.solve(p, time_limit=1e-300, **slow)
+    b = _general(pytest.MonkeyPatch(), p, time_limit=1e-300, **slow)
+    assert a.info["route"] == "compiled"
+    assert a.status == b.status == "time_limit"
+    assert a.iterations == b.iterations == nsgs_route.TIME_CHECK_SWEEPS
+    assert np.array_equal(a.r, b.r)
+    st = nsgs.route_settings(3)
+    ran = nsgs_route.run(p, st, 1e-8, 10 ** 9, None, 1e-3, True)     # (no work bound)
+    assert ran is not None and ran.status in ("converged", "time_limit", "stalled")
+    assert socp_cd.solve(p, time_limit=1e-4).info.get("route") == "compiled"
+
+
+def test_timed_work_bound_without_the_compiled_clock(monkeypatch):
+    # where the compiled clock is not available, the route takes a time-limited call only
+    # when max_iter * nnz(W) <= MAX_TIMED_WORK and the limit is at least MIN_TIME_LIMIT;
+    # without a time limit there is no bound
     from socp_cd.solvers import nsgs
     p = _random(1, 3, seed=0)
     nnz = int(p.csr_parts[0][-1])
     at = int(nsgs_route.MAX_TIMED_WORK) // nnz
     st = nsgs.route_settings(3)
+    assert nsgs_route.run(p, st, 1e-8, at + 1, None, 1.0, True) is not None
+    monkeypatch.setattr(nsgs_route, "CLOCK_AVAILABLE", False)
     assert nsgs_route.run(p, st, 1e-8, at + 1, None, 1.0, True) is None
     ran = nsgs_route.run(p, st, 1e-8, at, None, 1.0, True)
     assert ran is not None and ran.status == "converged"
     assert nsgs_route.run(p, st, 1e-8, at + 1, None, None, True) is not None
     assert nsgs_route.run(p, st, 1e-8, 10, None, 0.5 * nsgs_route.MIN_TIME_LIMIT, True) is None
-    indptr, indices, data = p.csr_parts
-    for cap, declined in ((at + 1, True), (at, False), (2 ** 62, True)):
-        # (2**62 * nnz wraps around in int64: the bound is compared in floats)
-        code, _ = nsgs_route.nsgs_checked(indptr, indices, data, p.q, p.mu, 3, p.q, False,
-                                          1e-8, cap, True, 10, *st, True, 0, 0, 0,
-                                          np.empty((3, p.m)))
-        assert (code == nsgs_route.DECLINED_TOO_MUCH_WORK) == declined
+    # (2**62 * nnz wraps around in int64: the bound is compared in floats)
+    assert nsgs_route.run(p, st, 1e-8, 2 ** 62, None, 1.0, True) is None
+    monkeypatch.undo()
     # a cap beyond the kernel's int64 goes the general path, with or without a time limit
     assert nsgs_route.run(p, st, 1e-8, 2 ** 63, None, 1.0, True) is None
     assert nsgs_route.run(p, st, 1e-8, 2 ** 63, None, None, True) is None

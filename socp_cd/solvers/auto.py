@@ -694,7 +694,9 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
         # a run that meets tol there and not as written goes on), its default settings
         # (norm_q -1: ||q~||, judge_norm's value, computed in the trial's compiled call)
         ran = newton.compiled_runs(problem, -1.0, start, tol, steps, prox=prox,
-                                   stall_window=stall, constants=constants)
+                                   stall_window=stall, constants=constants,
+                                   time_left=None if time_limit is None
+                                   else time_limit - (t1 - t0))
         if ran is None or ran[3] is None:
             break
         its = ran[1]

@@ -85,6 +85,7 @@ from threadpoolctl import ThreadpoolController
 
 from ..errors import UnsupportedError
 from .block_storage import block_csr_arrays
+from .kernels import clock
 from .kernels import newton_dense as nd
 from .kernels.cone import project_cone_stacked, siconos_error
 from .kernels.dense import (LAPACK_LU, NAIVE_LU_MAX_N, PIVOT_TOL, csr_to_dense, dense_solve,
@@ -133,8 +134,8 @@ COMPILED_LU_MAX_ENVELOPE = 0.6
 #: every dense system now (``DENSE_MAX_M``), measured in
 #: ``validation/results/newton_compiled_lapack.md``
 COMPILED_LOOP_MAX_M = DENSE_MAX_M
-#: with a time limit the compiled loops run in chunks of outer iterations, the clock read
-#: between chunks; a chunk holds as many outer iterations as fit in about this many
+#: with a time limit and without the compiled clock (``kernels.clock.AVAILABLE`` False) the
+#: compiled loops run in chunks of outer iterations, the clock read between chunks; a chunk holds as many outer iterations as fit in about this many
 #: multiply-adds of LU factorizations (``inner_max_iter * m³ / 3`` per outer iteration; the
 #: plain policy: one), at most CHUNK_MAX: two at m = 72 (prox), CHUNK_MAX on a few contacts,
 #: where one more compiled call (~3 µs of argument unboxing) cost more than the iteration
@@ -830,18 +831,15 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
     :func:`~.kernels.newton_dense.plain_newton_dense`).
 
     Same arguments and return value as :func:`prox_newton` (history ``None``).
-    Without ``time_limit`` the twin runs the whole loop in one call: its cost
-    is bounded by ``max_iter * inner_max_iter`` LU factorizations of an
-    ``m x m`` matrix, ``m <= COMPILED_LOOP_MAX_M`` (each followed by at most
-    30 residual evaluations).  With ``time_limit`` it runs chunks of outer
-    iterations (:data:`CHUNK_WORK`, :data:`CHUNK_MAX`: two on the largest systems,
-    up to 64 on small ones) and reads the clock between chunks: the same iterates as the
-    Python loop, which reads it after every outer iteration; a run may overrun
-    its limit by one chunk and stop ``"time_limit"`` a few iterations later
-    than the Python loop would.
+    The twin runs the whole loop in one call; a ``time_limit`` is its deadline on the
+    compiled clock (:mod:`~.kernels.clock`), read after every outer iteration, as the
+    Python loop reads its clock: the same iterates, and the same stop.  Where that
+    clock is not available (``clock.AVAILABLE`` False) a time-limited run goes in chunks
+    of outer iterations (:data:`CHUNK_WORK`, :data:`CHUNK_MAX`), the clock read in
+    Python between them (a run may then overrun its limit by one chunk).
     """
     rho_n, rho_t, wscale = _system_rho(system, rho)
-    fstate, istate = nd.new_state(alpha0 * wscale)
+    fstate, istate = nd.new_state(alpha0 * wscale, clock.deadline_after(time_limit))
     r = np.array(r, dtype=np.float64)         # a copy: the caller's r is never written
     best_r = np.empty_like(r)
     if not mu.flags.writeable:      # one compiled signature: numba types read-only arrays apart
@@ -856,7 +854,7 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
         rest = (alpha_min * wscale, _ALPHA_MAX * wscale, int(inner_max_iter), int(stall_window),
                 _ARMIJO, _MAX_BACKTRACK, NONMONOTONE, INNER_GATE, INNER_DECREASE, r, best_r,
                 fstate, istate, system.lapack)
-    if time_limit is None:
+    if time_limit is None or clock.AVAILABLE:
         loop(*args, int(max_iter), *rest)
         status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
     else:
@@ -1156,12 +1154,13 @@ def resolve_polish(choice):
 #: the compiled route (:func:`route`) takes local problems of at most this many unknowns
 #: (within ``nsgs_route.TRIAL_MAX_M``, the compiled runs' bound; 0: off)
 ROUTE_MAX_M = 150
-#: ... and a call with a time limit only when the limit is at least ROUTE_MIN_TIME_LIMIT
-#: seconds and the run's worst case, ``max_iter * inner_max_iter * (m³/3 + 64 m²)``
-#: multiply-adds (LU factorizations and line searches), is at most ROUTE_TIMED_WORK (~30 ms
-#: at 1 Gmadd/s, a third of that limit): the route runs its loop in one compiled call, while
-#: the backend reads the clock between chunks (CHUNK_WORK), which on such a run cannot stop
-#: it before it ends
+#: ... a time limit is the compiled runs' deadline (:mod:`~.kernels.clock`); where the
+#: compiled clock is not available (``clock.AVAILABLE`` False), a call with a time limit
+#: only when the limit is at least ROUTE_MIN_TIME_LIMIT seconds and the run's worst case,
+#: ``max_iter * inner_max_iter * (m³/3 + 64 m²)`` multiply-adds (LU factorizations and line
+#: searches), is at most ROUTE_TIMED_WORK (~30 ms at 1 Gmadd/s, a third of that limit).
+#: Until session 24 that bound held everywhere: a time-limited plain call of 5 or more
+#: contacts went the general path (~60 µs more on 5 contacts)
 ROUTE_MIN_TIME_LIMIT = 0.1
 ROUTE_TIMED_WORK = 3e7
 
@@ -1186,7 +1185,7 @@ def compiled_loop_takes(problem) -> bool:
 
 
 def compiled_runs(problem, norm_q, start, tol, max_iter, *, prox, stall_window, constants,
-                  full_info=False):
+                  full_info=False, time_left=None):
     """The backend's runs from the balanced ``start`` (:func:`continued_runs`) through the
     compiled loop, and the checks of the answer, on a problem :func:`compiled_loop_takes`
     (``norm_q``: ``nsgs_route.judge_norm``, or a negative number: computed here the same
@@ -1196,15 +1195,17 @@ def compiled_runs(problem, norm_q, start, tol, max_iter, *, prox, stall_window, 
     The first run and the checks are one compiled call
     (:func:`~socp_cd.solvers.nsgs_route.newton_checked`); only when
     :func:`continued_runs` would go on from that run (it met ``tol`` in balanced units and
-    not as written) do the runs start over in :func:`continued_runs` with
-    :func:`~socp_cd.solvers.nsgs_route.trial_runner` and
-    :func:`~socp_cd.solvers.nsgs_route.trial_outcome` (the same first run, bit for bit).
+    not as written) does :func:`continued_runs` take over, given that run as its first
+    (:func:`_replayed`), the next ones through
+    :func:`~socp_cd.solvers.nsgs_route.trial_runner`, and
+    :func:`~socp_cd.solvers.nsgs_route.trial_outcome` checks its answer.
 
     Returns ``(status, iterations, info, checked)`` (``info`` the runs', the backend's with
     ``full_info``, with ``full_info="lazy"`` a :class:`~.result.LazyInfo` of it when one run
     was made; ``checked`` ``(RouteOutcome, judge_guard)``, None when the checks are not
-    finite), or None beyond ``nsgs_route.TRIAL_MAX_M`` unknowns.  ``route`` and ``auto``'s
-    hand-off trials run it.
+    finite), or None beyond ``nsgs_route.TRIAL_MAX_M`` unknowns.  ``time_left``: seconds
+    (None: no limit), the runs' deadline on the compiled clock (:mod:`~.kernels.clock`; a
+    run past it stops ``"time_limit"``).  ``route`` and ``auto``'s hand-off trials run it.
     """
     q = problem.q
     m = q.shape[0]
@@ -1213,6 +1214,7 @@ def compiled_runs(problem, norm_q, start, tol, max_iter, *, prox, stall_window, 
     indptr, indices, data = problem.csr_parts
     vectors = np.empty((3, m))
     fstate, istate = np.empty(nd.FSTATE), np.empty(nd.ISTATE, dtype=np.int64)
+    deadline = fstate[nd.F_DEADLINE] = clock.deadline_after(time_left)
     code, its, internal, e, wscale, norm_q, ok, x, judge_guard = nsgs_route.newton_checked(
         indptr, indices, data, q, problem.mu, problem.dim, start, float(norm_q), tol,
         max_iter, stall_window, prox, constants, constants[nsgs_route.C_ALPHA0], vectors,
@@ -1220,10 +1222,14 @@ def compiled_runs(problem, norm_q, start, tol, max_iter, *, prox, stall_window, 
     status = nd.STATUS_NAMES[code]
     if status == "converged" and tol < e < math.inf and its < max_iter and MAX_CONTINUED:
         # continued_runs goes on from this run's answer: the runs as it makes them
-        run = nsgs_route.trial_runner(problem, norm_q, prox, stall_window, constants, full_info)
+        first = nsgs_route.run_record(fstate, istate, wscale, prox, internal, e, full_info)
+        run = _replayed((status, vectors[0].copy(), int(its), None, first),
+                        nsgs_route.trial_runner(problem, norm_q, prox, stall_window, constants,
+                                                full_info, first.get("factorizations", 0)))
         status, r_s, iters, _, info = continued_runs(
             run, _as_written_of_run, start, tol, max_iter, constants[nsgs_route.C_ALPHA0],
-            constants[nsgs_route.C_ALPHA_MIN], None)
+            constants[nsgs_route.C_ALPHA_MIN],
+            None if deadline == math.inf else deadline - clock.monotonic())
         return status, iters, info, nsgs_route.trial_outcome(problem, norm_q, status, r_s)
     if full_info == "lazy":
         info = LazyInfo((_one_run_info, fstate, istate, wscale, prox, internal, e))
@@ -1231,6 +1237,19 @@ def compiled_runs(problem, norm_q, start, tol, max_iter, *, prox, stall_window, 
         info = _one_run_info(fstate, istate, wscale, prox, internal, e, full_info)
     return (status, int(its), info,
             (nsgs_route.RouteOutcome(status, vectors, x), judge_guard) if ok else None)
+
+
+def _replayed(first, run):
+    """``run`` of :func:`continued_runs` whose first call returns ``first``, a run already
+    made with the arguments :func:`continued_runs` passes its first call (its returns),
+    and whose later calls are ``run``'s."""
+    pending = [first]
+
+    def replay(r, tol, max_iter, alpha0, time_left):
+        if pending:
+            return pending.pop()
+        return run(r, tol, max_iter, alpha0, time_left)
+    return replay
 
 
 def _one_run_info(fstate, istate, wscale, prox, internal, e, full_info=True):
@@ -1245,8 +1264,8 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     """The compiled route of a plain Newton call (``SolverSpec.route``).
 
     For a local exact-Coulomb problem of at most :data:`ROUTE_MAX_M` unknowns that
-    :func:`compiled_loop_takes`, called with the default settings (and, with a time limit,
-    within :data:`ROUTE_TIMED_WORK`): the backend's runs on the balanced problem and the
+    :func:`compiled_loop_takes`, called with the default settings (a time limit: the runs'
+    deadline on the compiled clock; see :data:`ROUTE_MAX_M` without it): the backend's runs on the balanced problem and the
     dispatcher's checks in compiled calls (:func:`compiled_runs`: the same iterates, bit for
     bit), as ``(result, guard_value, None)``: ``info`` the backend's, with the dispatcher's
     ``guard`` and ``scaling`` records and ``route = "compiled"``.  The general path's set-up
@@ -1258,8 +1277,8 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     if m > ROUTE_MAX_M or problem.is_global:
         return None
     max_iter = DEFAULT_MAX_ITER if max_iter is None else int(max_iter)
-    if time_limit is not None and not (time_limit >= ROUTE_MIN_TIME_LIMIT
-                                       and _route_work(m, max_iter) <= ROUTE_TIMED_WORK):
+    if time_limit is not None and not clock.AVAILABLE and not (
+            time_limit >= ROUTE_MIN_TIME_LIMIT and _route_work(m, max_iter) <= ROUTE_TIMED_WORK):
         return None
     if not compiled_loop_takes(problem):
         return None
@@ -1270,7 +1289,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
         start = np.asarray(r0, dtype=np.float64) / a
     done = compiled_runs(problem, norm_q, start, tol, max_iter, prox=True,
                          stall_window=DEFAULT_STALL_WINDOW, constants=trial_constants(),
-                         full_info="lazy")
+                         full_info="lazy", time_left=time_limit)
     if done is None or done[3] is None:
         return None
     status, iters, info, (out, _) = done

@@ -57,7 +57,7 @@ from . import nsgs_route
 from .block_storage import problem_blocks
 from .local_solvers import (KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION, LAW_ASSOCIATED,
                             LAW_COULOMB, LAW_TRESCA)
-from .nsgs_kernels import (STATUS_NAMES, BlockW, Law, LocalSolver, Origin, Sweeps, no_origin,
+from .nsgs_kernels import (STATUS_NAMES, STATUS_TIME_LIMIT, BlockW, Law, LocalSolver, Origin, Sweeps, no_origin,
                            full_error, local_parameters, nsgs_loop, timed_next_block, whole_windows)
 from .options import check_choice, check_int, check_real, check_unknown
 from .result import SolverResult
@@ -208,13 +208,13 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         block, prev, spent = timed_next_block(status, int(iters), int(block), done, max_iter, err,
                                               window, t0, time_limit, time.perf_counter)
         if not block:
-            status = -1 if spent else status
+            status = STATUS_TIME_LIMIT if spent else status
             break
     info["loop_time"] = time.perf_counter() - t0
     info["cpu_time"] = time.process_time() - cpu0
     info.update(full_error_evaluations=int(n_full), local_failures=int(n_fail),
                 light_error=float(light), internal_error=float(err))
-    status_name = "time_limit" if status == -1 else STATUS_NAMES[status]
+    status_name = STATUS_NAMES[status]
     message = _message(status_name, light, err, st["stall_window"], time_limit, done)
     if status_name == "max_iter" and done < max_iter:
         message = (f"stopped after {done} of {max_iter} sweeps: the error's rate over the last "
@@ -288,7 +288,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
             "full_error_evaluations": int(x[R.N_FULL]), "local_failures": int(x[R.N_FAIL]),
             "light_error": x[R.LIGHT], "internal_error": x[R.INTERNAL_ERROR],
             "guard": R.guard_record(x), "scaling": R.scaling_record(x), "route": "compiled"}
-    message = _message(out.status, x[R.LIGHT], x[R.INTERNAL_ERROR], st["stall_window"], None,
+    message = _message(out.status, x[R.LIGHT], x[R.INTERNAL_ERROR], st["stall_window"], time_limit,
                        sweeps)
     return (SolverResult.of_local(out.vectors[1], out.vectors[2], out.status, x[R.ERROR], sweeps,
                                   info, message, x[R.ZERO_ERROR] <= tol),

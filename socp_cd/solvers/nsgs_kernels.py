@@ -21,7 +21,8 @@ STATUS_CONVERGED = 0
 STATUS_MAX_ITER = 1
 STATUS_STALLED = 2
 STATUS_NUMERICAL = 3
-STATUS_NAMES = ("converged", "max_iter", "stalled", "numerical_error")
+STATUS_TIME_LIMIT = 4       # (set by a run in blocks whose clock passed its limit)
+STATUS_NAMES = ("converged", "max_iter", "stalled", "numerical_error", "time_limit")
 
 
 @njit(cache=True, inline="always")

@@ -56,6 +56,8 @@ from numba import njit, types
 from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from .block_storage import csr_to_bsr
+from .kernels.clock import AVAILABLE as CLOCK_AVAILABLE
+from .kernels.clock import deadline_after, past
 from .kernels.cone import LAW_COULOMB, error_parts, relative_error, siconos_error
 from .kernels import newton_dense as nd
 from .kernels.dense import csr_matvec_add, csr_matvec_add_into, csr_to_dense, matvec_into
@@ -63,16 +65,18 @@ from .kernels.entry import F64_VECTOR, entry_point, index_vector
 from .kernels.newton_ac import block_rho_dense
 from .kernels.scaling import GUARD_KEYS, balance_csr, balanced_guard, factor_summary, origin_error
 from .options import MAX_ITER
-from .nsgs_kernels import (STATUS_NAMES, BlockW, Law, LocalSolver, Origin, Sweeps,
+from .nsgs_kernels import (STATUS_NAMES, STATUS_TIME_LIMIT, BlockW, Law, LocalSolver, Origin, Sweeps,
                            local_parameters, next_block, nsgs_loop, whole_windows)
 
 #: the route runs on local problems with at most this many contacts (it builds the balanced
 #: copy and the block storage in every call, where the general path keeps them on the
 #: problem object; beyond this size the sweeps dominate either way)
 MAX_CONTACTS = 20000
-#: ... and, when a time limit is given, only when it is at least this many seconds and
-#: the sweeps' work, ``sweeps * nnz(W)``, is at most MAX_TIMED_WORK: the kernel cannot read
-#: a clock, so that work must fit well inside the limit (5e7 entry visits take ~0.1 s)
+#: ... a time limit is the kernel's deadline on the compiled clock (:mod:`~.kernels.clock`),
+#: read between blocks of sweeps as the NSGS backend reads its clock; where that clock is
+#: not available (``clock.AVAILABLE`` False), only a limit of at least this many seconds and
+#: sweeps' work, ``sweeps * nnz(W)``, of at most MAX_TIMED_WORK (5e7 entry visits take
+#: ~0.1 s), the bounds of every time-limited call until session 24
 MIN_TIME_LIMIT = 0.5
 MAX_TIMED_WORK = 5e7
 #: first block of sweeps when a time limit is given (also the NSGS backend's, which checks
@@ -84,7 +88,6 @@ DECLINED_FRICTIONLESS = -2   # every mu = 0 and friction was required
 DECLINED_ILL_POSED = -3      # a contact with W_NN <= 0 (the general path reports it)
 DECLINED_NOT_FINITE = -4     # r or u not finite, or the checks cannot judge them (the
                              # general path reports it: checked_answer)
-DECLINED_TOO_MUCH_WORK = -6  # blocked (a time limit) and max_iter * nnz(W) > MAX_TIMED_WORK
 
 #: the compiled Newton runs (:func:`trial_run`: ``auto``'s trials, ``newton``'s route) take
 #: local problems of at most this many unknowns (``auto``'s cold trials' bound,
@@ -152,7 +155,7 @@ def checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_
 
 @njit(cache=True)
 def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blocked, first_block,
-                 kind, loc_tol, newton_max_iter, projection_max_iter, omega, error_every,
+                 deadline, kind, loc_tol, newton_max_iter, projection_max_iter, omega, error_every,
                  stall_window, need_friction, handoff_sweeps, handoff_work, predict_window,
                  vectors):
     """Balance, NSGS sweeps from ``r0``, map back, and the dispatcher's checks, in one call.
@@ -166,12 +169,12 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     tol, max_iter, omega, error_every, stall_window
         NSGS's sweep settings (:data:`~socp_cd.solvers.nsgs_kernels.Sweeps`,
         natural ordering).
-    blocked, first_block
+    blocked, first_block, deadline
         Run the sweeps in blocks of ``first_block``, twice that, ... sweeps, as
         the NSGS backend does when a time limit is given (each block restarts
-        the light-error and stall bookkeeping); when ``blocked``, decline (code
-        :data:`DECLINED_TOO_MUCH_WORK`) before any work if ``max_iter * nnz(W)``
-        exceeds :data:`MAX_TIMED_WORK` (read when the kernel is compiled).
+        the light-error and stall bookkeeping), and stop with status
+        ``STATUS_TIME_LIMIT`` when a block ends past ``deadline``
+        (:func:`~socp_cd.solvers.kernels.clock.deadline_after`; ``inf``: never).
     kind, loc_tol, newton_max_iter, projection_max_iter
         The one-contact solver (:data:`~socp_cd.solvers.nsgs_kernels.LocalSolver`).
     need_friction
@@ -212,10 +215,6 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     nc = mu.shape[0]
     m = q.shape[0]
     nnz = max(indptr[nc * dim], 1)
-    if blocked and max_iter > MAX_TIMED_WORK / nnz:
-        # (run's bound, read here: MAX_TIMED_WORK is frozen into the compiled code; compared
-        # in floats, where the product max_iter * nnz would wrap around in int64)
-        return DECLINED_TOO_MUCH_WORK, to_fixed_tuple(np.zeros(_N_OUT), _N_OUT)
     if handoff_sweeps > 0:
         cap = max(handoff_sweeps, (handoff_work + nnz - 1) // nnz)
         if cap < max_iter:
@@ -260,6 +259,9 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
             break
         block, prev = next_block(status, its, block, done, max_iter, err, predict_window)
         if block == 0:
+            break
+        if past(deadline):
+            status = STATUS_TIME_LIMIT
             break
     if not checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_s,
                           vectors, stats):
@@ -308,8 +310,10 @@ def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, s
         Output: the run's answer (its last iterate, or its best one when it did not
         converge).
     fstate, istate : ndarray
-        Output: the loop's state at its end (the shapes of
-        :func:`~socp_cd.solvers.kernels.newton_dense.new_state`: counters, proximal
+        The loop's state (the shapes of
+        :func:`~socp_cd.solvers.kernels.newton_dense.new_state`): on entry only
+        ``fstate[F_DEADLINE]`` is read, the run's deadline (``inf``: none; the run then
+        stops ``TIME_LIMIT``); on exit the state at the run's end (counters, proximal
         parameters).
 
     Returns
@@ -339,7 +343,7 @@ def _balanced_run(W, q_s, a, b, q_norm, mu, dim, start, norm_q, tol, max_iter, s
     m = q_s.shape[0]
     rho = np.empty(nc)
     wscale = block_rho_dense(W, dim, rho)
-    fstate[:] = 0.0
+    fstate[:nd.F_DEADLINE] = 0.0         # (the caller's deadline kept)
     fstate[nd.F_ALPHA] = alpha0 * wscale
     fstate[nd.F_ALPHA_MAX_USED] = alpha0 * wscale
     istate[:] = 0
@@ -483,10 +487,11 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     ``settings``: the NSGS backend's checked settings as the tuple
     :data:`ROUTE_SETTINGS` names (its defaults: the route runs plain calls
     only); ``max_iter`` sweeps, in the backend's time-limit blocks when
-    ``time_limit`` is given.  None when the route does not apply (it takes a
-    local problem of 1 to :data:`MAX_CONTACTS` contacts; with a time limit,
-    only a limit of at least :data:`MIN_TIME_LIMIT` s and ``max_iter *
-    nnz(W) <=`` :data:`MAX_TIMED_WORK`) or declines: a problem whose every
+    ``time_limit`` is given, which is the kernel's deadline (a run past it:
+    status ``"time_limit"``).  None when the route does not apply (it takes a
+    local problem of 1 to :data:`MAX_CONTACTS` contacts; with a time limit and
+    without the compiled clock, only a limit of at least :data:`MIN_TIME_LIMIT` s and
+    ``max_iter * nnz(W) <=`` :data:`MAX_TIMED_WORK`) or declines: a problem whose every
     ``mu`` is 0 when ``need_friction``, one with an ill-posed contact, an answer that is not
     finite, whose error overflows or whose guard cannot be evaluated (the
     general path reports those).  ``handoff``: ``(sweeps, work)`` of
@@ -496,10 +501,12 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     indptr, indices, data = problem.csr_parts
     nc = mu.shape[0]
     # the bounds (MAX_CONTACTS; a sweep cap the kernel's int64 holds, options.MAX_ITER;
-    # with a time limit, MIN_TIME_LIMIT, and MAX_TIMED_WORK, which the kernel checks before
-    # any work: DECLINED_TOO_MUCH_WORK)
+    # with a time limit and no compiled clock, MIN_TIME_LIMIT and MAX_TIMED_WORK, compared
+    # in floats, where max_iter * nnz would wrap around in int64)
     if (nc > MAX_CONTACTS or nc == 0 or max_iter > MAX_ITER
-            or time_limit is not None and not time_limit >= MIN_TIME_LIMIT):
+            or time_limit is not None and not CLOCK_AVAILABLE and not (
+                time_limit >= MIN_TIME_LIMIT
+                and float(max_iter) * max(int(indptr[-1]), 1) <= MAX_TIMED_WORK)):
         return None
     q = problem.q
     if r0 is not None:          # (the kernel's entry point reads a contiguous float64 vector
@@ -508,7 +515,8 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     kernel = _CHECKED.get(indptr.dtype) if indices.dtype is indptr.dtype else None
     code, x = (kernel or _checked_entry(indptr, indices))(
         indptr, indices, data, q, mu, problem.dim, q if r0 is None else r0, r0 is not None, tol,
-        max_iter, time_limit is not None, TIME_CHECK_SWEEPS, *settings, need_friction, *handoff,
+        max_iter, time_limit is not None, TIME_CHECK_SWEEPS,
+        deadline_after(time_limit), *settings, need_friction, *handoff,
         predict_window, vectors)
     if code < 0:            # (a declined problem, or an answer the checks cannot judge)
         return None
@@ -535,7 +543,7 @@ def _checked_entry(indptr, indices):
     ix = index_vector(dtype)
     b, i = types.boolean, types.int64
     sig = (ix, ix, F64_VECTOR, F64_VECTOR, F64_VECTOR, i, F64_VECTOR, b, types.float64, i, b, i,
-           i, types.float64, i, i, types.float64, i, i, b, i, i, i,
+           types.float64, i, types.float64, i, i, types.float64, i, i, b, i, i, i,
            types.Array(types.float64, 2, "C"))
     ep = _CHECKED[dtype] = entry_point(nsgs_checked, sig)
     return ep
@@ -558,27 +566,30 @@ def judge_units(problem):
     return a, float(np.sqrt(q_s.dot(q_s)))
 
 
-def trial_runner(problem, norm_q, prox, stall_window, constants, full_info=False):
+def trial_runner(problem, norm_q, prox, stall_window, constants, full_info=False,
+                 factorizations=0):
     """``run(r, tol, max_iter, alpha0, time_left)`` of
     :func:`socp_cd.solvers.newton.continued_runs` through :func:`trial_run` on
     ``problem`` (as written; ``norm_q``: :func:`judge_norm`): returns ``(status, r~,
     iterations, None, info)`` with ``info["internal_error"]`` and
     ``info["error_as_written"]``, and with ``full_info`` the Newton backend's ``info`` of
     a run (:func:`~socp_cd.solvers.kernels.newton_dense.run_info`: its counters, the
-    factorizations of all runs of this runner, as of one system).  ``time_left`` is not
-    read: the caller bounds the work (at most :data:`TRIAL_MAX_M` unknowns; ``auto``'s
-    trials by their step caps, ``newton.route`` by ``newton.ROUTE_TIMED_WORK`` under a
-    time limit).  None when the problem has more than :data:`TRIAL_MAX_M` unknowns."""
+    factorizations of all runs of this runner and ``factorizations`` before them, as of
+    one system).  ``time_left``
+    (seconds, None: no limit) is the run's deadline on the compiled clock
+    (:mod:`~socp_cd.solvers.kernels.clock`).  None when the problem has more than
+    :data:`TRIAL_MAX_M` unknowns."""
     q = problem.q
     if q.shape[0] > TRIAL_MAX_M:
         return None
     indptr, indices, data = problem.csr_parts
     mu, dim = problem.mu, problem.dim
-    factorizations = [0]
+    factorizations = [factorizations]
 
     def run(r, tol, max_iter, alpha0, time_left):
         r_s = np.empty(q.shape[0])
         fstate, istate = np.empty(nd.FSTATE), np.empty(nd.ISTATE, dtype=np.int64)
+        fstate[nd.F_DEADLINE] = deadline_after(time_left)
         code, its, internal, e, wscale = trial_run(indptr, indices, data, q, mu, dim, r, norm_q,
                                                    tol, max_iter, stall_window, prox, constants,
                                                    alpha0, r_s, fstate, istate)

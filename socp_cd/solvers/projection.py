@@ -46,7 +46,8 @@ import numpy as np
 from ..errors import InvalidProblemError, UnsupportedError
 from .kernels.cone import LAW_ASSOCIATED, LAW_COULOMB, LAW_TRESCA
 from .kernels.projection import Step, projection_loop
-from .nsgs_kernels import STATUS_CONVERGED, STATUS_NAMES, timed_next_block, whole_windows
+from .nsgs_kernels import (STATUS_CONVERGED, STATUS_NAMES, STATUS_TIME_LIMIT, timed_next_block,
+                           whole_windows)
 from .options import check_int, check_real, check_unknown
 from .result import SolverResult
 from .spec import SolverSpec
@@ -150,9 +151,9 @@ def projection_backend(problem, formulation, *, tol, max_iter=None, r0=None, his
         block, prev, spent = timed_next_block(status, int(its), int(block), done, max_iter, last,
                                               window, t0, time_limit, time.perf_counter)
         if not block:
-            status = -1 if spent else status
+            status = STATUS_TIME_LIMIT if spent else status
             break
-    name = "time_limit" if status == -1 else STATUS_NAMES[status]
+    name = STATUS_NAMES[status]
     info = {"rho": float(rho), "products": products, "internal_error": float(best),
             "loop_time": time.perf_counter() - t0, "cpu_time": time.process_time() - cpu0}
     message = ""

@@ -14,10 +14,11 @@ twin removes is the interpreter and the small temporaries of the loop body
 (~35 µs per inner Newton step on a 1-contact problem).
 
 The whole state of a run lives in two small arrays (:data:`FSTATE` floats,
-:data:`ISTATE` integers) and two iterates, so a run can be split into chunks of
-outer iterations (:func:`prox_newton_dense` stops after outer iteration
-``it_end``): numba cannot read the clock, and the Python caller checks its
-``time_limit`` between chunks.
+:data:`ISTATE` integers) and two iterates, so a run can be split into calls
+(:func:`prox_newton_dense` stops after outer iteration ``it_end``).  A time
+limit is a deadline on :mod:`~.clock`'s clock in the float state
+(``F_DEADLINE``), read after every outer iteration, where the Python reference
+reads its clock: the loop then stops with :data:`TIME_LIMIT`.
 
 Equations and the meaning of every step: ``formulations/newton.md`` and the
 Python reference.
@@ -27,18 +28,21 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .clock import past
 from .cone import project_cone_stacked, siconos_error
 from .dense import dense_solve, matvec, matvec_into
 from .newton_ac import ac_blocks, dense_jacobian
 
-#: run status codes (``RUNNING`` after the last chunk means the budget ran out)
-RUNNING, CONVERGED, STALLED, NUMERICAL_ERROR = 0, 1, 2, 3
+#: run status codes (``RUNNING`` after the last call means the step cap was reached;
+#: ``TIME_LIMIT``: the clock passed the deadline ``F_DEADLINE``)
+RUNNING, CONVERGED, STALLED, NUMERICAL_ERROR, TIME_LIMIT = 0, 1, 2, 3, 4
 #: the solver statuses of the codes (``RUNNING``: the step cap was reached)
 STATUS_NAMES = {RUNNING: "max_iter", CONVERGED: "converged", STALLED: "stalled",
-                NUMERICAL_ERROR: "numerical_error"}
-#: slots of the float state: proximal parameter, largest one used, current error, best error
-F_ALPHA, F_ALPHA_MAX_USED, F_ERR, F_BEST_ERR = 0, 1, 2, 3
-FSTATE = 4
+                NUMERICAL_ERROR: "numerical_error", TIME_LIMIT: "time_limit"}
+#: slots of the float state: proximal parameter, largest one used, current error, best error,
+#: the run's deadline on :func:`~.clock.monotonic`'s clock (``inf``: none)
+F_ALPHA, F_ALPHA_MAX_USED, F_ERR, F_BEST_ERR, F_DEADLINE = 0, 1, 2, 3, 4
+FSTATE = 5
 #: slots of the integer state: started flag, status, outer iterations, outer iteration of
 #: the last 10 % drop of the best error, then the counters of ``prox_newton``'s info
 (I_STARTED, I_STATUS, I_IT, I_BEST_IT, I_NEWTON, I_BACKTRACK, I_LS_FAIL, I_SINGULAR,
@@ -49,11 +53,13 @@ I_REGULARIZED = 10
 ISTATE = 11
 
 
-def new_state(alpha):
-    """Fresh ``(fstate, istate)`` of a run starting with proximal parameter ``alpha``."""
+def new_state(alpha, deadline=np.inf):
+    """Fresh ``(fstate, istate)`` of a run starting with proximal parameter ``alpha``, to
+    stop at ``deadline`` (:func:`~.clock.deadline_after`; ``inf``: no time limit)."""
     fstate = np.zeros(FSTATE)
     fstate[F_ALPHA] = alpha
     fstate[F_ALPHA_MAX_USED] = alpha
+    fstate[F_DEADLINE] = deadline
     return fstate, np.zeros(ISTATE, dtype=np.int64)
 
 
@@ -260,6 +266,9 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
         if stall_window > 0 and it - best_it >= stall_window:
             status = STALLED
             break
+        if past(fstate[F_DEADLINE]):
+            status = TIME_LIMIT
+            break
     _store(istate, fstate, status, it, best_it, n_newton, n_backtrack, n_ls_fail, n_singular,
            n_rejected, n_fact, err, best_err)
     fstate[F_ALPHA] = alpha
@@ -386,6 +395,9 @@ def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stal
         if stall_window > 0 and it - best_it >= stall_window:
             status = STALLED
             break
+        if past(fstate[F_DEADLINE]):
+            status = TIME_LIMIT
+            break
     _store(istate, fstate, status, it, best_it, n_newton, n_backtrack, n_ls_fail, n_singular,
            0, n_fact, err, best_err)
 
@@ -405,7 +417,7 @@ def projected_error(W, q, norm_q, mu, d, r, out):
 
 
 __all__ = ["prox_newton_dense", "plain_newton_dense", "velocity_error", "new_state", "RUNNING", "CONVERGED", "STALLED",
-           "NUMERICAL_ERROR", "FSTATE", "ISTATE", "F_ALPHA", "F_ALPHA_MAX_USED", "F_ERR",
-           "F_BEST_ERR", "I_STARTED", "I_STATUS", "I_IT", "I_BEST_IT", "I_NEWTON",
+           "NUMERICAL_ERROR", "TIME_LIMIT", "FSTATE", "ISTATE", "F_ALPHA", "F_ALPHA_MAX_USED",
+           "F_ERR", "F_BEST_ERR", "F_DEADLINE", "I_STARTED", "I_STATUS", "I_IT", "I_BEST_IT", "I_NEWTON",
            "I_BACKTRACK", "I_LS_FAIL", "I_SINGULAR", "I_REJECTED", "I_FACTORIZATIONS",
            "projected_error"]
