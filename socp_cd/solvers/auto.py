@@ -161,7 +161,10 @@ COLD_TRIAL_STALL = 10
 COLD_MAX_M = 150
 #: the hand-off's rate prediction (HANDOFF_PREDICT) on problems of at most this many unknowns
 #: (newton.COMPILED_LOOP_MAX_M of session 13, the compiled trials' bound then; 300 measured on
-#: the tune split: no change, not adopted)
+#: the tune split: no change, not adopted; session 24, 300 again with the tune box stacks
+#: of validation/evalset_sim_small_tune: 3D 11-100 contacts 8 cases slower than ×1.2, 10
+#: faster than ×0.8, sgm 10 ms shift ×1.02, 0.1 ms shift ×0.97, none won or lost, not
+#: adopted: validation/results/auto_chain_tune_s24pred.md)
 PREDICT_MAX_M = 72
 #: ... and when that fails too, the proximal Newton method from ``r = 0`` for at most this many
 #: outer iterations (same stall window; 0: off): box stacks with redundant contacts, where plain

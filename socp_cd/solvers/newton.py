@@ -135,9 +135,10 @@ COMPILED_LU_MAX_ENVELOPE = 0.6
 #: ``validation/results/newton_compiled_lapack.md``
 COMPILED_LOOP_MAX_M = DENSE_MAX_M
 #: with a time limit and without the compiled clock (``kernels.clock.AVAILABLE`` False) the
-#: compiled loops run in chunks of outer iterations, the clock read between chunks; a chunk holds as many outer iterations as fit in about this many
-#: multiply-adds of LU factorizations (``inner_max_iter * m³ / 3`` per outer iteration; the
-#: plain policy: one), at most CHUNK_MAX: two at m = 72 (prox), CHUNK_MAX on a few contacts,
+#: compiled loops run in chunks of outer iterations, the clock read between chunks; a chunk
+#: holds as many outer iterations as fit in about this many multiply-adds of LU
+#: factorizations (``inner_max_iter * m³ / 3`` per outer iteration; the plain policy: one),
+#: at most CHUNK_MAX: two at m = 72 (prox), CHUNK_MAX on a few contacts,
 #: where one more compiled call (~3 µs of argument unboxing) cost more than the iteration
 #: it ran.  The estimate leaves out the line searches (up to 30 residual evaluations per
 #: step), hence the cap: a chunk overruns the time limit by at most CHUNK_MAX iterations
@@ -1265,12 +1266,12 @@ def route(problem, *, tol, max_iter, r0, time_limit):
 
     For a local exact-Coulomb problem of at most :data:`ROUTE_MAX_M` unknowns that
     :func:`compiled_loop_takes`, called with the default settings (a time limit: the runs'
-    deadline on the compiled clock; see :data:`ROUTE_MAX_M` without it): the backend's runs on the balanced problem and the
-    dispatcher's checks in compiled calls (:func:`compiled_runs`: the same iterates, bit for
-    bit), as ``(result, guard_value, None)``: ``info`` the backend's, with the dispatcher's
-    ``guard`` and ``scaling`` records and ``route = "compiled"``.  The general path's set-up
-    (balanced copy, Newton system, NumPy checks) cost ~50 of a ~70 µs call on a few
-    contacts.  None when the route does not apply or the checks cannot judge the answer
+    deadline on the compiled clock; see :data:`ROUTE_MAX_M` without it): the backend's runs
+    on the balanced problem and the dispatcher's checks in compiled calls
+    (:func:`compiled_runs`: the same iterates, bit for bit), as ``(result, guard_value,
+    None)``: ``info`` the backend's, with the dispatcher's ``guard`` and ``scaling`` records
+    and ``route = "compiled"``.  The general path's set-up (balanced copy, Newton system,
+    NumPy checks) cost ~50 of a ~70 µs call on a few contacts.  None when the route does not apply or the checks cannot judge the answer
     (the general path reports it).
     """
     m = problem.q.shape[0]
