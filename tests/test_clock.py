@@ -1,38 +1,47 @@
 """The compiled monotonic clock (socp_cd.solvers.kernels.clock)."""
 import math
+import subprocess
+import sys
 import time
-import warnings
 
-import numpy as np
+import pytest
 from numba import njit
 
 from socp_cd.solvers.kernels import clock
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"),
+                    reason="CLOCK_MONOTONIC is time.monotonic's clock on Linux")
 def test_the_compiled_clock_reads_the_system_monotonic_clock():
     assert clock.AVAILABLE
-    # on Linux, CLOCK_MONOTONIC is time.monotonic's clock: the two agree to call overhead
     before = time.monotonic()
     now = clock.monotonic()
     after = time.monotonic()
-    assert before - 1e-3 <= now <= after + 1e-3
-    # and it advances at the rate of time.perf_counter
-    t0, c0 = time.perf_counter(), clock.monotonic()
-    time.sleep(0.05)
-    t1, c1 = time.perf_counter(), clock.monotonic()
-    assert abs((c1 - c0) - (t1 - t0)) < 5e-3
+    assert before <= now <= after
+
+
+def test_the_compiled_clock_advances_with_perf_counter():
+    # over 0.1 s, the two clocks advance alike (the best of three tries: a process may be
+    # descheduled between two reads)
+    gaps = []
+    for _ in range(3):
+        t0, c0 = time.perf_counter(), clock.monotonic()
+        time.sleep(0.1)
+        c1, t1 = clock.monotonic(), time.perf_counter()
+        gaps.append(abs((c1 - c0) - (t1 - t0)))
+    assert min(gaps) < 1e-3
 
 
 def test_deadlines():
     assert clock.deadline_after(None) == math.inf
     d = clock.deadline_after(0.5)
-    assert 0.49 < d - clock.monotonic() <= 0.5
+    assert 0.4 < d - clock.monotonic() <= 0.5
     assert not clock.past(math.inf)
     assert not clock.past(clock.monotonic() + 10.0)
     assert clock.past(clock.monotonic() - 1e-6)
 
 
-def test_a_kernel_stops_at_its_deadline_and_stays_cacheable():
+def test_a_kernel_stops_at_its_deadline():
     @njit
     def spin(deadline):
         n = 0
@@ -42,17 +51,19 @@ def test_a_kernel_stops_at_its_deadline_and_stays_cacheable():
     assert spin(clock.deadline_after(-1.0)) == 0        # (compiled here)
     t0 = time.perf_counter()
     assert spin(clock.deadline_after(0.02)) > 0
-    assert 0.02 <= time.perf_counter() - t0 < 1.0
-    # the clock is emitted by symbol name, not a ctypes pointer: numba caches a kernel
-    # that reads it (a pointer would make it refuse, with a NumbaWarning)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
+    assert time.perf_counter() - t0 >= 0.02
 
-        @njit(cache=True)
-        def cached():
-            return clock.monotonic()
-        assert np.isfinite(cached())
-    assert cached._cache._cache_path is not None
+
+def test_kernels_that_read_the_clock_load_from_numba_cache():
+    # the clock is emitted by symbol name, not a ctypes pointer (which numba refuses to
+    # cache): a new process loads the compiled clock from the cache this one wrote
+    clock.monotonic()
+    code = ("from socp_cd.solvers.kernels import clock; clock.monotonic(); "
+            "print(sum(clock.monotonic.stats.cache_hits.values()), "
+            "sum(clock.monotonic.stats.cache_misses.values()))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == ["1", "0"]
 
 
 def test_without_the_clock_no_deadline_is_set(monkeypatch):

@@ -183,7 +183,7 @@ def test_twin_equals_python_loop_when_it_stalls_runs_out_or_overflows():
     assert a[0] == "numerical_error"
 
 
-def test_time_limit_stops_the_twin_where_it_stops_the_python_loop(monkeypatch):
+def test_time_limit_stops_the_twin_where_it_stops_the_python_loop():
     p = manufactured(9, 3, 0.5, seed=5)
     a, b = _both(p, np.zeros(p.m), 1e-10)
     c = _both(p, np.zeros(p.m), 1e-10, time_limit=1e9)      # a deadline far away

@@ -195,7 +195,7 @@ def test_route_runs_for_plain_calls_only():
     assert socp_cd.solve(p).info.get("route") == "compiled"
     assert socp_cd.solve(p, "nsgs").info.get("route") == "compiled"
     assert socp_cd.solve(p, "nsgs", time_limit=1.0).info.get("route") == "compiled"
-    assert socp_cd.solve(p, time_limit=0.01).info.get("route") == "compiled"
+    assert socp_cd.solve(p, time_limit=0.1).info.get("route") == "compiled"    # (< 0.5 s)
     for kw in (dict(solver="nsgs", omega=1.0), dict(history=True),
                dict(solver="nsgs", inner_settings={"local_tol": 1e-12}),
                dict(formulation="associated"), dict(crosscheck="nsgs")):
@@ -770,6 +770,34 @@ def test_scaled_error_parts_is_error_parts_of_the_products(dim):
             error_parts(a * r, b * u, mu, g, dim, law)          # the same bits
 
 
+def test_auto_route_gives_its_stages_the_general_paths_shares(monkeypatch):
+    # under a time limit the route's NSGS stage gets STAGE_SHARE of the budget and each
+    # compiled trial PLAIN_SHARE of what is left, as auto_backend gives its stages (the
+    # deadlines on the compiled clock; before session 24 the route read no clock)
+    from socp_cd.solvers import auto
+    budgets, trials = [], []
+    real_run, real_runs = nsgs_route.run, newton.compiled_runs
+
+    def run_spy(problem, settings, tol, max_iter, r0, time_limit, *a, **kw):
+        budgets.append(time_limit)
+        return real_run(problem, settings, tol, max_iter, r0, time_limit, *a, **kw)
+
+    def runs_spy(*a, time_left=None, **kw):
+        trials.append(time_left)
+        return real_runs(*a, time_left=time_left, **kw)
+    monkeypatch.setattr(nsgs_route, "run", run_spy)
+    monkeypatch.setattr(newton, "compiled_runs", runs_spy)
+    p = manufactured(12, 3, mu=0.6, structure="redundant", mass_ratio=1e6, contact_scale=1e4,
+                     seed=6)
+    for limit in (None, 10.0):
+        budgets.clear(), trials.clear()
+        res = socp_cd.solve(p, time_limit=limit)
+        assert budgets == [None if limit is None else auto.STAGE_SHARE * limit]
+        assert trials and all((t is None) if limit is None else
+                              0 < t <= auto.PLAIN_SHARE * limit for t in trials)
+        assert res.converged
+
+
 @pytest.mark.parametrize("prox_first", [False, True])
 def test_compiled_trials_equal_general_path_and_resume(monkeypatch, prox_first):
     # after the route's NSGS stage misses tol, the hand-off's Newton trials (plain from NSGS's
@@ -1019,7 +1047,7 @@ def test_nsgs_route_runs_to_a_deadline():
     st = nsgs.route_settings(3)
     ran = nsgs_route.run(p, st, 1e-8, 10 ** 9, None, 1e-3, True)     # (no work bound)
     assert ran is not None and ran.status in ("converged", "time_limit", "stalled")
-    assert socp_cd.solve(p, time_limit=1e-4).info.get("route") == "compiled"
+    assert socp_cd.solve(p, "nsgs", time_limit=1e-4).info.get("route") == "compiled"
 
 
 def test_timed_work_bound_without_the_compiled_clock(monkeypatch):
@@ -1085,7 +1113,7 @@ def test_newton_checked_computes_judge_norm():
                              q_scale=float(10 ** rng.uniform(-6, 6)), seed=nc)
             out = nsgs_route.newton_checked(
                 *p.csr_parts, p.q, p.mu, p.dim, np.zeros(p.m), -1.0, 1e-8, 2, 5, True, c,
-                c[nsgs_route.C_ALPHA0], np.empty((3, p.m)), np.empty(nd.FSTATE),
+                c[nsgs_route.C_ALPHA0], np.empty((3, p.m)), np.full(nd.FSTATE, np.inf),
                 np.empty(nd.ISTATE, dtype=np.int64))
             assert out[5] == nsgs_route.judge_norm(p)
 

@@ -536,10 +536,18 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     else:
         return None
     t0 = _clock()
-    out = nsgs.compiled_run(problem, tol, cap, r0, time_limit, True, stall, handoff, predict)
+    # (the stage's share of the budget, as auto_backend gives its first stage)
+    out = nsgs.compiled_run(problem, tol, cap, r0, _first_share(time_limit), True, stall,
+                            handoff, predict)
     if out is None:
         return None
     return _stage_outcome(problem, out, method, handoff, tol, max_iter, time_limit, t0)
+
+
+def _first_share(time_limit):
+    """The first stage's time limit under ``time_limit`` (:func:`auto_backend`'s rule for a
+    stage that is not the last: ``STAGE_SHARE`` of the budget left, at least 1 µs)."""
+    return None if time_limit is None else max(STAGE_SHARE * time_limit, 1e-6)
 
 
 def plain(problem, tol, time_limit, t0):
@@ -570,7 +578,7 @@ def plain(problem, tol, time_limit, t0):
     s0 = _clock()
     # (nsgs.compiled_run's call, one layer less: NSGS's defaults, its sweep cap)
     out = nsgs_route.run(problem, nsgs.route_settings(dim), tol, nsgs.DEFAULT_MAX_ITER, None,
-                         time_limit, True, handoff,
+                         _first_share(time_limit), True, handoff,
                          w if dim * nc <= PREDICT_MAX_M else 0)     # (_predict_window's rule)
     if out is None:
         return None
@@ -696,10 +704,11 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
         # the Newton backend's runs (newton.continued_runs: on the dispatcher's balanced copy
         # a run that meets tol there and not as written goes on), its default settings
         # (norm_q -1: ||q~||, judge_norm's value, computed in the trial's compiled call)
+        # (the trial's share of the budget left, as auto_backend gives it)
         ran = newton.compiled_runs(problem, -1.0, start, tol, steps, prox=prox,
                                    stall_window=stall, constants=constants,
-                                   time_left=None if time_limit is None
-                                   else time_limit - (t1 - t0))
+                                   time_left=None if time_limit is None else max(
+                                       _SHARES[method] * (time_limit - (t1 - t0)), 1e-6))
         if ran is None or ran[3] is None:
             break
         its = ran[1]

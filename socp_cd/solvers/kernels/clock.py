@@ -12,13 +12,14 @@ cleanly (after an outer iteration, between blocks of sweeps).
 The call is emitted by name (an LLVM declaration of ``clock_gettime`` resolved
 when the code is loaded), not through a ctypes pointer, so kernels that use it
 stay in numba's on-disk cache.  On a platform without ``clock_gettime``
-(:data:`AVAILABLE` False: Windows) the compiled clock reads ``-inf``, no
+(:data:`AVAILABLE` False: Windows, 32-bit builds) the compiled clock reads ``-inf``, no
 deadline is ever reached, and callers keep their bounds on the work of a
 time-limited call.
 """
 from __future__ import annotations
 
 import math
+import struct
 import sys
 
 import numpy as np
@@ -27,9 +28,13 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-#: ``CLOCK_MONOTONIC``'s id in ``<time.h>`` by platform (None: no ``clock_gettime``)
+#: ``CLOCK_MONOTONIC``'s id in ``<time.h>`` by platform (None: no ``clock_gettime``), on
+#: 64-bit builds only (the intrinsic reads ``struct timespec`` as two 64-bit integers).
+#: numba does not recompile a cached kernel when a function it calls changes: after an edit
+#: here, clear the caches (``make clean-cache``)
 _CLOCK_IDS = {"linux": 1, "darwin": 6, "freebsd": 4}
-_CLOCK_ID = next((v for k, v in _CLOCK_IDS.items() if sys.platform.startswith(k)), None)
+_CLOCK_ID = (next((v for k, v in _CLOCK_IDS.items() if sys.platform.startswith(k)), None)
+             if struct.calcsize("P") == 8 else None)
 #: whether the compiled clock reads a real clock on this platform
 AVAILABLE = _CLOCK_ID is not None
 
