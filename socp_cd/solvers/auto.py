@@ -536,18 +536,20 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     else:
         return None
     t0 = _clock()
-    # (the stage's share of the budget, as auto_backend gives its first stage)
-    out = nsgs.compiled_run(problem, tol, cap, r0, _first_share(time_limit), True, stall,
-                            handoff, predict)
+    # (the stage's share of the budget, as auto_backend gives it)
+    out = nsgs.compiled_run(problem, tol, cap, r0, _stage_limit(method, time_limit), True,
+                            stall, handoff, predict)
     if out is None:
         return None
     return _stage_outcome(problem, out, method, handoff, tol, max_iter, time_limit, t0)
 
 
-def _first_share(time_limit):
-    """The first stage's time limit under ``time_limit`` (:func:`auto_backend`'s rule for a
-    stage that is not the last: ``STAGE_SHARE`` of the budget left, at least 1 µs)."""
-    return None if time_limit is None else max(STAGE_SHARE * time_limit, 1e-6)
+def _stage_limit(method, left):
+    """The time limit of stage ``method`` that is not the order's last, ``left`` seconds of
+    the budget left (None: no limit): its share of them (:data:`_SHARES`, else
+    :data:`STAGE_SHARE`), at least 1 µs; :func:`auto_backend`'s rule, and the compiled
+    route's for its NSGS stage and its trials."""
+    return None if left is None else max(_SHARES.get(method, STAGE_SHARE) * left, 1e-6)
 
 
 def plain(problem, tol, time_limit, t0):
@@ -578,7 +580,7 @@ def plain(problem, tol, time_limit, t0):
     s0 = _clock()
     # (nsgs.compiled_run's call, one layer less: NSGS's defaults, its sweep cap)
     out = nsgs_route.run(problem, nsgs.route_settings(dim), tol, nsgs.DEFAULT_MAX_ITER, None,
-                         _first_share(time_limit), True, handoff,
+                         _stage_limit("nsgs", time_limit), True, handoff,
                          w if dim * nc <= PREDICT_MAX_M else 0)     # (_predict_window's rule)
     if out is None:
         return None
@@ -707,8 +709,8 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
         # (the trial's share of the budget left, as auto_backend gives it)
         ran = newton.compiled_runs(problem, -1.0, start, tol, steps, prox=prox,
                                    stall_window=stall, constants=constants,
-                                   time_left=None if time_limit is None else max(
-                                       _SHARES[method] * (time_limit - (t1 - t0)), 1e-6))
+                                   time_left=_stage_limit(method, None if time_limit is None
+                                                          else time_limit - (t1 - t0)))
         if ran is None or ran[3] is None:
             break
         its = ran[1]
@@ -895,8 +897,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                     short = (f"{method} not started: {left:.3g} s of the {time_limit:g} s "
                              f"budget left (less than MIN_SLOW_START = {MIN_SLOW_START:g})")
                     continue
-                share = _SHARES.get(method, STAGE_SHARE)
-                stage_limit = left if k == len(order) - 1 else max(share * left, 1e-6)
+                stage_limit = left if k == len(order) - 1 else _stage_limit(method, left)
             spec, stage_opts = _STAGES[method]
             if problem.is_global and form not in spec.global_native:
                 if local is None:

@@ -1271,8 +1271,8 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     (:func:`compiled_runs`: the same iterates, bit for bit), as ``(result, guard_value,
     None)``: ``info`` the backend's, with the dispatcher's ``guard`` and ``scaling`` records
     and ``route = "compiled"``.  The general path's set-up (balanced copy, Newton system,
-    NumPy checks) cost ~50 of a ~70 µs call on a few contacts.  None when the route does not apply or the checks cannot judge the answer
-    (the general path reports it).
+    NumPy checks) cost ~50 of a ~70 µs call on a few contacts.  None when the route does
+    not apply or the checks cannot judge the answer (the general path reports it).
     """
     m = problem.q.shape[0]
     if m > ROUTE_MAX_M or problem.is_global:

@@ -57,8 +57,8 @@ from . import nsgs_route
 from .block_storage import problem_blocks
 from .local_solvers import (KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION, LAW_ASSOCIATED,
                             LAW_COULOMB, LAW_TRESCA)
-from .nsgs_kernels import (STATUS_NAMES, STATUS_TIME_LIMIT, BlockW, Law, LocalSolver, Origin, Sweeps, no_origin,
-                           full_error, local_parameters, nsgs_loop, timed_next_block, whole_windows)
+from .nsgs_kernels import (STATUS_NAMES, STATUS_TIME_LIMIT, BlockW, Law, LocalSolver, Origin,
+                           Sweeps, no_origin, full_error, local_parameters, nsgs_loop, timed_next_block, whole_windows)
 from .options import check_choice, check_int, check_real, check_unknown
 from .result import SolverResult
 from .scaling import origin
@@ -288,8 +288,8 @@ def route(problem, *, tol, max_iter, r0, time_limit):
             "full_error_evaluations": int(x[R.N_FULL]), "local_failures": int(x[R.N_FAIL]),
             "light_error": x[R.LIGHT], "internal_error": x[R.INTERNAL_ERROR],
             "guard": R.guard_record(x), "scaling": R.scaling_record(x), "route": "compiled"}
-    message = _message(out.status, x[R.LIGHT], x[R.INTERNAL_ERROR], st["stall_window"], time_limit,
-                       sweeps)
+    message = _message(out.status, x[R.LIGHT], x[R.INTERNAL_ERROR], st["stall_window"],
+                       time_limit, sweeps)
     return (SolverResult.of_local(out.vectors[1], out.vectors[2], out.status, x[R.ERROR], sweeps,
                                   info, message, x[R.ZERO_ERROR] <= tol),
             x[R.GUARD_VALUE], None)

@@ -156,8 +156,8 @@ def checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_
 
 @njit(cache=True)
 def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blocked, first_block,
-                 time_left, kind, loc_tol, newton_max_iter, projection_max_iter, omega, error_every,
-                 stall_window, need_friction, handoff_sweeps, handoff_work, predict_window,
+                 time_left, kind, loc_tol, newton_max_iter, projection_max_iter, omega,
+                 error_every, stall_window, need_friction, handoff_sweeps, handoff_work, predict_window,
                  vectors):
     """Balance, NSGS sweeps from ``r0``, map back, and the dispatcher's checks, in one call.
 
@@ -346,7 +346,9 @@ def _balanced_run(W, q_s, a, b, q_norm, mu, dim, start, norm_q, tol, max_iter, s
     m = q_s.shape[0]
     rho = np.empty(nc)
     wscale = block_rho_dense(W, dim, rho)
-    fstate[:nd.F_DEADLINE] = 0.0         # (the caller's deadline kept)
+    deadline = fstate[nd.F_DEADLINE]        # (the caller's, kept)
+    fstate[:] = 0.0
+    fstate[nd.F_DEADLINE] = deadline
     fstate[nd.F_ALPHA] = alpha0 * wscale
     fstate[nd.F_ALPHA_MAX_USED] = alpha0 * wscale
     istate[:] = 0
@@ -578,10 +580,9 @@ def trial_runner(problem, norm_q, prox, stall_window, constants, full_info=False
     ``info["error_as_written"]``, and with ``full_info`` the Newton backend's ``info`` of
     a run (:func:`~socp_cd.solvers.kernels.newton_dense.run_info`: its counters, the
     factorizations of all runs of this runner and ``factorizations`` before them, as of
-    one system).  ``time_left``
-    (seconds, None: no limit) is the run's deadline on the compiled clock
-    (:mod:`~socp_cd.solvers.kernels.clock`).  None when the problem has more than
-    :data:`TRIAL_MAX_M` unknowns."""
+    one system).  ``time_left`` (seconds, None: no limit) is the run's deadline on the
+    compiled clock (:mod:`~socp_cd.solvers.kernels.clock`).  None when the problem has
+    more than :data:`TRIAL_MAX_M` unknowns."""
     q = problem.q
     if q.shape[0] > TRIAL_MAX_M:
         return None
