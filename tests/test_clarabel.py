@@ -535,3 +535,17 @@ def test_inner_turns_refinement_back_on_after_a_failed_solve():
     keep = cb.ClarabelInner(p, settings=dict(cb.SMALL_PROBLEM_SETTINGS))   # user choice kept
     keep.solve(p.q, 1e-10)
     assert len(keep.statuses) == 1
+
+
+@pytest.mark.parametrize("structure", ["tree", "redundant"])
+def test_time_limit_reaches_the_inner_solver(structure):
+    # the De Saxcé loop's inner Clarabel solver gets the budget (session 25: it went to the
+    # outer loop only, and an inner solve ran to its end): a budget spent before the first
+    # interior-point iteration stops Clarabel there (its status MaxTime, no iteration)
+    from socp_cd.bench.generators import manufactured
+    p = manufactured(40, 3, 0.5, structure=structure, seed=2)
+    res = solve(p, solver="clarabel", tol=1e-12, time_limit=1e-9, polish=None)
+    assert res.status == "time_limit" and not res.converged
+    assert res.info["inner_status"] == "MaxTime" and res.info["inner_iterations"] == 0
+    free = solve(p, solver="clarabel", tol=1e-12, polish=None, max_iter=1)
+    assert free.info["inner_iterations"] > 0 and free.info["inner_status"] != "MaxTime"

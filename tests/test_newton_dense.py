@@ -209,11 +209,27 @@ def test_time_limit_chunks_without_the_compiled_clock(monkeypatch):
     assert tw[0] == "converged" and tw[2] == a[2]
     monkeypatch.setattr(nt, "CHUNK_WORK", 1.0)                 # one iteration per chunk
     d = _both(p, np.zeros(p.m), 1e-10, time_limit=0.0)
-    _assert_equal(*d)
-    assert d[0][0] == "time_limit" and d[0][2] == 1
+    assert [x[0] for x in d] == ["time_limit"] * 2 and [x[2] for x in d] == [1, 1]
+    # the Python loop cuts the subproblem at its deadline (after its first Newton step); the
+    # twin, without the compiled clock, runs whole outer iterations between chunks
+    assert d[0][4]["newton_steps"] == 1 < d[1][4]["newton_steps"]
     monkeypatch.setattr(nt, "CHUNK_WORK", 2 * 10 * 27 ** 3 / 3)  # two per chunk
     tw2 = _both(p, np.zeros(p.m), 1e-10, time_limit=0.0)[1]
     assert tw2[0] == "time_limit" and tw2[2] == 2
+
+
+def test_a_spent_deadline_cuts_the_subproblem_in_both_loops():
+    # a deadline passed before the subproblem's second factorization: the Python loop and
+    # the twin (the compiled clock) both stop after one outer iteration of one Newton step,
+    # with the same iterate and counters; without a limit the same run takes more steps
+    p = manufactured(9, 3, 0.5, seed=5)
+    free = _both(p, np.zeros(p.m), 1e-10)
+    assert free[0][4]["newton_steps"] > free[0][2] >= 2      # several steps per subproblem
+    cut = _both(p, np.zeros(p.m), 1e-10, time_limit=0.0)
+    _assert_equal(*cut)
+    status, r, its, _, info = cut[0]
+    assert status == "time_limit" and its == 1 and info["newton_steps"] == 1
+    assert info["factorizations"] == 1
 
 
 def test_project_cone_stacked_equals_reference():

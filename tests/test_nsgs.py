@@ -577,7 +577,7 @@ def test_split_sweep_equals_the_single_loop(dim, law_name, kind_name, omega, new
     n_sweeps = 6
     for shuffle in (False, True):
         r_new = np.zeros(p.m)
-        sweeps = Sweeps(1e-300, n_sweeps, omega, shuffle, 3, 0, 0, False, 0, n_sweeps, -1.0)
+        sweeps = Sweeps(1e-300, n_sweeps, omega, shuffle, 3, 0, 0, False, 0, n_sweeps, -1.0, np.inf)
         status, its, err, n_full, n_fail, light, _ = nsgs_loop(
             dim, BlockW(S.indptr, S.indices, S.blocks, S.diag), p.q, Law(p.mu, g, law),
             LocalSolver(kind, rhoN, rhoT, rhoP, 1e-13, newton_maxit, 50), sweeps, r_new,
@@ -640,7 +640,26 @@ def test_a_non_finite_local_iterate_stops_the_sweeps_with_a_numerical_error():
     status, its, err, n_full, n_fail, light, _ = nsgs_loop(
         3, BlockW(S.indptr, S.indices, S.blocks, S.diag), q, Law(p.mu, np.zeros(6), LAW_COULOMB),
         LocalSolver(KIND_AC_NEWTON, rhoN, rhoT, rhoP, 1e-13, 10, 50),
-        Sweeps(1e-10, 20, 1.0, False, 0, 0, 0, False, 0, 20, -1.0), r, np.full(1, np.nan),
+        Sweeps(1e-10, 20, 1.0, False, 0, 0, 0, False, 0, 20, -1.0, np.inf), r, np.full(1, np.nan),
         no_origin())
     assert status == STATUS_NUMERICAL and its <= 20 and n_full == 1
     assert np.all(np.isfinite(r)) and not np.isfinite(err)
+
+
+@pytest.mark.parametrize("options", [{}, {"omega": 1.0}])   # the compiled route; the backend
+def test_a_deadline_stops_the_sweeps_at_the_first_check(options):
+    # the sweeps read the compiled clock every max(1, CHECK_BLOCKS // nnzb) sweeps (here
+    # every other sweep: 669 blocks), not only between blocks of 10, 20, ... sweeps
+    from socp_cd.bench.generators import manufactured
+    from socp_cd.solvers import nsgs_kernels
+    from socp_cd.solvers.kernels import clock
+    if not clock.AVAILABLE:
+        pytest.skip("no compiled clock: the sweeps stop between blocks only")
+    p = manufactured(400, 3, 0.5, seed=1)
+    nnzb = p.W.nnz // 9
+    every = max(1, nsgs_kernels.CHECK_BLOCKS // nnzb)
+    assert every < 10               # (a first block holds 10 sweeps)
+    res = solve(p, "nsgs", tol=1e-300, time_limit=1e-9, **options)
+    assert res.status == "time_limit" and res.iterations == every
+    free = solve(p, "nsgs", tol=1e-300, max_iter=25, **options)    # no deadline: no stop
+    assert free.status == "max_iter" and free.iterations == 25

@@ -1033,16 +1033,21 @@ def test_route_checks_a_start_it_is_handed_directly():
 
 def test_nsgs_route_runs_to_a_deadline():
     # with a time limit the route's kernel stops at its deadline on the compiled clock, as
-    # the NSGS backend stops on its own clock: between blocks of sweeps (the first of
-    # TIME_CHECK_SWEEPS), status "time_limit"; any limit, any size
-    from socp_cd.solvers import nsgs
+    # the NSGS backend stops on its own clock: the sweeps read it every
+    # max(1, CHECK_BLOCKS // nnzb) sweeps (session 25; before, only between blocks of
+    # sweeps, the first of TIME_CHECK_SWEEPS), status "time_limit"; any limit, any size
+    from socp_cd.solvers import nsgs, nsgs_kernels
+    from socp_cd.solvers.block_storage import csr_to_bsr
     p = _random(20, 3, 4, mu=0.8)
+    nnzb = int(csr_to_bsr(*p.csr_parts, 3, 20)[0][-1])
+    every = max(1, nsgs_kernels.CHECK_BLOCKS // nnzb)
+    assert every < nsgs_route.TIME_CHECK_SWEEPS
     slow = dict(solver="nsgs", tol=1e-14, max_iter=10 ** 6)
     a = socp_cd.solve(p, time_limit=1e-300, **slow)
     b = _general(pytest.MonkeyPatch(), p, time_limit=1e-300, **slow)
     assert a.info["route"] == "compiled"
     assert a.status == b.status == "time_limit"
-    assert a.iterations == b.iterations == nsgs_route.TIME_CHECK_SWEEPS
+    assert a.iterations == b.iterations == every
     assert np.array_equal(a.r, b.r)
     st = nsgs.route_settings(3)
     ran = nsgs_route.run(p, st, 1e-8, 10 ** 9, None, 1e-3, True)     # (no work bound)

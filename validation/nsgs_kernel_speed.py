@@ -73,7 +73,7 @@ def sweep_ns(p, repeats=7) -> float:
     def run(n):
         r = np.zeros(p.m)
         t0 = time.perf_counter()
-        nk.nsgs_loop(d, W, q_s, law, local, nk.Sweeps(0.0, n, 1.0, False, 0, 0, 0, False, 0, n, -1.0), r, hist,
+        nk.nsgs_loop(d, W, q_s, law, local, nk.Sweeps(0.0, n, 1.0, False, 0, 0, 0, False, 0, n, -1.0, np.inf), r, hist,
                      nk.no_origin())
         return time.perf_counter() - t0
 

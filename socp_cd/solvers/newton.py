@@ -686,6 +686,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     alpha_max_used = alpha
     trace = [] if history else None
     t0 = time.perf_counter()
+    deadline = None if time_limit is None else t0 + time_limit
     status, it = "max_iter", 0
     if err <= tol:
         status = "converged"
@@ -734,6 +735,8 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
             if nF == 0.0:
                 solved = True
                 break
+            if n_in > 0 and deadline is not None and time.perf_counter() > deadline:
+                break           # (the subproblem cut: the outer iteration ends, then the run)
             try:
                 dr, du = system.direction(r, Dr, Du, alpha, F)
             except _SingularStep:
@@ -806,7 +809,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         if stall_window and it - best_it >= stall_window:
             status = "stalled"
             break
-        if time_limit is not None and time.perf_counter() - t0 > time_limit:
+        if deadline is not None and time.perf_counter() > deadline:
             status = "time_limit"
             break
     if status != "converged" and best_err < err:
@@ -833,8 +836,9 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
 
     Same arguments and return value as :func:`prox_newton` (history ``None``).
     The twin runs the whole loop in one call; a ``time_limit`` is its deadline on the
-    compiled clock (:mod:`~.kernels.clock`), read after every outer iteration, as the
-    Python loop reads its clock: the same iterates, and the same stop.  Where that
+    compiled clock (:mod:`~.kernels.clock`), read after every outer iteration and before
+    every factorization of a proximal subproblem but its first, as the Python loop reads
+    its clock: the same iterates, and the same stop.  Where that
     clock is not available (``clock.AVAILABLE`` False) a time-limited run goes in chunks
     of outer iterations (:data:`CHUNK_WORK`, :data:`CHUNK_MAX`), the clock read in
     Python between them (a run may then overrun its limit by one chunk).

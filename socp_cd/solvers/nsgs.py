@@ -40,9 +40,12 @@ threshold : array_like
     Tresca threshold per contact (formulation ``"tresca"``).
 
 Common options: ``max_iter`` counts sweeps (default 1000); ``time_limit`` is
-checked between blocks of sweeps (the sweeps then run in blocks of 10, 20,
-40, ... sweeps, each block restarting the light-error and stall bookkeeping
-and, for ``ordering="shuffled"``, reseeding with ``seed + sweeps done``); ``verbose`` prints a one-line summary; ``inner_settings`` holds the
+the sweeps' deadline on the compiled clock, read about every 10 µs of work
+(:data:`~socp_cd.solvers.nsgs_kernels.CHECK_BLOCKS`; a run stops within about
+one sweep of its limit), and checked between blocks of sweeps (the sweeps then
+run in blocks of 10, 20, 40, ... sweeps, each block restarting the light-error
+and stall bookkeeping and, for ``ordering="shuffled"``, reseeding with ``seed +
+sweeps done``; without the compiled clock, only there); ``verbose`` prints a one-line summary; ``inner_settings`` holds the
 local solver's settings, nested: ``{"local_solver", "local_tol",
 "newton_max_iter", "projection_max_iter"}`` (the same names as the flat options).
 """
@@ -54,6 +57,7 @@ import numpy as np
 
 from ..errors import UnsupportedError
 from . import nsgs_route
+from .kernels import clock
 from .block_storage import problem_blocks
 from .local_solvers import (KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION, LAW_ASSOCIATED,
                             LAW_COULOMB, LAW_TRESCA)
@@ -189,6 +193,7 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     units = no_origin() if units is None else Origin(*units)
     info["setup_time"] = time.perf_counter() - t_setup
     t0 = time.perf_counter()
+    deadline = clock.deadline_after(time_limit)     # (read by the sweeps: inf without a limit)
     window = int(st["predict_window"])
     done, block = 0, (max_iter if time_limit is None
                       else min(max_iter, whole_windows(TIME_CHECK_SWEEPS, window)))
@@ -197,7 +202,7 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     while True:
         sweeps = Sweeps(float(tol), int(block), float(st["omega"]), st["ordering"] == "shuffled",
                         int(st["seed"] + done), int(st["error_every"]), int(st["stall_window"]),
-                        bool(history), window, int(max_iter - done), prev)
+                        bool(history), window, int(max_iter - done), prev, deadline)
         status, iters, err, n_full, n_fail, light, hist = nsgs_loop(d, W, q, law_t, local, sweeps,
                                                                     r, hist, units)
         if history:

@@ -12,6 +12,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .kernels.clock import past
 from .kernels.cone import EPS, LAW_ASSOCIATED, error_parts, law_error, relative_error
 from .kernels.scaling import origin_error
 from .local_solvers import (KIND_PROJECTION, LOCAL_OK, NEEDS_PROJECTION, local_solve_first,
@@ -21,7 +22,11 @@ STATUS_CONVERGED = 0
 STATUS_MAX_ITER = 1
 STATUS_STALLED = 2
 STATUS_NUMERICAL = 3
-STATUS_TIME_LIMIT = 4       # (set by a run in blocks whose clock passed its limit)
+STATUS_TIME_LIMIT = 4       # (the clock passed the sweeps' deadline)
+#: with a deadline, the sweeps read the clock every ``max(1, CHECK_BLOCKS // nnzb)`` sweeps
+#: (``nnzb``: blocks of ``W``): about every 10 µs of work (a clock read costs ~25 ns, a
+#: block visit ~5 ns), so a run stops within one sweep or ~10 µs of its deadline
+CHECK_BLOCKS = 2000
 STATUS_NAMES = ("converged", "max_iter", "stalled", "numerical_error", "time_limit")
 
 
@@ -177,9 +182,11 @@ Origin = namedtuple("Origin", "a b q_norm")
 #: rate prediction (``predict_window`` sweeps, 0: off; ``predict_budget``: the sweeps the
 #: run may still do from the start of this call; ``predict_prev``: the full error at the
 #: end of the window before this call, -1 for none: a run in blocks of whole windows
-#: carries it from one block to the next).
+#: carries it from one block to the next), and the deadline on the compiled clock
+#: (:mod:`~socp_cd.solvers.kernels.clock`; ``inf``: none): past it the loop stops with
+#: ``STATUS_TIME_LIMIT``.
 Sweeps = namedtuple("Sweeps", "tol max_iter omega shuffle seed error_every stall_window record "
-                              "predict_window predict_budget predict_prev")
+                              "predict_window predict_budget predict_prev deadline")
 
 
 @njit(cache=True)
@@ -219,6 +226,12 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
     the loop stops with ``STATUS_MAX_ITER`` after ``k`` sweeps: the cap would
     be reached first (``solver="auto"`` hands such an NSGS stage over early).
 
+    Deadline (``sweeps.deadline < inf``): the clock is read after every
+    ``max(1, CHECK_BLOCKS // nnzb)`` sweeps that did not end the run; past the
+    deadline the loop stops with ``STATUS_TIME_LIMIT`` (a time-limited run stops
+    within about one sweep of its limit; until session 25 the callers read the
+    clock between blocks of 10, 20, 40, ... sweeps only).
+
     Returns
     -------
     status, iterations, error, n_full_evaluations, n_local_failures, light_error, hist
@@ -235,6 +248,8 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
                                                sweeps.stall_window, sweeps.record)
     window, budget = sweeps.predict_window, sweeps.predict_budget
     window_err = sweeps.predict_prev    # the full error at the previous window's end (-1: none)
+    deadline = sweeps.deadline
+    check_every = max(1, CHECK_BLOCKS // max(indptr[nc], 1))
     order = np.arange(nc)
     if shuffle:
         np.random.seed(seed)
@@ -337,6 +352,8 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
                         it, window, window_err, err, tol) > budget:
                     return STATUS_MAX_ITER, it, err, n_full, n_fail, light, hist
                 window_err = err
+        if it % check_every == 0 and it < max_iter and past(deadline):
+            return STATUS_TIME_LIMIT, it, err, n_full, n_fail, light, hist
     return STATUS_MAX_ITER, max_iter, err, n_full, n_fail, light, hist
 
 

@@ -74,7 +74,8 @@ from .nsgs_kernels import (STATUS_NAMES, STATUS_TIME_LIMIT, BlockW, Law, LocalSo
 #: problem object; beyond this size the sweeps dominate either way)
 MAX_CONTACTS = 20000
 #: ... a time limit is the kernel's deadline on the compiled clock (:mod:`~.kernels.clock`),
-#: read between blocks of sweeps as the NSGS backend reads its clock; where that clock is
+#: read by the sweeps (every ``nsgs_kernels.CHECK_BLOCKS // nnzb`` sweeps, session 25) and
+#: between blocks of sweeps, as in the NSGS backend; where that clock is
 #: not available (``clock.AVAILABLE`` False), only a limit of at least this many seconds and
 #: sweeps' work, ``sweeps * nnz(W)``, of at most MAX_TIMED_WORK (5e7 entry visits take
 #: ~0.1 s), the bounds of every time-limited call until session 24
@@ -174,9 +175,11 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
         Run the sweeps in blocks of ``first_block``, twice that, ... sweeps, as
         the NSGS backend does when a time limit is given (each block restarts
         the light-error and stall bookkeeping), and stop with status
-        ``STATUS_TIME_LIMIT`` when a block ends more than ``time_left`` seconds
-        after the call began (:mod:`~socp_cd.solvers.kernels.clock`'s clock, read in
-        the kernel: a deadline computed by the caller cost 0.2 µs of a 7 µs call).
+        ``STATUS_TIME_LIMIT`` when the clock passes ``time_left`` seconds after the
+        call began, read by the sweeps (:data:`~socp_cd.solvers.nsgs_kernels.Sweeps`'
+        ``deadline``) and after each block (:mod:`~socp_cd.solvers.kernels.clock`'s
+        clock, read in the kernel: a deadline computed by the caller cost 0.2 µs of a
+        7 µs call).
     kind, loc_tol, newton_max_iter, projection_max_iter
         The one-contact solver (:data:`~socp_cd.solvers.nsgs_kernels.LocalSolver`).
     need_friction
@@ -254,7 +257,7 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     prev = -1.0             # the rate prediction's error at the end of the last block
     while True:
         sweeps = Sweeps(tol, block, omega, False, done, error_every, stall_window, False,
-                        predict_window, max_iter - done, prev)
+                        predict_window, max_iter - done, prev, deadline)
         status, its, err, n_full, n_fail, light, hist = nsgs_loop(dim, W, q_s, law, local, sweeps,
                                                                   r_s, hist, origin)
         done += its

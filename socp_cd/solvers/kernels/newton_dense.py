@@ -17,8 +17,11 @@ The whole state of a run lives in two small arrays (:data:`FSTATE` floats,
 :data:`ISTATE` integers) and two iterates, so a run can be split into calls
 (:func:`prox_newton_dense` stops after outer iteration ``it_end``).  A time
 limit is a deadline on :mod:`~.clock`'s clock in the float state
-(``F_DEADLINE``), read after every outer iteration, where the Python reference
-reads its clock: the loop then stops with :data:`TIME_LIMIT`.
+(``F_DEADLINE``), read after every outer iteration and, in the proximal loop,
+before every factorization of a subproblem but its first (a subproblem is cut
+there: the outer iteration ends), where the Python reference reads its clock:
+the loop then stops with :data:`TIME_LIMIT` (an outer iteration that starts
+does one Newton step; a run overruns its limit by at most one factorization).
 
 Equations and the meaning of every step: ``formulations/newton.md`` and the
 Python reference.
@@ -213,6 +216,8 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
             if nF == 0.0:
                 solved = True
                 break
+            if _inner > 0 and past(fstate[F_DEADLINE]):
+                break           # (the subproblem cut: the outer iteration ends, then the run)
             n_fact += 1
             dense_jacobian(Dr, Du, W, alpha, d, J)
             for k in range(m):
