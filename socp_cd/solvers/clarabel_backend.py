@@ -29,11 +29,10 @@ inner_settings : dict
     (``DEFAULT_SETTINGS``, plus ``SMALL_PROBLEM_SETTINGS`` in the De Saxcé
     loop of small local problems).
 time_limit : float
-    Seconds: Clarabel's ``time_limit`` (Clarabel 0.11 counts it from the solver's
-    creation, set-up included, over all its solves: in the De Saxcé loop the inner
-    solver is made once, at the loop's start, so the inner solves stop at about the
-    outer loop's budget; Clarabel's set-up and first factorization cannot be cut);
-    for ``coulomb`` it also bounds the outer loop.
+    Seconds: Clarabel's ``time_limit``; in the De Saxcé loop (``coulomb``) each inner
+    solve gets what is left of the budget counted from the loop's start (Clarabel
+    0.11 gives every ``solve()`` its whole limit), and the outer loop stops once it is
+    spent; Clarabel's set-up and first factorization cannot be cut.
 verbose : bool
     Clarabel's printout.
 threshold : array_like
@@ -57,6 +56,8 @@ singular along a cone direction with ``qᵀd < 0``), ``Unsolved`` and
 ``CallbackTerminated`` → numerical_error.
 """
 from __future__ import annotations
+
+import time as _time
 
 import numpy as np
 
@@ -195,6 +196,9 @@ class ClarabelInner:
         # back on, for this and every later solve, when a solve does not end "Solved"
         self.refine_on_failure = refine_on_failure
         self.time_limit = time_limit
+        # (Clarabel 0.11 gives each solve() the whole limit again: each solve gets what is
+        # left of the budget, counted from here, the De Saxcé loop's start)
+        self.deadline = None if time_limit is None else _time.perf_counter() + time_limit
         self.verbose = verbose
         self.clarabel_max_iter = clarabel_max_iter
         if problem.is_global:
@@ -208,7 +212,11 @@ class ClarabelInner:
         self.statuses = []
 
     def _settings(self, tol):
-        return make_settings(tol, self.user_settings, time_limit=self.time_limit,
+        if self.deadline is not None:       # (not cached: the time left differs per solve)
+            left = max(self.deadline - _time.perf_counter(), 1e-9)
+            return _build_settings(tol, self.user_settings, time_limit=left,
+                                   verbose=self.verbose, max_iter=self.clarabel_max_iter)
+        return make_settings(tol, self.user_settings, time_limit=None,
                              verbose=self.verbose, max_iter=self.clarabel_max_iter)
 
     def solve(self, q_shift, tol):
@@ -225,13 +233,13 @@ class ClarabelInner:
             self.solver = clarabel.DefaultSolver(d.P, qv, d.A, b, self.cones, self._settings(tol))
         else:
             kw = {"q": qv} if not p.is_global else {"b": b}
-            if tol != self.tol:
+            if tol != self.tol or self.deadline is not None:
                 kw["settings"] = self._settings(tol)
                 self.tol = tol
             self.solver.update(**kw)
         sol = self.solver.solve()
         status = str(sol.status)
-        if self.refine_on_failure and status != "Solved":
+        if self.refine_on_failure and status not in ("Solved", "MaxTime"):
             # without refinement an ill-conditioned KKT system (rank-deficient W, large mu)
             # gives inaccurate or unbounded iterates: re-solve with Clarabel's default
             self.refine_on_failure = False

@@ -376,6 +376,9 @@ class FixedPoint:
                 if best_err <= tol:
                     status, message = "converged", "converged after polish"
                     break
+            if last_inner.get("status") == "MaxTime":      # the budget cut the inner solve
+                status, message = "time_limit", "inner solve stopped at time_limit"
+                break
             if not last_inner.get("ok", True) and itol <= self.tmin and err >= err_prev:
                 status = "numerical_error"
                 message = (f"inner solver failed ({last_inner.get('status')}) and the error "

@@ -838,7 +838,8 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
     The twin runs the whole loop in one call; a ``time_limit`` is its deadline on the
     compiled clock (:mod:`~.kernels.clock`), read after every outer iteration and before
     every factorization of a proximal subproblem but its first, as the Python loop reads
-    its clock: the same iterates, and the same stop.  Where that
+    its clock: the same iterates, and the same stop (without the compiled clock the chunks
+    below cannot cut a subproblem, which the Python loop does).  Where that
     clock is not available (``clock.AVAILABLE`` False) a time-limited run goes in chunks
     of outer iterations (:data:`CHUNK_WORK`, :data:`CHUNK_MAX`), the clock read in
     Python between them (a run may then overrun its limit by one chunk).

@@ -353,6 +353,9 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
                     return STATUS_MAX_ITER, it, err, n_full, n_fail, light, hist
                 window_err = err
         if it % check_every == 0 and it < max_iter and past(deadline):
+            if not full_now:        # (the error of the iterate returned, as at a block's end)
+                err, _ = full_errors(d, nc, indptr, indices, blocks, q, r, mu, g, law, norm_q, u)
+                n_full += 1
             return STATUS_TIME_LIMIT, it, err, n_full, n_fail, light, hist
     return STATUS_MAX_ITER, max_iter, err, n_full, n_fail, light, hist
 
