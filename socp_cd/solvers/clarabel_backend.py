@@ -195,9 +195,8 @@ class ClarabelInner:
         # iterative refinement was switched off for speed (SMALL_PROBLEM_SETTINGS): turn it
         # back on, for this and every later solve, when a solve does not end "Solved"
         self.refine_on_failure = refine_on_failure
-        self.time_limit = time_limit
         # (Clarabel 0.11 gives each solve() the whole limit again: each solve gets what is
-        # left of the budget, counted from here, the De Saxcé loop's start)
+        # left of the budget, counted from here, the De Saxcé loop's set-up)
         self.deadline = None if time_limit is None else _time.perf_counter() + time_limit
         self.verbose = verbose
         self.clarabel_max_iter = clarabel_max_iter
@@ -259,7 +258,7 @@ class ClarabelInner:
         else:
             r = np.asarray(sol.x, dtype=np.float64)
         return r, {"iterations": int(sol.iterations) + sol_its, "status": status,
-                   "ok": status in USABLE[:2]}
+                   "ok": status in USABLE[:2], "timed_out": status == "MaxTime"}
 
 
 def _single_socp(problem, formulation, tol, options):

@@ -376,7 +376,7 @@ class FixedPoint:
                 if best_err <= tol:
                     status, message = "converged", "converged after polish"
                     break
-            if last_inner.get("status") == "MaxTime":      # the budget cut the inner solve
+            if last_inner.get("timed_out", False):      # the budget cut the inner solve
                 status, message = "time_limit", "inner solve stopped at time_limit"
                 break
             if not last_inner.get("ok", True) and itol <= self.tmin and err >= err_prev:
@@ -437,7 +437,9 @@ def desaxce_fixed_point(problem, inner_factory, *, tol, max_iter, r0=None, histo
         ``inner_factory(problem, W_sym)`` returns an object with
         ``inner.solve(q_shift, tol) -> (r, info)`` solving
         ``min ½ rᵀ W_sym r + q_shiftᵀ r, r ∈ K_mu`` (``info`` keys:
-        ``iterations`` int, ``status`` str, ``ok`` bool).  ``W_sym`` is the
+        ``iterations`` int, ``status`` str, ``ok`` bool, optionally ``timed_out`` bool:
+        the solve was stopped by its time limit, which ends the loop ``time_limit``).
+        ``W_sym`` is the
         symmetric part of ``W`` for local problems and None for global ones
         (the inner object then works on ``M, H`` itself; ``q_shift`` still is
         the *local* linear term ``q_local + c``).  ``W_sym`` is a scipy sparse
