@@ -233,7 +233,8 @@ def test_cold_plain_stage_starts_from_zero_and_plain_stages_are_capped(monkeypat
 
     def plain(problem, formulation, *, max_iter, r0, time_limit, **options):
         seen.append({"r0": None if r0 is None else r0.copy(), "max_iter": max_iter,
-                     "time_limit": time_limit, "policy": options.get("policy")})
+                     "time_limit": time_limit, "policy": options.get("policy"),
+                     "stall_window": options.get("stall_window")})
         return SolverResult(r=np.zeros(problem.m), status="stalled", iterations=1)
     spec = SolverSpec("plain", plain, ("coulomb",), global_native=("coulomb",))
     for name in ("newton_plain", "newton_plain_cold"):
@@ -242,8 +243,19 @@ def test_cold_plain_stage_starts_from_zero_and_plain_stages_are_capped(monkeypat
                   methods=("nsgs", "newton_plain", "newton_plain_cold"))
     assert np.array_equal(seen[0]["r0"], r_first)          # warm: the best iterate so far
     assert seen[1]["r0"] is None                            # cold: r = 0
-    assert all(s["policy"] == "plain" and s["max_iter"] == auto.PLAIN_MAX_ITER for s in seen)
+    assert all(s["policy"] == "plain" and s["max_iter"] == auto.PLAIN_MAX_ITER
+               and s["stall_window"] == auto.PLAIN_STALL for s in seen)
     assert seen[0]["time_limit"] <= auto.PLAIN_SHARE * 100.0 + 1e-9   # a small share
+    # the cap and the stall windows are read when the stage runs (a study sets them), the
+    # large-problem window only outside the small local chain
+    monkeypatch.setattr(auto, "PLAIN_MAX_ITER", 7)
+    monkeypatch.setattr(auto, "PLAIN_STALL", 5)
+    monkeypatch.setattr(auto, "PLAIN_STALL_LARGE", 9)
+    for small_nc, window in ((auto.SMALL_NC, 5), (0, 9)):
+        monkeypatch.setattr(auto, "SMALL_NC", small_nc)
+        seen.clear()
+        socp_cd.solve(p, "auto", tol=1e-14, methods=("nsgs", "newton_plain"))
+        assert [(s["max_iter"], s["stall_window"]) for s in seen] == [(7, window)]
 
 
 def test_large_local_problems_start_with_an_nsgs_probe(monkeypatch):

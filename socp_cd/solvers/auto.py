@@ -103,6 +103,10 @@ LARGE_2D_NC = 1000
 #: ``"newton_plain"`` stages (Siconos NSN_AC's globalization, ``policy="plain"``): stop
 #: after this many steps without a 10 % drop of the best error ...
 PLAIN_STALL = 50
+#: ... on problems outside the small local chain (more than SMALL_NC contacts, or global),
+#: this many (a study knob, session 26: see formulations/auto.md, "The plain stages' stall
+#: window"; None: PLAIN_STALL)
+PLAIN_STALL_LARGE = None
 #: ... and after at most this many steps (unless ``max_iter`` is given)
 PLAIN_MAX_ITER = 200
 #: local exact-Coulomb problems with more than SMALL_NC contacts start with an NSGS
@@ -202,8 +206,8 @@ MAX_ROUNDS = 8
 _STAGES = {
     "newton": (newton.SPEC, {}),
     "nsgs_probe": (nsgs.SPEC, {}),
-    "newton_plain": (newton.SPEC, {"policy": "plain", "stall_window": PLAIN_STALL}),
-    "newton_plain_cold": (newton.SPEC, {"policy": "plain", "stall_window": PLAIN_STALL}),
+    "newton_plain": (newton.SPEC, {"policy": "plain"}),     # + PLAIN_STALL, PLAIN_MAX_ITER
+    "newton_plain_cold": (newton.SPEC, {"policy": "plain"}),    # (read when the stage runs)
     "nsgs": (nsgs.SPEC, {}),
     "newton_trial": (newton.SPEC, {"policy": "plain"}),    # + TRIAL_STALL, TRIAL_STEPS
     "newton_trial_cold": (newton.SPEC, {"policy": "plain"}),   # + COLD_TRIAL_* (from r = 0)
@@ -239,8 +243,9 @@ ALWAYS_COLD = ("newton_plain_cold", "newton_trial_cold", "newton_trial_prox", "n
 _COLD_TRIALS = ("newton_trial_cold", "newton_trial_prox")
 #: stages of the Newton method: a refused answer of one is retried as ``"newton"`` (warm)
 _NEWTON_FAMILY = tuple(name for name, (spec, _) in _STAGES.items() if spec is newton.SPEC)
-#: stages with their own iteration cap (:data:`PLAIN_MAX_ITER`) when ``max_iter`` is None
-_CAPPED = {"newton_plain": PLAIN_MAX_ITER, "newton_plain_cold": PLAIN_MAX_ITER}
+#: stages with their own iteration cap (:data:`PLAIN_MAX_ITER`, read when the stage runs)
+#: and stall window (:data:`PLAIN_STALL`) when ``max_iter`` is None
+_CAPPED = ("newton_plain", "newton_plain_cold")
 #: share of the remaining budget of the (cheap, trial) plain stages, instead of STAGE_SHARE
 PLAIN_SHARE = 0.25
 _SHARES = {"newton_plain": PLAIN_SHARE, "newton_plain_cold": PLAIN_SHARE,
@@ -912,7 +917,13 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 opts["stall_window"] = NEWTON_STALL
             if method == "newton_cold_alt":
                 opts["alpha0"] = float(ALT_ALPHA0)
-            stage_max_iter = _CAPPED.get(method) if max_iter is None else max_iter
+            stage_max_iter = max_iter
+            if method in _CAPPED:
+                opts["stall_window"] = (PLAIN_STALL if PLAIN_STALL_LARGE is None or (
+                    problem.n_contacts <= SMALL_NC and not problem.is_global)
+                    else PLAIN_STALL_LARGE)
+                if max_iter is None:
+                    stage_max_iter = PLAIN_MAX_ITER
             if method == "nsgs_probe" and PROBE_SWEEPS > 0:  # a probe: at most PROBE_SWEEPS sweeps
                 stage_max_iter = min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
             elif small_first and handoff is not None:
@@ -1024,7 +1035,7 @@ __all__ = ["auto_backend", "route", "plain", "features", "stage_order", "SPEC", 
            "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS", "HANDOFF_WORK", "TRIAL_STEPS",
            "TRIAL_STALL", "HANDOFF_PREDICT",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
-           "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC", "RETRY_REFUSED",
+           "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC", "RETRY_REFUSED",
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START"]
