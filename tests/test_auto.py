@@ -251,11 +251,18 @@ def test_cold_plain_stage_starts_from_zero_and_plain_stages_are_capped(monkeypat
     monkeypatch.setattr(auto, "PLAIN_MAX_ITER", 7)
     monkeypatch.setattr(auto, "PLAIN_STALL", 5)
     monkeypatch.setattr(auto, "PLAIN_STALL_LARGE", 9)
-    for small_nc, window in ((auto.SMALL_NC, 5), (0, 9)):
+    small = auto.SMALL_NC
+    for small_nc, window in ((small, 5), (0, 9)):
         monkeypatch.setattr(auto, "SMALL_NC", small_nc)
-        seen.clear()
-        socp_cd.solve(p, "auto", tol=1e-14, methods=("nsgs", "newton_plain"))
-        assert [(s["max_iter"], s["stall_window"]) for s in seen] == [(7, window)]
+        for max_iter, cap in ((None, 7), (3, 3)):     # a given max_iter is the stage's cap
+            seen.clear()
+            socp_cd.solve(p, "auto", tol=1e-14, max_iter=max_iter,
+                          methods=("nsgs", "newton_plain"))
+            assert [(s["max_iter"], s["stall_window"]) for s in seen] == [(cap, window)]
+    monkeypatch.setattr(auto, "SMALL_NC", small)
+    seen.clear()            # a global problem is outside the small local chain at any size
+    socp_cd.solve(_global(1), "auto", tol=1e-14, methods=("newton_plain",))
+    assert [(s["max_iter"], s["stall_window"]) for s in seen] == [(7, 9)]
 
 
 def test_large_local_problems_start_with_an_nsgs_probe(monkeypatch):

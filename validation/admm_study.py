@@ -16,8 +16,9 @@ box-stack steps.  This study runs the same iteration on the dispatcher's balance
   is below ``tol``) meets ``tol``.
 
 It is a study (NumPy, one process, no time limit), not a backend: it solves the Kapla tower in
-16-23 iterations with ``rho`` 0.01-0.03 and fails the other rank-deficient shared problems
-and the Kapla manufactured cases (``validation/results/admm_study.md``).
+16-23 iterations with ``rho`` 0.01-0.03, needs hundreds to thousands of iterations or fails on
+the other rank-deficient shared problems, and fails the Kapla manufactured cases
+(``validation/results/admm_study.md``).
 
 Usage::
 
@@ -113,16 +114,22 @@ def main(argv=None) -> int:
               and c.case_id.rsplit("/", 1)[-1] in KAPLA_TUNE]
     lines = ["# Siconos' ADMM design on our balanced problems (measured, not adopted)", "",
              f"`python validation/admm_study.py` (tol {args.tol:g}, at most {args.max_iter} "
-             "iterations, one call each, a new problem object; `rho` relative to the mean "
-             "diagonal of the balanced `W`; `auto` with `time_limit=5`). Converged = "
-             "`solve`'s verdict (Siconos' error and the units guard).", "",
+             "iterations per run (the dispatcher's retry after a refused claim adds its own), "
+             "one call each on a new problem object; `rho` relative to the mean "
+             "diagonal of the balanced `W`; `auto` with `time_limit=5`, min of 2 calls after an "
+             "untimed one). Converged = `solve`'s verdict (Siconos' error and the units guard).",
+             "",
              "| problem | auto: status, error, time | " + " | ".join(
                  f"ADMM rho = {r:g}: status, error, iterations, time" for r in args.rhos) + " |",
              "|---|---|" + "---|" * len(args.rhos)]
     for pid, p in cases:
-        t0 = time.perf_counter()
-        ref = socp_cd.solve(copy.copy(p), tol=args.tol, time_limit=5.0)
-        cells = [pid, f"{ref.status}, {ref.error:.1e}, {time.perf_counter() - t0:.3f} s"]
+        socp_cd.solve(copy.copy(p), tol=args.tol, time_limit=5.0)      # (first call: caches)
+        best = np.inf
+        for _ in range(2):
+            t0 = time.perf_counter()
+            ref = socp_cd.solve(copy.copy(p), tol=args.tol, time_limit=5.0)
+            best = min(best, time.perf_counter() - t0)
+        cells = [pid, f"{ref.status}, {ref.error:.1e}, {best:.3f} s"]
         for rho in args.rhos:
             f = partial(admm, rho=rho)
             f.__name__ = "admm"

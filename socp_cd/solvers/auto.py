@@ -243,8 +243,8 @@ ALWAYS_COLD = ("newton_plain_cold", "newton_trial_cold", "newton_trial_prox", "n
 _COLD_TRIALS = ("newton_trial_cold", "newton_trial_prox")
 #: stages of the Newton method: a refused answer of one is retried as ``"newton"`` (warm)
 _NEWTON_FAMILY = tuple(name for name, (spec, _) in _STAGES.items() if spec is newton.SPEC)
-#: stages with their own iteration cap (:data:`PLAIN_MAX_ITER`, read when the stage runs)
-#: and stall window (:data:`PLAIN_STALL`) when ``max_iter`` is None
+#: stages with their own stall window (:data:`PLAIN_STALL`, :data:`PLAIN_STALL_LARGE`) and,
+#: when ``max_iter`` is None, iteration cap (:data:`PLAIN_MAX_ITER`), read when the stage runs
 _CAPPED = ("newton_plain", "newton_plain_cold")
 #: share of the remaining budget of the (cheap, trial) plain stages, instead of STAGE_SHARE
 PLAIN_SHARE = 0.25
