@@ -97,7 +97,10 @@ Session 26's:
 ``PLAIN_STALL``, ``PLAIN_STALL_LARGE``, ``PLAIN_MAX_ITER``
     the plain Newton stages' stall window (50), the same outside the small local chain only
     (None: ``PLAIN_STALL``) and their step cap (200); 100 and 200 measured for the first two,
-    not adopted (``results/auto_chain_tune_s26plain{,large}.md``, ``formulations/auto.md``).
+    not adopted (``results/auto_chain_tune_s26plain{,large}.md``, ``formulations/auto.md``);
+``HANDOFF_SWEEPS``, ``HANDOFF_WORK``
+    the hand-off's cap (200 sweeps, 32 000 entry visits); 50 / 8 000 measured with and without
+    ``HANDOFF_PREDICT=10``, not adopted (``results/auto_chain_tune_s26handoff.md``).
 
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
@@ -134,7 +137,8 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "NEWTON_STALL", "COLD_PROX_STEPS", "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS",
          "COLD_ALPHA0", "COMPILED_LOOP_MAX_M", "ALT_ALPHA0", "HANDOFF_PREDICT", "COMPILED_LU_MAX_ENVELOPE",
          "TRIAL_STEPS", "TRIAL_STALL", "INNER_GATE", "INNER_DECREASE", "COLD_PROX_FIRST",
-         "MIN_SLOW_START", "STAGE_SHARE", "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER")
+         "MIN_SLOW_START", "STAGE_SHARE", "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER",
+         "HANDOFF_SWEEPS", "HANDOFF_WORK")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -147,10 +151,10 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "COMPILED_LU_MAX_ENVELOPE": -1.0, "TRIAL_STEPS": 6, "TRIAL_STALL": 2,
         "INNER_GATE": 0.1, "INNER_DECREASE": 1e-3, "COLD_PROX_FIRST": False,
         "MIN_SLOW_START": 0.0, "STAGE_SHARE": 0.5, "PLAIN_STALL": 50, "PLAIN_STALL_LARGE": None,
-        "PLAIN_MAX_ITER": 200}
+        "PLAIN_MAX_ITER": 200, "HANDOFF_SWEEPS": 200, "HANDOFF_WORK": 32000}
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M", "HANDOFF_PREDICT",
-        "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER")
+        "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "HANDOFF_SWEEPS", "HANDOFF_WORK")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 
