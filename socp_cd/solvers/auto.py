@@ -281,6 +281,12 @@ def features(problem, formulation) -> dict:
             "structurally_rank_deficient": (problem.m > problem.n_dofs) if glob else None}
 
 
+def _small_local(feats) -> bool:
+    """Whether the problem of ``feats`` (:func:`features`) takes the small local chain: a
+    local problem of at most :data:`SMALL_NC` contacts (NSGS first, the hand-off)."""
+    return feats["n_contacts"] <= SMALL_NC and not feats["global"]
+
+
 def stage_order(problem, formulation, feats) -> tuple:
     """Stage names ``(method, formulation)`` for ``problem`` (rules: ``formulations/auto.md``)."""
     if feats["frictionless"] and formulation in ("coulomb", "frictionless"):
@@ -299,7 +305,7 @@ def stage_order(problem, formulation, feats) -> tuple:
     plain = (("newton_plain", "coulomb"), ("newton_plain_cold", "coulomb"))
     if ALT_ALPHA0 is not None:
         plain = plain + (("newton_cold_alt", "coulomb"),)
-    if feats["n_contacts"] <= SMALL_NC and not feats["global"]:
+    if _small_local(feats):
         # small local problems: NSGS first (one contact: one call of its local solver);
         # it costs a fraction of Newton's set-up and factorizations (formulations/auto.md)
         last = ((("nsgs", "coulomb"),) if (SMALL_SWEEPS, SMALL_STALL) != (None, None) else ())
@@ -803,8 +809,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     after_far_probe = False       # the previous stage was a probe that ended far from tol
     stage_tol = tol               # the stages' target: tightened after a guard refusal
     knobs = _small_knobs()
-    handoff = (_handoff_cap(problem, max_iter) if methods is None and not feats["global"]
-               and not feats["frictionless"] and feats["n_contacts"] <= SMALL_NC else None)
+    handoff = (_handoff_cap(problem, max_iter) if methods is None and _small_local(feats)
+               and not feats["frictionless"] else None)
     nsgs_own = None               # the hand-off's first NSGS stage: (its iterate, status, sweeps)
     tried = mid_ran = False       # whether the hand-off's trial, and nsgs_mid, have run
     retried = False               # whether a refused stage has been run once more
@@ -832,8 +838,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         # knobs' settings (SMALL_SWEEPS / SMALL_STALL): when one is set, a different run from
         # NSGS with its defaults (the chain's last stage then)
         small_first = (k == 0 and method == "nsgs" and form == "coulomb" and methods is None
-                       and not feats["frictionless"] and not feats["global"]
-                       and feats["n_contacts"] <= SMALL_NC)
+                       and not feats["frictionless"] and _small_local(feats))
         variant = "small_first" if small_first and knobs != (None, None) else ""
         if method == "newton_trial" and mid_ran:
             variant = "at_cap"      # the second trial starts from NSGS's iterate, not the best
@@ -919,9 +924,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 opts["alpha0"] = float(ALT_ALPHA0)
             stage_max_iter = max_iter
             if method in _CAPPED:
-                opts["stall_window"] = (PLAIN_STALL if PLAIN_STALL_LARGE is None or (
-                    problem.n_contacts <= SMALL_NC and not problem.is_global)
-                    else PLAIN_STALL_LARGE)
+                opts["stall_window"] = (PLAIN_STALL if PLAIN_STALL_LARGE is None
+                                        or _small_local(feats) else PLAIN_STALL_LARGE)
                 if max_iter is None:
                     stage_max_iter = PLAIN_MAX_ITER
             if method == "nsgs_probe" and PROBE_SWEEPS > 0:  # a probe: at most PROBE_SWEEPS sweeps
