@@ -776,16 +776,16 @@ def test_auto_route_gives_its_stages_the_general_paths_shares(monkeypatch):
     # deadlines on the compiled clock; before session 24 the route read no clock)
     from socp_cd.solvers import auto
     budgets, trials = [], []
-    real_run, real_runs = nsgs_route.run, newton.compiled_runs
+    real_run, real_runs = nsgs_route.run_prepared, newton.compiled_runs
 
-    def run_spy(problem, settings, tol, max_iter, r0, time_limit, *a, **kw):
+    def run_spy(problem, tail, tol, max_iter, r0, time_limit, *a, **kw):
         budgets.append(time_limit)
-        return real_run(problem, settings, tol, max_iter, r0, time_limit, *a, **kw)
+        return real_run(problem, tail, tol, max_iter, r0, time_limit, *a, **kw)
 
     def runs_spy(*a, time_left=None, **kw):
         trials.append(time_left)
         return real_runs(*a, time_left=time_left, **kw)
-    monkeypatch.setattr(nsgs_route, "run", run_spy)
+    monkeypatch.setattr(nsgs_route, "run_prepared", run_spy)
     monkeypatch.setattr(newton, "compiled_runs", runs_spy)
     p = manufactured(12, 3, mu=0.6, structure="redundant", mass_ratio=1e6, contact_scale=1e4,
                      seed=6)
@@ -1140,3 +1140,27 @@ def test_newton_default_settings_checked_once_per_value(monkeypatch):
     monkeypatch.setattr(newton, "COLD_ALPHA0", 0.1)
     with pytest.raises(socp_cd.InvalidProblemError, match="stall_window"):
         socp_cd.solve(p, "newton", stall_window=-1)
+
+
+def test_plain_call_reads_the_hand_offs_knobs_as_they_are_set(monkeypatch):
+    # auto.plain prepares its small call once per dimension; setting a knob it reads (a
+    # study's setattr, monkeypatch) must reach the next call, and undoing it the one after
+    from socp_cd.solvers import auto
+    p = manufactured(12, 3, mu=0.6, structure="redundant", mass_ratio=1e6, contact_scale=1e4,
+                     seed=6)
+
+    def first_stage():
+        res = socp_cd.solve(FrictionContactProblem(p.W, p.q, p.mu, 3))
+        return res.info["path"][0]
+    default = first_stage()
+    assert default["method"] == "nsgs" and default["iterations"] > 3
+    with monkeypatch.context() as mp:
+        mp.setattr(auto, "HANDOFF_SWEEPS", 3)
+        mp.setattr(auto, "HANDOFF_WORK", 1)
+        capped = first_stage()
+        assert capped["method"] == "nsgs" and capped["iterations"] == 3
+    again = first_stage()
+    assert again["iterations"] == default["iterations"]
+    with monkeypatch.context() as mp:
+        mp.setattr(auto, "SMALL_NC", 0)        # the small chain off: the probe comes first
+        assert first_stage()["method"] == "nsgs_probe"

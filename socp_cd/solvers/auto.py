@@ -70,7 +70,9 @@ lists every stage: ``{"method", "formulation", "iterations", "time", "error",
 """
 from __future__ import annotations
 
+import sys
 import time
+import types
 
 import numpy as np
 
@@ -579,20 +581,19 @@ def plain(problem, tol, time_limit, t0):
     of a ~10 µs one-contact call.  Otherwise the route's outcome (``(result,
     guard_value, resume)`` or None) for the dispatcher to judge, as :func:`route` returns
     it.  The answer is the route's, bit for bit (``tests/test_route.py``)."""
+    dim = problem.dim
+    plan = _PLANS.get(dim)
+    if plan is None:
+        plan = _small_plan(dim)
     nc = problem.mu.shape[0]
-    w = HANDOFF_PREDICT
-    if (nc > SMALL_NC or SMALL_SWEEPS is not None or SMALL_STALL is not None
-            or type(HANDOFF_SWEEPS) is not int or HANDOFF_SWEEPS < 1 or type(w) is not int
-            or w < 0):
+    if plan is False or nc > plan[0]:
         # a study's knobs (or a bad value, which route reports), or a larger problem
         return route(problem, tol=tol, max_iter=None, r0=None, time_limit=time_limit)
-    handoff = (HANDOFF_SWEEPS, int(HANDOFF_WORK))
-    dim = problem.dim
-    s0 = _clock()
-    # (nsgs.compiled_run's call, one layer less: NSGS's defaults, its sweep cap)
-    out = nsgs_route.run(problem, nsgs.route_settings(dim), tol, nsgs.DEFAULT_MAX_ITER, None,
-                         _stage_limit("nsgs", time_limit), True, handoff,
-                         w if dim * nc <= PREDICT_MAX_M else 0)     # (_predict_window's rule)
+    # (nsgs.compiled_run's call, one layer less: NSGS's defaults, its sweep cap, the
+    # prediction window by _predict_window's rule; the stage starts at t0, a fraction of a µs
+    # earlier, where the dispatcher read the clock)
+    out = nsgs_route.run_prepared(problem, plan[3] if dim * nc <= plan[1] else plan[4], tol,
+                                  nsgs.DEFAULT_MAX_ITER, None, _stage_limit("nsgs", time_limit))
     if out is None:
         return None
     x = out[2]
@@ -601,13 +602,54 @@ def plain(problem, tol, time_limit, t0):
     # measures pass is always an improvement; on such measures registry._routed's verdict is
     # "converged", keep the two in step)
     if x[INTERNAL_ERROR] <= lo and x[GUARD_VALUE] <= lo and x[ERROR] <= lo:
-        s = _clock()
+        s = _clock() - t0
         vectors = out[1]
         return SolverResult.of_local(vectors[1], vectors[2], "converged", x[ERROR], int(x[SWEEPS]),
-                                     LazyInfo((_route_info, dim, nc, x, "nsgs", s - s0, out[0])),
+                                     LazyInfo((_route_info, dim, nc, x, "nsgs", s, out[0])),
                                      "nsgs met tol", x[ZERO_ERROR] <= tol, True, "auto",
-                                     "coulomb", tol, s - t0)
-    return _stage_outcome(problem, out, "nsgs", handoff, tol, None, time_limit, s0)
+                                     "coulomb", tol, s)
+    return _stage_outcome(problem, out, "nsgs", plan[2], tol, None, time_limit, t0)
+
+
+#: :func:`plain`'s small call in dimension ``d``, prepared once (:func:`_small_plan`); emptied
+#: when one of :data:`_PLAN_KNOBS` is set (:class:`_Knobs`)
+_PLANS = {}
+#: the knobs :func:`_small_plan` reads
+_PLAN_KNOBS = frozenset({"SMALL_NC", "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS",
+                         "HANDOFF_WORK", "HANDOFF_PREDICT", "PREDICT_MAX_M"})
+
+
+def _small_plan(dim):
+    """:func:`plain`'s small call in dimension ``dim`` from the knobs as they are, recorded in
+    :data:`_PLANS`: ``(SMALL_NC, PREDICT_MAX_M, handoff, tail with the prediction window,
+    tail without)`` (the tails :func:`~socp_cd.solvers.nsgs_route.prepared`'s), or False when
+    a study's knob (or a bad value, which :func:`route` reports) sends every call through
+    :func:`route`.  Making these per call cost ~0.7 µs of a ~6 µs one-contact call."""
+    w = HANDOFF_PREDICT
+    if (SMALL_SWEEPS is not None or SMALL_STALL is not None or type(HANDOFF_SWEEPS) is not int
+            or HANDOFF_SWEEPS < 1 or type(w) is not int or w < 0):
+        plan = False
+    else:
+        handoff = (HANDOFF_SWEEPS, int(HANDOFF_WORK))
+        settings = nsgs.route_settings(dim)
+        plan = (SMALL_NC, PREDICT_MAX_M, handoff,
+                nsgs_route.prepared(settings, True, handoff, w),
+                nsgs_route.prepared(settings, True, handoff, 0))
+    _PLANS[dim] = plan
+    return plan
+
+
+class _Knobs(types.ModuleType):
+    """This module's type: setting one of :data:`_PLAN_KNOBS` (a study, a test's
+    ``monkeypatch``) empties :data:`_PLANS`, so :func:`plain` reads the knobs as they are."""
+
+    def __setattr__(self, name, value):
+        super().__setattr__(name, value)
+        if name in _PLAN_KNOBS:
+            _PLANS.clear()
+
+
+sys.modules[__name__].__class__ = _Knobs
 
 
 def _stage_outcome(problem, out, method, handoff, tol, max_iter, time_limit, t0):

@@ -156,18 +156,19 @@ def checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_
 
 
 @njit(cache=True)
-def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blocked, first_block,
+def nsgs_checked(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked, first_block,
                  time_left, kind, loc_tol, newton_max_iter, projection_max_iter, omega,
                  error_every, stall_window, need_friction, handoff_sweeps, handoff_work, predict_window,
                  vectors):
-    """Balance, NSGS sweeps from ``r0``, map back, and the dispatcher's checks, in one call.
+    """Balance, NSGS sweeps from ``vectors[0]`` or 0, map back, and the dispatcher's checks, in
+    one call.
 
     Parameters
     ----------
     indptr, indices, data, q, mu, dim
         The local problem as written (``W`` in CSR form, duplicates summed).
-    r0, warm
-        Start (caller's units); used when ``warm``.
+    warm
+        Start from ``vectors[0]`` (caller's units; else from 0).
     tol, max_iter, omega, error_every, stall_window
         NSGS's sweep settings (:data:`~socp_cd.solvers.nsgs_kernels.Sweeps`,
         natural ordering).
@@ -196,7 +197,7 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
         hand-off is on and its cap is not below ``max_iter`` (the general path
         then runs NSGS without it).
     vectors : ndarray (3, m)
-        Output, overwritten: rows the balanced iterate ``r~``, ``r = a r~`` and
+        With ``warm``, its first row the start; output, overwritten: rows the balanced iterate ``r~``, ``r = a r~`` and
         ``u = W r + q`` (the data as written).  Passed in, one array: an array
         a compiled call allocates and returns costs its boxing (~0.3 µs, three
         times NumPy's allocation).
@@ -240,13 +241,14 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, r0, warm, tol, max_iter, blo
     if bad.any():
         return DECLINED_ILL_POSED, to_fixed_tuple(stats, _N_OUT)
     r_s = vectors[0]
-    r_s[:] = 0.0
     start_error = np.inf
     if warm:
         for j in range(m):
-            r_s[j] = r0[j] / a[j]
+            r_s[j] = r_s[j] / a[j]      # (the start, in place: an array argument less)
         start_error = siconos_error(r_s, csr_matvec_add(indptr, indices, data_s, r_s, q_s), mu,
                                     dim, q_s_norm)
+    else:
+        r_s[:] = 0.0
     W = BlockW(bptr, bcol, blocks, diag)
     law = Law(mu, mu, LAW_COULOMB)     # (the Coulomb law never reads its thresholds)
     origin = Origin(a, b, q_norm)       # the dispatcher's measure stops the sweeps too
@@ -489,7 +491,7 @@ def scaling_record(x) -> dict:
 
 
 def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff=(0, 0),
-        predict_window=0, _new=tuple.__new__):
+        predict_window=0):
     """Run :func:`nsgs_checked` on a local problem: a :data:`RouteOutcome`, or None.
 
     ``settings``: the NSGS backend's checked settings as the tuple
@@ -505,6 +507,21 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
     general path reports those).  ``handoff``: ``(sweeps, work)`` of
     :func:`nsgs_checked` (``(0, 0)``: off); ``predict_window`` as there.
     """
+    return run_prepared(problem, prepared(settings, need_friction, handoff, predict_window), tol,
+                        max_iter, r0, time_limit)
+
+
+def prepared(settings, need_friction, handoff=(0, 0), predict_window=0) -> tuple:
+    """:func:`run`'s last arguments as :func:`run_prepared` takes them (one tuple, made once
+    by a caller that runs the same settings on many problems)."""
+    return (*settings, need_friction, *handoff, predict_window)
+
+
+def run_prepared(problem, tail, tol, max_iter, r0, time_limit, _new=tuple.__new__):
+    """:func:`run` with its last four arguments in ``tail`` (:func:`prepared`).  A plain
+    ``solver="auto"`` call on a small problem is a few µs, a tenth of it the making of
+    :func:`nsgs_checked`'s 25 arguments: :func:`socp_cd.solvers.auto.plain` keeps ``tail``
+    from one call to the next."""
     mu = problem.mu
     indptr, indices, data = problem.csr_parts
     nc = mu.shape[0]
@@ -517,15 +534,14 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
                 and float(max_iter) * max(int(indptr[-1]), 1) <= MAX_TIMED_WORK)):
         return None
     q = problem.q
-    if r0 is not None:          # (the kernel's entry point reads a contiguous float64 vector
-        r0 = problem.check_reaction(r0, "r0")       # of length m: the checks of solve())
     vectors = np.empty((3, q.shape[0]))
+    if r0 is not None:          # (the start, the kernel's first row: the checks of solve())
+        vectors[0] = problem.check_reaction(r0, "r0")
     kernel = _CHECKED.get(indptr.dtype) if indices.dtype is indptr.dtype else None
     code, x = (kernel or _checked_entry(indptr, indices))(
-        indptr, indices, data, q, mu, problem.dim, q if r0 is None else r0, r0 is not None, tol,
+        indptr, indices, data, q, mu, problem.dim, r0 is not None, tol,
         max_iter, time_limit is not None, TIME_CHECK_SWEEPS,
-        inf if time_limit is None else time_limit, *settings, need_friction, *handoff,
-        predict_window, vectors)
+        inf if time_limit is None else time_limit, *tail, vectors)
     if code < 0:            # (a declined problem, or an answer the checks cannot judge)
         return None
     # (tuple.__new__: half the cost of the named tuple's own constructor, per call)
@@ -534,7 +550,7 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
 
 #: :func:`nsgs_checked`'s entry point (:mod:`~socp_cd.solvers.kernels.entry`) by the dtype of
 #: ``W``'s CSR index arrays: its other arguments' types are fixed (the problem classes keep
-#: ``data``, ``q``, ``mu`` and ``r0`` contiguous float64 vectors, :func:`run` makes the rest)
+#: ``data``, ``q`` and ``mu`` contiguous float64 vectors, :func:`run` makes the rest)
 _CHECKED = {}
 _INDEX_DTYPES = (np.dtype(np.int32), np.dtype(np.int64))
 
@@ -550,7 +566,7 @@ def _checked_entry(indptr, indices):
         return ep
     ix = index_vector(dtype)
     b, i = types.boolean, types.int64
-    sig = (ix, ix, F64_VECTOR, F64_VECTOR, F64_VECTOR, i, F64_VECTOR, b, types.float64, i, b, i,
+    sig = (ix, ix, F64_VECTOR, F64_VECTOR, F64_VECTOR, i, b, types.float64, i, b, i,
            types.float64, i, types.float64, i, i, types.float64, i, i, b, i, i, i,
            types.Array(types.float64, 2, "C"))
     ep = _CHECKED[dtype] = entry_point(nsgs_checked, sig)
@@ -637,7 +653,7 @@ def trial_outcome(problem, norm_q, status, r_s):
     return RouteOutcome(status, vectors, x), judge_guard
 
 
-__all__ = ["nsgs_checked", "run", "trial_run", "trial_checked", "newton_checked", "trial_runner", "run_record", "trial_outcome", "judge_norm", "judge_units",
+__all__ = ["nsgs_checked", "run", "run_prepared", "prepared", "trial_run", "trial_checked", "newton_checked", "trial_runner", "run_record", "trial_outcome", "judge_norm", "judge_units",
            "checked_answer", "TRIAL_MAX_M", "TRIAL_CONSTANTS", "C_ALPHA0", "C_ALPHA_MIN", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
            "MIN_TIME_LIMIT", "MAX_TIMED_WORK", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
            "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX", "GUARD_VALUE"]

@@ -353,14 +353,10 @@ def _plain(problem, spec, tol, max_iter, r0, time_limit):
                     t0, resume, routed)
 
 
-def _plain_call(problem, spec, tol, time_limit):
+def _plain_rest(problem, spec, out, tol, time_limit, t0):
     """:func:`_plain` with ``max_iter`` and ``r0`` None and ``tol``, ``time_limit`` checked,
-    through ``spec.plain`` (``SolverSpec.plain``: a finished result, or the route's
-    outcome for :func:`_routed`)."""
-    t0 = _time.perf_counter()
-    out = spec.plain(problem, tol, time_limit, t0)
-    if out.__class__ is SolverResult:
-        return out
+    after ``spec.plain`` (``SolverSpec.plain``, called by :func:`solve` at ``t0``) returned
+    ``out``, the route's outcome for :func:`_routed`, not a finished result."""
     res, resume, routed = _judged(out, spec.name, tol, time_limit, t0)
     if res is not None:
         return res
@@ -462,11 +458,17 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
         spec = _TABLE.get(solver)
         if (spec is not None and spec.route is not None and "coulomb" in spec.formulations
                 and problem.dim in spec.dims):
-            if (spec.plain is not None and r0 is None and max_iter is None
+            plain = spec.plain
+            if (plain is not None and r0 is None and max_iter is None
                     and type(tol) is float and 0.0 < tol < math.inf
                     and (time_limit is None or type(time_limit) is float
                          and 0.0 < time_limit < math.inf)):
-                return _plain_call(problem, spec, tol, time_limit)
+                # (spec.plain here, not in a helper: a small problem's whole call is a few µs)
+                t0 = _time.perf_counter()
+                out = plain(problem, tol, time_limit, t0)
+                if out.__class__ is SolverResult:
+                    return out
+                return _plain_rest(problem, spec, out, tol, time_limit, t0)
             return _plain(problem, spec, tol, max_iter, r0, time_limit)
     _check_problem(problem)
     table = _table()
