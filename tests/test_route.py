@@ -1152,7 +1152,9 @@ def test_plain_call_reads_the_hand_offs_knobs_as_they_are_set(monkeypatch):
     def first_stage():
         res = socp_cd.solve(FrictionContactProblem(p.W, p.q, p.mu, 3))
         return res.info["path"][0]
+    first_stage()           # (the first call in a process may load the table: no plan yet)
     default = first_stage()
+    assert 3 in auto._PLANS         # the plan the knobs below must replace
     assert default["method"] == "nsgs" and default["iterations"] > 3
     with monkeypatch.context() as mp:
         mp.setattr(auto, "HANDOFF_SWEEPS", 3)
@@ -1164,3 +1166,31 @@ def test_plain_call_reads_the_hand_offs_knobs_as_they_are_set(monkeypatch):
     with monkeypatch.context() as mp:
         mp.setattr(auto, "SMALL_NC", 0)        # the small chain off: the probe comes first
         assert first_stage()["method"] == "nsgs_probe"
+
+
+def test_the_plain_calls_plan_reads_only_the_knobs_whose_setting_drops_it():
+    # every module-level name in upper case that auto._small_plan reads is a knob whose
+    # setting (and deletion) empties the plans: a knob missing from _PLAN_KNOBS would leave a
+    # stale plan in use
+    from socp_cd.solvers import auto
+    read = {n for n in auto._small_plan.__code__.co_names if n.isupper() and n[0] != "_"}
+    assert read and read <= auto._PLAN_KNOBS
+
+
+@pytest.mark.parametrize("knob", sorted(["SMALL_NC", "SMALL_SWEEPS", "SMALL_STALL",
+                                         "HANDOFF_SWEEPS", "HANDOFF_WORK", "HANDOFF_PREDICT",
+                                         "PREDICT_MAX_M"]))
+def test_setting_or_deleting_a_knob_drops_the_plain_calls_plan(knob, monkeypatch):
+    from socp_cd.solvers import auto
+    p = manufactured(2, 3, mu=0.5, seed=1)
+    for _ in range(2):
+        socp_cd.solve(p)
+    assert 3 in auto._PLANS
+    monkeypatch.setattr(auto, knob, getattr(auto, knob))     # (the same value: still dropped)
+    assert auto._PLANS == {}
+    socp_cd.solve(p)
+    assert 3 in auto._PLANS
+    monkeypatch.delattr(auto, knob)
+    assert auto._PLANS == {}
+    monkeypatch.undo()              # (setattr again)
+    assert auto._PLANS == {} and knob in vars(auto)

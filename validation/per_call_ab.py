@@ -60,11 +60,17 @@ def main() -> None:
     if args.child:
         print(" ".join(f"{t:.3f}" for t in measure(PROBLEMS, args.loops, args.number)))
         return
+    from socp_cd.bench.reports import emit
+    from socp_cd.data import shared_problems_dir
+    data = shared_problems_dir()
+    if data is None:
+        raise SystemExit("per_call_ab: shared data not found (set SOCP_CD_DATA)")
     trees = [t.resolve() for t in args.trees]
     rows = {t: [] for t in trees}
     for k in range(args.rounds):
         for t in trees:
-            env = dict(os.environ, PYTHONPATH=str(t))
+            # (the shared data where this tree finds them: a worktree elsewhere would not)
+            env = dict(os.environ, PYTHONPATH=str(t), SOCP_CD_DATA=str(data))
             out = subprocess.run([sys.executable, __file__, "--child", "--loops", str(args.loops),
                                   "--number", str(args.number)], env=env, cwd="/",
                                  capture_output=True, text=True, check=True).stdout.split()
@@ -81,10 +87,7 @@ def main() -> None:
     for i, n in enumerate(PROBLEMS):
         lines.append(f"| {n} | {best[a][i]:.2f} | {best[b][i]:.2f} | {best[b][i] / best[a][i]:.3f} "
                      f"| {', '.join(f'{r[i]:.2f}' for r in rows[b])} |")
-    text = "\n".join(lines) + "\n"
-    print(text)
-    if args.out:
-        args.out.write_text(text)
+    emit(lines, args.out)
 
 
 if __name__ == "__main__":

@@ -508,7 +508,16 @@ def variant_disagreements(rows, key: str) -> list:
     return sorted((cid, d) for cid, d in by_case.items()
                   if len({bool(d[v]["solved"]) for v in d}) > 1)
 
-__all__ = ["SGM_SHIFT", "shifted_geometric_mean", "charged_time", "read_rows", "variant_comparison", "variant_comparison_by", "variant_disagreements", "summary_table", "time_table",
+def emit(lines, out=None) -> str:
+    """A report's ``lines`` as one text: printed, and written to ``out`` when given."""
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if out is not None:
+        Path(out).write_text(text)
+    return text
+
+
+__all__ = ["emit", "SGM_SHIFT", "shifted_geometric_mean", "charged_time", "read_rows", "variant_comparison", "variant_comparison_by", "variant_disagreements", "summary_table", "time_table",
            "performance_ratios", "performance_profile", "work_precision_data",
            "plot_work_precision", "plot_performance_profiles", "summary_markdown", "write_report",
            "readme_table", "update_readme", "virtual_best", "with_virtual_best", "SICONOS_BEST"]

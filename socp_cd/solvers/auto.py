@@ -577,8 +577,8 @@ def plain(problem, tol, time_limit, t0):
     (1 - JUDGE_MARGIN)``, the result is returned judged: ``converged``, with the
     ``solver``, ``formulation``, ``tol`` and ``time`` (since ``t0``) the dispatcher would
     set (:func:`socp_cd.solvers.registry._routed`'s verdict is "converged" on such
-    measures).  The layers between :func:`socp_cd.solve` and the compiled call cost ~4 µs
-    of a ~10 µs one-contact call.  Otherwise the route's outcome (``(result,
+    measures).  The layers between :func:`socp_cd.solve` and the compiled call cost ~3 µs
+    of a ~6 µs one-contact call.  Otherwise the route's outcome (``(result,
     guard_value, resume)`` or None) for the dispatcher to judge, as :func:`route` returns
     it.  The answer is the route's, bit for bit (``tests/test_route.py``)."""
     dim = problem.dim
@@ -589,9 +589,9 @@ def plain(problem, tol, time_limit, t0):
     if plan is False or nc > plan[0]:
         # a study's knobs (or a bad value, which route reports), or a larger problem
         return route(problem, tol=tol, max_iter=None, r0=None, time_limit=time_limit)
+    s0 = _clock()
     # (nsgs.compiled_run's call, one layer less: NSGS's defaults, its sweep cap, the
-    # prediction window by _predict_window's rule; the stage starts at t0, a fraction of a µs
-    # earlier, where the dispatcher read the clock)
+    # prediction window by _predict_window's rule)
     out = nsgs_route.run_prepared(problem, plan[3] if dim * nc <= plan[1] else plan[4], tol,
                                   nsgs.DEFAULT_MAX_ITER, None, _stage_limit("nsgs", time_limit))
     if out is None:
@@ -602,13 +602,13 @@ def plain(problem, tol, time_limit, t0):
     # measures pass is always an improvement; on such measures registry._routed's verdict is
     # "converged", keep the two in step)
     if x[INTERNAL_ERROR] <= lo and x[GUARD_VALUE] <= lo and x[ERROR] <= lo:
-        s = _clock() - t0
+        s = _clock()
         vectors = out[1]
         return SolverResult.of_local(vectors[1], vectors[2], "converged", x[ERROR], int(x[SWEEPS]),
-                                     LazyInfo((_route_info, dim, nc, x, "nsgs", s, out[0])),
+                                     LazyInfo((_route_info, dim, nc, x, "nsgs", s - s0, out[0])),
                                      "nsgs met tol", x[ZERO_ERROR] <= tol, True, "auto",
-                                     "coulomb", tol, s)
-    return _stage_outcome(problem, out, "nsgs", plan[2], tol, None, time_limit, t0)
+                                     "coulomb", tol, s - t0)
+    return _stage_outcome(problem, out, "nsgs", plan[2], tol, None, time_limit, s0)
 
 
 #: :func:`plain`'s small call in dimension ``d``, prepared once (:func:`_small_plan`); emptied
@@ -626,11 +626,15 @@ def _small_plan(dim):
     a study's knob (or a bad value, which :func:`route` reports) sends every call through
     :func:`route`.  Making these per call cost ~0.7 µs of a ~6 µs one-contact call."""
     w = HANDOFF_PREDICT
+    try:
+        work = int(HANDOFF_WORK)
+    except (TypeError, ValueError, OverflowError):
+        work = None
     if (SMALL_SWEEPS is not None or SMALL_STALL is not None or type(HANDOFF_SWEEPS) is not int
-            or HANDOFF_SWEEPS < 1 or type(w) is not int or w < 0):
+            or HANDOFF_SWEEPS < 1 or type(w) is not int or w < 0 or work is None):
         plan = False
     else:
-        handoff = (HANDOFF_SWEEPS, int(HANDOFF_WORK))
+        handoff = (HANDOFF_SWEEPS, work)
         settings = nsgs.route_settings(dim)
         plan = (SMALL_NC, PREDICT_MAX_M, handoff,
                 nsgs_route.prepared(settings, True, handoff, w),
@@ -640,11 +644,18 @@ def _small_plan(dim):
 
 
 class _Knobs(types.ModuleType):
-    """This module's type: setting one of :data:`_PLAN_KNOBS` (a study, a test's
-    ``monkeypatch``) empties :data:`_PLANS`, so :func:`plain` reads the knobs as they are."""
+    """This module's type: setting or deleting one of :data:`_PLAN_KNOBS` (a study, a test's
+    ``monkeypatch``) empties :data:`_PLANS`, so :func:`plain` reads the knobs as they are.
+    (Knobs are set between calls: a plan made in one thread while another sets a knob
+    may outlive the change.)"""
 
     def __setattr__(self, name, value):
         super().__setattr__(name, value)
+        if name in _PLAN_KNOBS:
+            _PLANS.clear()
+
+    def __delattr__(self, name):
+        super().__delattr__(name)
         if name in _PLAN_KNOBS:
             _PLANS.clear()
 

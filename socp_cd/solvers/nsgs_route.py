@@ -14,7 +14,7 @@ arrays, in one compiled call:
    problem ``W~ = S W S``, ``q~ = q / b`` of :mod:`socp_cd.solvers.scaling`);
 2. :func:`~socp_cd.solvers.block_storage.csr_to_bsr` and
    :func:`~socp_cd.solvers.nsgs_kernels.local_parameters` (NSGS's set-up);
-3. :func:`~socp_cd.solvers.nsgs_kernels.nsgs_loop` from ``r0 / a`` (in the
+3. :func:`~socp_cd.solvers.nsgs_kernels.nsgs_loop` from ``r0 / a`` or 0 (in the
    blocks of sweeps the NSGS backend uses when a time limit is given);
 4. ``r = a r~`` (:func:`~socp_cd.solvers.kernels.scaling.times_factors`'s
    product), ``u = W r + q`` on the data as written, Siconos' error and
@@ -197,8 +197,8 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked
         hand-off is on and its cap is not below ``max_iter`` (the general path
         then runs NSGS without it).
     vectors : ndarray (3, m)
-        With ``warm``, its first row the start; output, overwritten: rows the balanced iterate ``r~``, ``r = a r~`` and
-        ``u = W r + q`` (the data as written).  Passed in, one array: an array
+        With ``warm``, its first row the start ``r0``; output, overwritten: rows the
+        balanced iterate ``r~``, ``r = a r~`` and ``u = W r + q`` (the data as written).  Passed in, one array: an array
         a compiled call allocates and returns costs its boxing (~0.3 µs, three
         times NumPy's allocation).
 
@@ -512,16 +512,17 @@ def run(problem, settings, tol, max_iter, r0, time_limit, need_friction, handoff
 
 
 def prepared(settings, need_friction, handoff=(0, 0), predict_window=0) -> tuple:
-    """:func:`run`'s last arguments as :func:`run_prepared` takes them (one tuple, made once
-    by a caller that runs the same settings on many problems)."""
+    """:func:`run`'s arguments ``settings``, ``need_friction``, ``handoff`` and
+    ``predict_window`` as :func:`run_prepared` takes them: the kernel's trailing arguments in
+    one tuple, made once by a caller that runs the same settings on many problems."""
     return (*settings, need_friction, *handoff, predict_window)
 
 
 def run_prepared(problem, tail, tol, max_iter, r0, time_limit, _new=tuple.__new__):
-    """:func:`run` with its last four arguments in ``tail`` (:func:`prepared`).  A plain
-    ``solver="auto"`` call on a small problem is a few µs, a tenth of it the making of
-    :func:`nsgs_checked`'s 25 arguments: :func:`socp_cd.solvers.auto.plain` keeps ``tail``
-    from one call to the next."""
+    """:func:`run` with ``settings``, ``need_friction``, ``handoff`` and ``predict_window``
+    in ``tail`` (:func:`prepared`).  A plain ``solver="auto"`` call on a small problem is a
+    few µs, a tenth of it the making of :func:`nsgs_checked`'s 24 arguments:
+    :func:`socp_cd.solvers.auto.plain` keeps ``tail`` from one call to the next."""
     mu = problem.mu
     indptr, indices, data = problem.csr_parts
     nc = mu.shape[0]
@@ -550,7 +551,7 @@ def run_prepared(problem, tail, tol, max_iter, r0, time_limit, _new=tuple.__new_
 
 #: :func:`nsgs_checked`'s entry point (:mod:`~socp_cd.solvers.kernels.entry`) by the dtype of
 #: ``W``'s CSR index arrays: its other arguments' types are fixed (the problem classes keep
-#: ``data``, ``q`` and ``mu`` contiguous float64 vectors, :func:`run` makes the rest)
+#: ``data``, ``q`` and ``mu`` contiguous float64 vectors, :func:`run_prepared` makes the rest)
 _CHECKED = {}
 _INDEX_DTYPES = (np.dtype(np.int32), np.dtype(np.int64))
 
