@@ -198,9 +198,9 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked
         then runs NSGS without it).
     vectors : ndarray (3, m)
         With ``warm``, its first row the start ``r0``; output, overwritten: rows the
-        balanced iterate ``r~``, ``r = a r~`` and ``u = W r + q`` (the data as written).  Passed in, one array: an array
-        a compiled call allocates and returns costs its boxing (~0.3 µs, three
-        times NumPy's allocation).
+        balanced iterate ``r~``, ``r = a r~`` and ``u = W r + q`` (the data as written).
+        Passed in, one array: an array a compiled call allocates and returns costs its
+        boxing (~0.3 µs, three times NumPy's allocation).
 
     Returns
     -------
