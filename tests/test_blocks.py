@@ -244,6 +244,8 @@ def test_use_solver_switches_the_next_steps():
                      solver="nsgs", tol=1e-4, max_iter=7, solver_options={"time_limit": 5.0})
     sim.run(3, progress=False)
     assert sim.last_result.solver == "nsgs"
+    from socp_cd.solvers import newton
+    newton.warmup()     # (a cold numba cache would spend the 2 s limit below compiling)
     sim.use_solver("newton", tol=1e-10, time_limit=2.0)
     assert sim.max_iter is None and sim.solver_options == {"time_limit": 2.0} and sim.tol == 1e-10
     sim.run(1, progress=False)

@@ -167,6 +167,32 @@ def run_ours(item, solver, tol, args) -> dict:
                 path=";".join(f"{s['method']}:{s['error']:.1e}" for s in res.info.get("path", [])))
 
 
+def calibration_call(number=500, loops=5) -> float:
+    """The machine's speed for our side, read at the start and end of each side's pass: the
+    min over ``loops`` loops of ``number`` plain calls ``solve(copy, time_limit=1)`` on a
+    manufactured one-contact problem (µs per call; garbage collection off).  Ours run first,
+    Siconos' ~30 min later: a slow spell of the machine then hits one side only (session
+    27's run: our side ×1.15 on 1–10 contacts, every solver of ours alike), and this call,
+    unchanged code timed at both ends, shows it."""
+    import gc
+    from socp_cd.bench.generators import manufactured
+    p = manufactured(1, 3, mu=0.5, seed=0)
+    for _ in range(200):
+        socp_cd.solve(copy.copy(p), time_limit=1.0)
+    best = math.inf
+    gc.disable()
+    try:
+        for _ in range(loops):
+            copies = [copy.copy(p) for _ in range(number)]
+            t0 = time.perf_counter()
+            for c in copies:
+                socp_cd.solve(c, time_limit=1.0)
+            best = min(best, (time.perf_counter() - t0) / number)
+    finally:
+        gc.enable()
+    return best * 1e6
+
+
 def guard_value(p, r) -> float:
     """The units guard's value of ``r`` (:func:`socp_cd.guard`; ``inf`` when not finite)."""
     if r is None:
@@ -266,12 +292,15 @@ def main(argv=None) -> int:
 
     rows = []
     tols = [args.tol] + [t for t in args.sweep if t != args.tol]
+    args.calibration = {"before ours": calibration_call()}
     for tol in tols:
         for k, it in enumerate(items):
             for s in args.ours:
                 rec = run_ours(it, s, tol, args)
                 rows.append(dict(tol=tol, set=it["set"], split=it["split"], kind=it["kind"], problem=it["id"],
                                  nc=it["nc"], solver=s, side="ours", **rec))
+        if tol == args.tol:
+            args.calibration["after ours"] = calibration_call()
         print(f"ours done at tol {tol:g}", flush=True)
         if have_sic:
             if tol == args.tol:
@@ -284,6 +313,8 @@ def main(argv=None) -> int:
             sic = run_siconos(items, lambda kind: [s for s in pick(kind) if s in SICONOS_SOLVERS[kind]],
                               tol, args)
             print(f"siconos done at tol {tol:g} in {time.time() - t0:.0f} s", flush=True)
+            if tol == args.tol:
+                args.calibration["after Siconos"] = calibration_call()
             for (k, s), rec in sic.items():
                 it = items[k]
                 rows.append(dict(tol=tol, set=it["set"], split=it["split"], kind=it["kind"], problem=it["id"],
@@ -391,7 +422,12 @@ def write(rows, args, have_sic) -> None:
         lines[-2] += (f" Rewritten from `{Path(args.from_csv).name}` with `--from-csv`: the time "
                       "limit and repeats above are the arguments of that command, which should "
                       "repeat the run's.")
-    summary = {"tol": tol, "kinds": {}}
+    cal = getattr(args, "calibration", None)
+    if cal:
+        lines[-2] += (" Calibration (the machine's speed on our side, `calibration_call`: a "
+                      "one-contact `solve`, µs): " + ", ".join(f"{k} {v:.2f}" for k, v in cal.items())
+                      + "; the main tolerance's passes lie between these readings.")
+    summary = {"tol": tol, "kinds": {}, "calibration_us": cal or {}}
     has_guard = any(isinstance(r.get("guard"), float) and not math.isnan(r["guard"]) for r in rows)
     for kind in ("local3", "local2", "global3"):
         kr = [r for r in main_rows if r["kind"] == kind]
