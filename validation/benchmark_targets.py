@@ -37,6 +37,7 @@ def main() -> None:
     ap.add_argument("csv", type=Path)
     ap.add_argument("--tol", type=float, default=1e-8)
     ap.add_argument("--time-limit", type=float, default=1.0, help="the run's (charged to a failure)")
+    ap.add_argument("--label", default=None, help="the run's name in the title (default: the CSV)")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
     rows = [r for r in read_rows(args.csv) if r["tol"] == args.tol and r["kind"] == "local3"]
@@ -47,8 +48,9 @@ def main() -> None:
         nc[key] = r["nc"]
     sic = sorted({s for row in table.values() for s in row if s.startswith("siconos:")})
     probs = sorted(table)
-    lines = [f"# Issue #10's targets from `{args.csv.name}` (3D local, tol {args.tol:g})", "",
-             f"`python validation/benchmark_targets.py {args.csv.name} --time-limit "
+    label = args.label or f"`{args.csv}`"
+    lines = [f"# Issue #10's targets from {label} (3D local, tol {args.tol:g})", "",
+             f"`python validation/benchmark_targets.py {args.csv} --time-limit "
              f"{args.time_limit:g}`; {len(probs)} problems.", ""]
     # every problem a Siconos solver solves
     any_sic = [pr for pr in probs if any(math.isfinite(table[pr].get(s, math.inf)) for s in sic)]
@@ -62,9 +64,10 @@ def main() -> None:
     lines.append("- `auto` ρ(1) / ρ(2) / ρ(4) / ρ(10): " + " / ".join(f"{x:.2f}" for x in rho["auto"]))
     # shifted geometric means
 
-    def sgm(solver, keys):
-        return shifted_geometric_mean([min(table[k].get(solver, math.inf), args.time_limit)
-                                       for k in keys], SGM_SHIFT)
+    def sgm(solver, keys):      # (a failure charged the time limit, as the run's report does)
+        times = [table[k].get(solver, math.inf) for k in keys]
+        return shifted_geometric_mean([t if math.isfinite(t) else args.time_limit for t in times],
+                                      SGM_SHIFT)
     parts = [f"all ({len(probs)}) {sgm('auto', probs):.4f} / {sgm('siconos:prox', probs):.4f}"]
     for name, groups in GROUPS.items():
         keys = [pr for pr in probs if pr[:2] in groups]
