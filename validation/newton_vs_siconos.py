@@ -177,28 +177,16 @@ def calibration_call(number=500, loops=5) -> float:
     is not a solution (µs per call; garbage collection off during the loops), or nan when
     the call fails.  Read at the start of our pass, every :data:`CALIBRATION_EVERY` problems
     in it, at its end and after Siconos' pass: our side runs first, Siconos' ~30 min later,
-    and a slow or fast spell of the machine hits one side only (session 27's run: spells of
-    ×1.2–1.4 and ×0.7–0.8 in our pass, every solver of ours alike, Siconos' side ×1.00)."""
-    import gc
+    and a slow or fast spell of the machine hits one side only (session 27's run: stretches of
+    our pass at ×1.05–1.43 and ×0.77–1.00 of session 24's times, every solver of ours alike,
+    Siconos' side within ×0.93–1.08)."""
     try:
+        from per_call_rounds import per_call_fresh      # (this folder: the same loop)
         from socp_cd.bench.generators import manufactured
         p = manufactured(1, 3, mu=0.5, seed=1)      # (seeds 0, 2: r = 0 solves them)
         for _ in range(200):
             socp_cd.solve(copy.copy(p), time_limit=1.0)
-        best = math.inf
-        was = gc.isenabled()
-        gc.disable()
-        try:
-            for _ in range(loops):
-                copies = [copy.copy(p) for _ in range(number)]
-                t0 = time.perf_counter()
-                for c in copies:
-                    socp_cd.solve(c, time_limit=1.0)
-                best = min(best, (time.perf_counter() - t0) / number)
-        finally:
-            if was:
-                gc.enable()
-        return best * 1e6
+        return per_call_fresh(p, number, loops)
     except Exception:       # (a reading must never cost the run)
         return math.nan
 

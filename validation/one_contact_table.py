@@ -15,44 +15,38 @@ the contact is separated at zero gap) is listed apart: Siconos returns it in ~0.
 from __future__ import annotations
 
 import argparse
-import csv
+import math
 import statistics
+import sys
 from pathlib import Path
 
-from socp_cd.bench.reports import emit
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmark_targets import TRIVIAL, fastest_siconos, solved_times  # noqa: E402
+from newton_vs_siconos import read_rows  # noqa: E402  (the run's criteria)
+
+from socp_cd.bench.reports import emit  # noqa: E402
 
 
-def load(path: Path, tol: str) -> dict:
-    """problem -> {(solver, side): (time, error)} of the one-contact 3D local rows at ``tol``."""
-    out = {}
-    with open(path) as f:
-        for r in csv.DictReader(f):
-            if r["tol"] != tol or r["nc"] != "1" or r["kind"] != "local3":
-                continue
-            err = float(r["error"]) if r["error"] else float("inf")
-            out.setdefault(r["problem"], {})[(r["solver"], r["side"])] = (float(r["time"]), err)
-    return out
-
-
-def fastest_siconos(rows: dict, tol: float):
-    """(solver, time) of the fastest Siconos solver reaching ``tol``, or None."""
-    ok = [(t, s) for (s, side), (t, e) in rows.items() if side == "siconos" and e <= tol]
-    return min(ok)[::-1] if ok else None
+def load(path: Path, tol: float) -> dict:
+    """``(set, split, problem) -> {solver: time}`` (inf: not solved) of a run's one-contact 3D
+    local problems at ``tol``."""
+    table, nc = solved_times(read_rows(path), tol)
+    return {k: row for k, row in table.items() if nc[k] == 1}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("csv", nargs="+", type=Path)
-    ap.add_argument("--tol", default="1e-08")
+    ap.add_argument("--tol", type=float, default=1e-8)
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
-    tol = float(args.tol)
-    runs = [load(p, args.tol) for p in args.csv]
+    tol = args.tol
+    runs = [load(p, tol) for p in args.csv]
     lines = [f"# `auto` against the fastest Siconos solver, one-contact 3D local problems "
-             f"(tol {args.tol})", "",
+             f"(tol {tol:g})", "",
              "`python validation/one_contact_table.py " + " ".join(p.name for p in args.csv)
              + "`; times in µs, each run's Siconos from that run. Trivial: the fastest Siconos "
-             "solver returns in under 1 µs (in these runs, the one-contact grazing cases, whose "
+             f"solver returns in under {TRIVIAL * 1e6:g} µs (in these runs, the one-contact grazing cases, whose "
              "`r = 0` meets `tol`).", "",
              "| run | problems | `auto` min / median / max | fastest Siconos, non-trivial: "
              "min / max | `auto` / fastest Siconos, non-trivial: min / median / max | within 2× | "
@@ -60,25 +54,24 @@ def main() -> None:
              "(median) | Siconos / first run's (median, non-trivial) |",
              "|---|---|---|---|---|---|---|---|---|"]
     first = runs[0]
-    first_sic = {k: fastest_siconos(v, tol) for k, v in first.items()}
+    first_sic = {k: fastest_siconos(v) for k, v in first.items()}
     for path, run in zip(args.csv, runs):
-        ours = {k: v[("auto", "ours")][0] for k, v in run.items() if ("auto", "ours") in v}
+        ours = {k: v["auto"] for k, v in run.items() if "auto" in v}    # (inf: not solved)
         ratios, sic, triv, triv_ratio, sic_rel = [], [], [], [], []
         for k, t in ours.items():
-            best = fastest_siconos(run[k], tol)
-            if best is None:
+            best = fastest_siconos(run[k])
+            if best == math.inf:
                 continue
-            if best[1] < 1e-6:
-                triv.append(best[1])
-                triv_ratio.append(t / best[1])
+            if best < TRIVIAL:
+                triv.append(best)
+                triv_ratio.append(t / best)
             else:
-                ratios.append(t / best[1])
-                sic.append(best[1])
-                if first_sic.get(k) is not None and first_sic[k][1] >= 1e-6:
-                    sic_rel.append(best[1] / first_sic[k][1])
+                ratios.append(t / best)
+                sic.append(best)
+                if TRIVIAL <= first_sic.get(k, math.inf) < math.inf:
+                    sic_rel.append(best / first_sic[k])
         us = sorted(t * 1e6 for t in ours.values())
-        rel = [ours[k] / first[k][("auto", "ours")][0] for k in ours
-               if ("auto", "ours") in first.get(k, {})]
+        rel = [ours[k] / first[k]["auto"] for k in ours if "auto" in first.get(k, {})]
 
         def med(x, fmt=".2f"):
             return format(statistics.median(x), fmt) if x else "–"

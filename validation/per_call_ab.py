@@ -20,7 +20,6 @@ import gc
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 PROBLEMS = ["FrictionContact3D_1c.dat", "FrictionContact3D_RR_1c.dat", "Rover11035.dat",
@@ -30,6 +29,7 @@ PROBLEMS = ["FrictionContact3D_1c.dat", "FrictionContact3D_RR_1c.dat", "Rover110
 def measure(names, loops, number) -> list[float]:
     """µs per call of each problem in ``names`` (this process's ``socp_cd``)."""
     import socp_cd
+    from per_call_rounds import per_call_fresh      # (this folder: the same loop)
     from socp_cd.data import shared_problems_dir
     problems = [socp_cd.read_problem(shared_problems_dir() / n) for n in names]
     for p in problems:                      # JIT, caches, the plain call's prepared arguments
@@ -37,15 +37,13 @@ def measure(names, loops, number) -> list[float]:
             socp_cd.solve(copy.copy(p), time_limit=1.0)
     best = [float("inf")] * len(problems)
     gc.disable()
-    for _ in range(loops):
-        for i, p in enumerate(problems):    # (problems interleaved: a slow spell hits them all)
-            copies = [copy.copy(p) for _ in range(number)]
-            t0 = time.perf_counter()
-            for c in copies:
-                socp_cd.solve(c, time_limit=1.0)
-            best[i] = min(best[i], (time.perf_counter() - t0) / number)
-    gc.enable()
-    return [b * 1e6 for b in best]
+    try:
+        for _ in range(loops):
+            for i, p in enumerate(problems):    # (interleaved: a slow spell hits them all)
+                best[i] = min(best[i], per_call_fresh(p, number, repeat=1))
+    finally:
+        gc.enable()
+    return best
 
 
 def main() -> None:
