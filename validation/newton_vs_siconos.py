@@ -28,7 +28,10 @@ repeating once the calls have taken 0.05 s.  A local 3D problem is given to
 Siconos with ``W`` dense (up to :data:`DENSE_MAX_M` unknowns) and in its
 sparse-block storage, a local 2D one dense and sparse-block, each solver
 credited with the better run (the CSV's ``path`` column says which).  Both sides have the
-same per-problem ``--time-limit``.
+same per-problem ``--time-limit``.  The two sides run interleaved: the problems in chunks of
+``--chunk`` (:func:`interleaved`), each chunk by both sides before the next, who goes first
+alternating, so that a slow or fast spell of the machine hits both alike (until session 27
+our side ran over every problem first and Siconos ~30 min later).
 
 Usage::
 
@@ -167,19 +170,13 @@ def run_ours(item, solver, tol, args) -> dict:
                 path=";".join(f"{s['method']}:{s['error']:.1e}" for s in res.info.get("path", [])))
 
 
-#: our pass at the main tolerance reads :func:`calibration_call` every this many problems
-CALIBRATION_EVERY = 20
-
-
 def calibration_call(number=500, loops=5) -> float:
     """The machine's speed for our side: the min over ``loops`` loops of ``number`` plain
     calls ``solve(copy, time_limit=1)`` on a manufactured one-contact problem whose ``r = 0``
     is not a solution (µs per call; garbage collection off during the loops), or nan when
-    the call fails.  Read at the start of our pass, every :data:`CALIBRATION_EVERY` problems
-    in it, at its end and after Siconos' pass: our side runs first, Siconos' ~30 min later,
-    and a slow or fast spell of the machine hits one side only (session 27's run: stretches of
-    our pass at ×1.05–1.43 and ×0.77–1.00 of session 24's times, every solver of ours alike,
-    Siconos' side within ×0.93–1.08)."""
+    the call fails.  Read before each chunk of the main tolerance's interleaved passes
+    (:func:`interleaved`) and at their end: a reading that moves through the run shows a spell
+    of the machine, which the interleaving makes both sides share."""
     try:
         from per_call_rounds import per_call_fresh      # (this folder: the same loop)
         from socp_cd.bench.generators import manufactured
@@ -189,6 +186,30 @@ def calibration_call(number=500, loops=5) -> float:
         return per_call_fresh(p, number, loops)
     except Exception:       # (a reading must never cost the run)
         return math.nan
+
+
+#: problems per chunk of the interleaved passes (:func:`interleaved`)
+CHUNK = 10
+
+
+def interleaved(n, size):
+    """The run's order: problems ``0 … n-1`` in consecutive chunks of ``size``, each with the side
+    that goes first on it, ``"ours"`` and ``"siconos"`` in turn (chunk 0: ours).
+
+    Both sides run each chunk within minutes of each other, so a slow or fast spell of the
+    machine hits the two alike (session 27's run, ours first over every problem and Siconos
+    ~30 min later, had stretches of our pass at ×1.05–1.43 of session 24's times and the
+    Siconos side within ×0.93–1.08); alternating who goes first leaves neither side always
+    right after the other's work.
+
+    Returns
+    -------
+    list of (list of int, str)
+    """
+    if size < 1:
+        raise ValueError(f"chunk size must be at least 1, got {size}")
+    return [(list(range(i, min(i + size, n))), "ours" if (i // size) % 2 == 0 else "siconos")
+            for i in range(0, n, size)]
 
 
 def guard_value(p, r) -> float:
@@ -254,6 +275,9 @@ def main(argv=None) -> int:
                          "REPEAT_BUDGET s of calls): a min of 20 calls of ~20 µs was still 2-3x off "
                          "the min of 2 000")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--chunk", type=int, default=CHUNK,
+                    help="problems per chunk of the interleaved passes (each chunk: both sides, "
+                         "who goes first alternating)")
     ap.add_argument("--quick", action="store_true", help="a few problems, for a smoke run")
     ap.add_argument("--out", type=Path, default=OUT)
     ap.add_argument("--from-csv", type=Path, default=None,
@@ -290,35 +314,43 @@ def main(argv=None) -> int:
 
     rows = []
     tols = [args.tol] + [t for t in args.sweep if t != args.tol]
-    args.calibration = {"before ours": calibration_call()}
-    for tol in tols:
-        for k, it in enumerate(items):
-            if tol == args.tol and k and k % CALIBRATION_EVERY == 0:
-                args.calibration[f"ours, problem {k}"] = calibration_call()
+    args.calibration = {}
+
+    def ours(tol, part):
+        for k in part:
+            it = items[k]
             for s in args.ours:
                 rec = run_ours(it, s, tol, args)
-                rows.append(dict(tol=tol, set=it["set"], split=it["split"], kind=it["kind"], problem=it["id"],
-                                 nc=it["nc"], solver=s, side="ours", **rec))
+                rows.append(dict(tol=tol, set=it["set"], split=it["split"], kind=it["kind"],
+                                 problem=it["id"], nc=it["nc"], solver=s, side="ours", **rec))
+
+    def theirs(tol, part):
         if tol == args.tol:
-            args.calibration["after ours"] = calibration_call()
-        print(f"ours done at tol {tol:g}", flush=True)
-        if have_sic:
+            pick = (lambda kind: args.siconos if args.siconos else SICONOS_SOLVERS[kind])
+        else:
+            strong = {"local3": ("prox", "nsn_ac", "nsn_fb", "nsgs"), "local2": ("nsgs", "lemke"),
+                      "global3": ("prox_wr", "nsgs_wr", "nsn_ac")}
+            pick = (lambda kind: strong[kind])
+        sub = [items[k] for k in part]
+        sic = run_siconos(sub, lambda kind: [s for s in pick(kind) if s in SICONOS_SOLVERS[kind]],
+                          tol, args)
+        for (j, s), rec in sic.items():
+            it = sub[j]
+            rows.append(dict(tol=tol, set=it["set"], split=it["split"], kind=it["kind"],
+                             problem=it["id"], nc=it["nc"], solver=f"siconos:{s}", side="siconos",
+                             **rec))
+
+    for tol in tols:
+        t0 = time.time()
+        for c, (part, first) in enumerate(interleaved(len(items), args.chunk)):
             if tol == args.tol:
-                pick = (lambda kind: args.siconos if args.siconos else SICONOS_SOLVERS[kind])
-            else:
-                strong = {"local3": ("prox", "nsn_ac", "nsn_fb", "nsgs"), "local2": ("nsgs", "lemke"),
-                          "global3": ("prox_wr", "nsgs_wr", "nsn_ac")}
-                pick = (lambda kind: strong[kind])
-            t0 = time.time()
-            sic = run_siconos(items, lambda kind: [s for s in pick(kind) if s in SICONOS_SOLVERS[kind]],
-                              tol, args)
-            print(f"siconos done at tol {tol:g} in {time.time() - t0:.0f} s", flush=True)
-            if tol == args.tol:
-                args.calibration["after Siconos"] = calibration_call()
-            for (k, s), rec in sic.items():
-                it = items[k]
-                rows.append(dict(tol=tol, set=it["set"], split=it["split"], kind=it["kind"], problem=it["id"],
-                                 nc=it["nc"], solver=f"siconos:{s}", side="siconos", **rec))
+                args.calibration[f"chunk {c} (problems {part[0]}-{part[-1]})"] = calibration_call()
+            sides = (ours, theirs) if have_sic else (ours,)
+            for side in (sides if first == "ours" or not have_sic else sides[::-1]):
+                side(tol, part)
+        if tol == args.tol:
+            args.calibration["end"] = calibration_call()
+        print(f"tol {tol:g} done in {time.time() - t0:.0f} s", flush=True)
     if args.siconos_from is not None:
         ids = {(it["set"], it["id"]) for it in items}
         rows += [r for r in read_rows(args.siconos_from) if r["side"] == "siconos"
@@ -431,7 +463,8 @@ def write(rows, args, have_sic) -> None:
             cal = None
     if cal:
         lines[-2] += (" Calibration (the machine's speed on our side, `calibration_call`: a "
-                      "one-contact `solve`, µs, read during the main tolerance's passes; a "
+                      "one-contact `solve`, µs, read before each chunk of the main tolerance's "
+                      "interleaved passes; a "
                       "Siconos side taken from another run with `--siconos-from` is not "
                       "covered): " + ", ".join(f"{k} {v:.2f}" for k, v in cal.items()) + ".")
     summary = {"tol": tol, "kinds": {}, "calibration_us": cal or {}}
