@@ -37,6 +37,7 @@ import scipy.sparse.linalg as spla
 
 import socp_cd
 from socp_cd.bench import evalset
+from socp_cd.bench.reports import emit
 from socp_cd.data import shared_problems_dir
 from socp_cd.solvers.kernels.newton_ac import ac_blocks, block_rho_dense
 from socp_cd.solvers.newton import BlockJacobian
@@ -144,11 +145,10 @@ def main(argv=None) -> int:
              "docstring.", "",
              "| case | start | start's state | LM status | error | guard | its | LU | time [s] |",
              "|---|---|---|---|---:|---:|---:|---:|---:|"]
-    for r in rows:
-        lines.append(f"| {r['case']} | {r['start']} | {r['start_state']} | {r['status']} | "
-                     f"{r['error']:.1e} | {r['guard']:.1e} | {r['iterations']} | "
-                     f"{r['factorizations']} | {r['time']:.2f} |")
-    (RESULTS / "lm_study.md").write_text("\n".join(lines) + "\n")
+    lines += [f"| {r['case']} | {r['start']} | {r['start_state']} | {r['status']} | "
+              f"{r['error']:.1e} | {r['guard']:.1e} | {r['iterations']} | "
+              f"{r['factorizations']} | {r['time']:.2f} |" for r in rows]
+    emit(lines, RESULTS / "lm_study.md")
     return 0
 
 
