@@ -43,15 +43,22 @@ def test_main_runs_both_sides_on_each_chunk_before_the_next(script, monkeypatch,
         calls.append(("ours", tol, item["id"]))
         return dict(rec)
 
+    picked = {}
+
     def theirs(sub, solvers_for, tol, args):
         calls.append(("siconos", tol, tuple(it["id"] for it in sub)))
+        picked.setdefault(tol, set()).update(s for it in sub for s in solvers_for(it["kind"]))
         return {(j, "nsgs"): dict(rec, status="ok") for j in range(len(sub))}
+
+    def calibration():
+        calls.append(("calibration",))
+        return 5.0
 
     monkeypatch.setattr(script, "problem_set", lambda args: items)
     monkeypatch.setattr(script, "run_ours", ours)
     monkeypatch.setattr(script, "run_siconos", theirs)
     monkeypatch.setattr(script, "siconos_available", lambda: True)
-    monkeypatch.setattr(script, "calibration_call", lambda: 5.0)
+    monkeypatch.setattr(script, "calibration_call", calibration)
     monkeypatch.setattr(script.newton, "warmup", lambda: None)
     monkeypatch.setattr(script.nsgs, "warmup", lambda: None)
     monkeypatch.setattr(script.socp_cd, "solve", lambda *a, **k: None)
@@ -64,9 +71,54 @@ def test_main_runs_both_sides_on_each_chunk_before_the_next(script, monkeypatch,
                             (("p6",), "ours")):
             mine = [("ours", tol, p) for p in part]
             theirs_ = [("siconos", tol, part)]
+            # the machine's speed read before each chunk of the main tolerance
+            expected += [("calibration",)] if tol == 1e-8 else []
             expected += mine + theirs_ if first == "ours" else theirs_ + mine
+        expected += [("calibration",)] if tol == 1e-8 else []      # and at its end
     assert calls == expected
+    # every Siconos 3D local solver at the main tolerance, the strong ones on the sweep
+    assert picked[1e-8] == set(script.SICONOS_SOLVERS["local3"])
+    assert picked[1e-4] == {"prox", "nsn_ac", "nsn_fb", "nsgs"}
     # one row per problem, side and tolerance, each labelled with its own problem
     keys = sorted((r["tol"], r["problem"], r["side"]) for r in rows)
     assert keys == sorted((t, f"p{k}", side) for t in (1e-8, 1e-4) for k in range(7)
                           for side in ("ours", "siconos"))
+
+
+def test_main_with_siconos_from_runs_ours_only_and_takes_their_rows(script, monkeypatch,
+                                                                     tmp_path):
+    # --siconos-from: our side alone, in the same chunks, then the previous run's Siconos
+    # rows at --tol for the same problems (others and other tolerances left out)
+    items = [dict(set="shared", id=f"p{k}", split="shared", kind="local3", nc=1,
+                  problem=manufactured(1, 3, mu=0.5, seed=k)) for k in range(4)]
+    calls, written = [], []
+    rec = dict(error=1e-12, status="converged", time=1e-5, claimed=True, guard=1e-12, path="")
+    previous = [dict(tol=1e-8, set="shared", problem="p1", side="siconos", solver="siconos:nsgs"),
+                dict(tol=1e-4, set="shared", problem="p1", side="siconos", solver="siconos:nsgs"),
+                dict(tol=1e-8, set="shared", problem="elsewhere", side="siconos",
+                     solver="siconos:nsgs"),
+                dict(tol=1e-8, set="shared", problem="p2", side="ours", solver="auto")]
+    monkeypatch.setattr(script, "problem_set", lambda args: items)
+    monkeypatch.setattr(script, "run_ours",
+                        lambda it, s, tol, args: calls.append(it["id"]) or dict(rec))
+    monkeypatch.setattr(script, "run_siconos", lambda *a: pytest.fail("Siconos must not run"))
+    monkeypatch.setattr(script, "read_rows", lambda path: previous)
+    monkeypatch.setattr(script, "calibration_call", lambda: 5.0)
+    monkeypatch.setattr(script.newton, "warmup", lambda: None)
+    monkeypatch.setattr(script.nsgs, "warmup", lambda: None)
+    monkeypatch.setattr(script.socp_cd, "solve", lambda *a, **k: None)
+    monkeypatch.setattr(script, "write",
+                        lambda rows, args, have_sic: written.append((rows, have_sic)))
+    script.main(["--ours", "auto", "--chunk", "3", "--sweep", "--siconos-from",
+                 str(tmp_path / "x.csv"), "--out", str(tmp_path)])
+    assert calls == ["p0", "p1", "p2", "p3"]
+    rows, have_sic = written[0]
+    assert have_sic
+    assert [(r["side"], r["problem"]) for r in rows if r["side"] == "siconos"] == [
+        ("siconos", "p1")]
+
+
+def test_chunk_below_one_is_refused_before_any_work(script, monkeypatch):
+    monkeypatch.setattr(script, "problem_set", lambda args: pytest.fail("no work"))
+    with pytest.raises(SystemExit):
+        script.main(["--chunk", "0"])

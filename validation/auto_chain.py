@@ -105,7 +105,8 @@ Session 26's:
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``) or ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``.  Problems:
-local exact-Coulomb problems of at most ``--max-contacts`` contacts, ``--split tune``
+local exact-Coulomb problems of at most ``--max-contacts`` contacts (and more than
+``--min-contacts``: session 28 ran the large manufactured cases alone at 10 s), ``--split tune
 (shared/ and the evaluation set's tune cases: where the rules were chosen) or ``holdout``
 (run once, to report).  tol 1e-8, ``--time-limit`` per call, min of 3 wall times (10 on at
 most 10 contacts; one above 0.5 s), a new problem object per call, JIT warmed.
@@ -114,7 +115,7 @@ Usage::
 
     .venv/bin/python validation/auto_chain.py --split tune [--configs base all RETRY_REFUSED=1]
 
-Writes ``validation/results/auto_chain_<split>.{csv,md}``.
+Writes ``validation/results/auto_chain_<split><--tag>.{csv,md}``.
 """
 from __future__ import annotations
 
@@ -216,7 +217,7 @@ def write_report(rows, args):
              f"{DEFAULTS}). Local problems of at most "
              f"{args.max_contacts} contacts"
              + (f" and more than {args.min_contacts}" if args.min_contacts else "") +
-             f", sets {' '.join(args.sets)}; a new problem object per call, time limit "
+             f", sets {' '.join(args.sets + (['sim: ' + ' '.join(args.sim)] if args.sim else []))}; a new problem object per call, time limit "
              f"{args.time_limit:g} s, min of 3 wall times (10 on at most 10 contacts, one above "
              "0.5 s); no Siconos in the run. Ratios are to the first setting.", "",
              "| dim | contacts | setting | cases | solved | sgm (10 ms shift, s) | "

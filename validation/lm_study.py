@@ -12,8 +12,9 @@ of :func:`socp_cd.solvers.scaling.balanced`):
 * ``J = Dr + Du W`` (a generalized Jacobian), ``(Jᵀ J + λ I) d = −Jᵀ F`` by SuperLU,
   ``λ = c ||F||^δ`` (δ = 2, ``c`` starting at 1e-2);
 * trust-ratio control: ``ρ = (||F||² − ||F(r + d)||²) / (||F||² − ||F + J d||²)``; the
-  step is taken when ``ρ > 1e-4``; ``c × 4`` when ``ρ < 0.25`` or the step is refused,
-  ``c / 4`` when ``ρ > 0.75``; stalled when ``c > 1e16``;
+  step is taken when ``ρ > 1e-4``; ``c × 4`` when ``ρ < 0.25``, the step is refused or the
+  matrix is singular, ``c / 4`` (not below 1e-8) when ``ρ > 0.75``; stalled when
+  ``c > 1e16``; the time limit is read between steps;
 * stop when Siconos' error and the units guard of ``r`` as written are ``<= tol``.
 
 Cases: the Kapla and Capsules cases of the ``tune`` split that `auto` misses at 1 s (never
@@ -99,6 +100,8 @@ def levenberg_marquardt(problem, r0=None, tol=1e-8, time_limit=10.0, c0=1e-2, de
                 step = spla.splu((JT @ J + c * nF ** delta * eye).tocsc()).solve(-g)
             except RuntimeError:          # (singular: more regularization)
                 c *= 4.0
+                if c > 1e16:
+                    return "stalled", best[1], k, facts, time.perf_counter() - t0
                 continue
             predicted = nF ** 2 - np.linalg.norm(F + J @ step) ** 2
             trial = law(r + step)

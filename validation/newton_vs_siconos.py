@@ -287,6 +287,8 @@ def main(argv=None) -> int:
                          "previous run's CSV (the same problems: another tree of ours against "
                          "one Siconos run on the same machine)")
     args = ap.parse_args(argv)
+    if args.chunk < 1:
+        ap.error(f"--chunk must be at least 1, got {args.chunk}")
     if args.from_csv is not None:
         args.out.mkdir(parents=True, exist_ok=True)
         write(read_rows(args.from_csv), args, have_sic=True)
