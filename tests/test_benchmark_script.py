@@ -21,16 +21,6 @@ def script():
         sys.path.remove(str(VALIDATION))
 
 
-def test_interleaved_covers_each_problem_once_and_alternates_the_first_side(script):
-    order = script.interleaved(23, 5)
-    assert [k for part, _ in order for k in part] == list(range(23))
-    assert [len(part) for part, _ in order] == [5, 5, 5, 5, 3]
-    assert [first for _, first in order] == ["ours", "siconos", "ours", "siconos", "ours"]
-    assert script.interleaved(0, 5) == []
-    with pytest.raises(ValueError, match="chunk size"):
-        script.interleaved(3, 0)
-
-
 def test_main_runs_both_sides_on_each_chunk_before_the_next(script, monkeypatch, tmp_path):
     # the two sides' calls, in the order main makes them: every chunk is done by both sides
     # (who goes first alternating) before the next starts, at every tolerance

@@ -29,9 +29,9 @@ Siconos with ``W`` dense (up to :data:`DENSE_MAX_M` unknowns) and in its
 sparse-block storage, a local 2D one dense and sparse-block, each solver
 credited with the better run (the CSV's ``path`` column says which).  Both sides have the
 same per-problem ``--time-limit``.  The two sides run interleaved: the problems in chunks of
-``--chunk`` (:func:`interleaved`), each chunk by both sides before the next, who goes first
-alternating, so that a slow or fast spell of the machine hits both alike (until session 27
-our side ran over every problem first and Siconos ~30 min later).
+``--chunk`` (:func:`socp_cd.bench.schedule.interleaved`), each chunk by both sides before the
+next, who goes first alternating, so that a slow or fast spell of the machine hits both
+alike (until session 27 our side ran over every problem first and Siconos ~30 min later).
 
 Usage::
 
@@ -59,6 +59,7 @@ import numpy as np
 import socp_cd
 from socp_cd.bench.evalset import collection_cases, manufactured_cases
 from socp_cd.bench.reports import performance_profile, shifted_geometric_mean
+from socp_cd.bench.schedule import CHUNK, interleaved
 from socp_cd.bench.siconos_peer import SOLVERS as SICONOS_SOLVERS
 from socp_cd.bench.siconos_peer import (REPEAT_BUDGET, REPEAT_SECOND_BELOW, family_of,
                                        siconos_available, siconos_batch)
@@ -175,8 +176,9 @@ def calibration_call(number=500, loops=5) -> float:
     calls ``solve(copy, time_limit=1)`` on a manufactured one-contact problem whose ``r = 0``
     is not a solution (µs per call; garbage collection off during the loops), or nan when
     the call fails.  Read before each chunk of the main tolerance's interleaved passes
-    (:func:`interleaved`) and at their end: a reading that moves through the run shows a spell
-    of the machine, which the interleaving makes both sides share."""
+    (:func:`socp_cd.bench.schedule.interleaved`) and at their end: a reading that moves
+    through the run shows a spell of the machine, which the interleaving makes both sides
+    share."""
     try:
         from per_call_rounds import per_call_fresh      # (this folder: the same loop)
         from socp_cd.bench.generators import manufactured
@@ -186,30 +188,6 @@ def calibration_call(number=500, loops=5) -> float:
         return per_call_fresh(p, number, loops)
     except Exception:       # (a reading must never cost the run)
         return math.nan
-
-
-#: problems per chunk of the interleaved passes (:func:`interleaved`)
-CHUNK = 10
-
-
-def interleaved(n, size):
-    """The run's order: problems ``0 … n-1`` in consecutive chunks of ``size``, each with the side
-    that goes first on it, ``"ours"`` and ``"siconos"`` in turn (chunk 0: ours).
-
-    Both sides run each chunk within minutes of each other, so a slow or fast spell of the
-    machine hits the two alike (session 27's run, ours first over every problem and Siconos
-    ~30 min later, had stretches of our pass at ×1.05–1.43 of session 24's times and the
-    Siconos side within ×0.93–1.08); alternating who goes first leaves neither side always
-    right after the other's work.
-
-    Returns
-    -------
-    list of (list of int, str)
-    """
-    if size < 1:
-        raise ValueError(f"chunk size must be at least 1, got {size}")
-    return [(list(range(i, min(i + size, n))), "ours" if (i // size) % 2 == 0 else "siconos")
-            for i in range(0, n, size)]
 
 
 def guard_value(p, r) -> float:
@@ -348,7 +326,7 @@ def main(argv=None) -> int:
             if tol == args.tol:
                 args.calibration[f"chunk {c} (problems {part[0]}-{part[-1]})"] = calibration_call()
             sides = (ours, theirs) if have_sic else (ours,)
-            for side in (sides if first == "ours" or not have_sic else sides[::-1]):
+            for side in (sides if first == "ours" else sides[::-1]):     # (first: "peer")
                 side(tol, part)
         if tol == args.tol:
             args.calibration["end"] = calibration_call()

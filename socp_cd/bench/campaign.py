@@ -21,6 +21,7 @@ from .isolation import default_isolation, run_forked, run_subprocess, solve_payl
 from .problem_refs import ProblemRef, file_problems, shared_problems
 from .progress import Progress
 from .records import append_records, key_of, read_records
+from .schedule import CHUNK, interleaved
 from .siconos_runs import run_siconos, run_siconos_batch
 from .tasks import (RunTask, SolverChoice, base_record, default_solvers, make_tasks, outcome_record,
                     parse_solver, resolve_tolerances, run_skipped)
@@ -137,11 +138,15 @@ def run_one(task: RunTask, isolation: str | None = None) -> dict:
     return outcome_record(task, problem, outcome, wall)
 
 
-def run_tasks(tasks, *, isolation=None, verbose=False, skip_after_time_limit=True):
+def run_tasks(tasks, *, isolation=None, verbose=False, skip_after_time_limit=True,
+              chunk: int = CHUNK):
     """Run tasks serially; returns records in task order.
 
-    Native solvers run one isolated child per task; Siconos tasks run in one
-    Siconos worker per tolerance level (:func:`run_siconos_batch`).  With
+    Native solvers run one isolated child per task; Siconos tasks run in one Siconos worker
+    per chunk of problems (:func:`run_siconos_batch`).  Within a tolerance level the
+    problems are taken in chunks of ``chunk`` (:func:`~.schedule.interleaved`): each chunk's
+    native and Siconos tasks run before the next chunk's, the two sides going first in turn,
+    so that a slow or fast spell of the machine hits both sides alike.  With
     ``skip_after_time_limit`` a (problem, solver) pair that hit the time
     limit at some tolerance is not re-run at tighter tolerances: those runs
     are recorded as ``time_limit`` with an explanatory message (reaching a
@@ -157,22 +162,34 @@ def run_tasks(tasks, *, isolation=None, verbose=False, skip_after_time_limit=Tru
     def _key(t):
         return (t.problem.name, t.solver, t.suite)
 
-    for tol in sorted({t.tol for t in tasks}, reverse=True):
-        level = [i for i in order if tasks[i].tol == tol]
-        sic = [i for i in level if tasks[i].solver.is_siconos]
-        for i in level:
-            if skip_after_time_limit and _key(tasks[i]) in timed_out:
-                recs[i] = run_skipped(tasks[i])
-        todo = [i for i in sic if recs[i] is None]
+    def peer(here):
+        todo = [i for i in here if tasks[i].solver.is_siconos and recs[i] is None]
         if todo:
             for i, rec in zip(todo, run_siconos_batch([tasks[i] for i in todo])):
                 recs[i] = rec
-        for i in level:
-            if recs[i] is None:
+                progress.update(rec)
+
+    def ours(here):
+        for i in here:
+            if recs[i] is None and not tasks[i].solver.is_siconos:
                 recs[i] = run_one(tasks[i], isolation=isolation)
+                progress.update(recs[i])
+
+    for tol in sorted({t.tol for t in tasks}, reverse=True):
+        level = [i for i in order if tasks[i].tol == tol]
+        for i in level:
+            if skip_after_time_limit and _key(tasks[i]) in timed_out:
+                recs[i] = run_skipped(tasks[i])
+                progress.update(recs[i])
+        names = list(dict.fromkeys(tasks[i].problem.name for i in level))
+        for part, first in interleaved(len(names), chunk):
+            in_chunk = {names[k] for k in part}
+            here = [i for i in level if tasks[i].problem.name in in_chunk]
+            for side in ((ours, peer) if first == "ours" else (peer, ours)):
+                side(here)
+        for i in level:
             if recs[i]["status"] == "time_limit":
                 timed_out.add(_key(tasks[i]))
-            progress.update(recs[i])
     progress.close()
     return recs
 
