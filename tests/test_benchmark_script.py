@@ -21,37 +21,46 @@ def script():
         sys.path.remove(str(VALIDATION))
 
 
+#: what a stubbed run of ours returns
+REC = dict(error=1e-12, status="converged", time=1e-5, claimed=True, guard=1e-12, path="")
+
+
+def _offline(script, monkeypatch, n):
+    """``n`` one-contact problems as the script's problem set, its warm-ups and calls of
+    ``solve`` outside the timed runs stubbed out."""
+    items = [dict(set="shared", id=f"p{k}", split="shared", kind="local3", nc=1,
+                  problem=manufactured(1, 3, mu=0.5, seed=k)) for k in range(n)]
+    monkeypatch.setattr(script, "problem_set", lambda args: items)
+    monkeypatch.setattr(script.newton, "warmup", lambda: None)
+    monkeypatch.setattr(script.nsgs, "warmup", lambda: None)
+    monkeypatch.setattr(script.socp_cd, "solve", lambda *a, **k: None)
+
+
 def test_main_runs_both_sides_on_each_chunk_before_the_next(script, monkeypatch, tmp_path):
     # the two sides' calls, in the order main makes them: every chunk is done by both sides
     # (who goes first alternating) before the next starts, at every tolerance
-    items = [dict(set="shared", id=f"p{k}", split="shared", kind="local3", nc=1,
-                  problem=manufactured(1, 3, mu=0.5, seed=k)) for k in range(7)]
+    _offline(script, monkeypatch, 7)
     calls = []
-    rec = dict(error=1e-12, status="converged", time=1e-5, claimed=True, guard=1e-12, path="")
 
     def ours(item, solver, tol, args):
         calls.append(("ours", tol, item["id"]))
-        return dict(rec)
+        return dict(REC)
 
     picked = {}
 
     def theirs(sub, solvers_for, tol, args):
         calls.append(("siconos", tol, tuple(it["id"] for it in sub)))
         picked.setdefault(tol, set()).update(s for it in sub for s in solvers_for(it["kind"]))
-        return {(j, "nsgs"): dict(rec, status="ok") for j in range(len(sub))}
+        return {(j, "nsgs"): dict(REC, status="ok") for j in range(len(sub))}
 
     def calibration():
         calls.append(("calibration",))
         return 5.0
 
-    monkeypatch.setattr(script, "problem_set", lambda args: items)
     monkeypatch.setattr(script, "run_ours", ours)
     monkeypatch.setattr(script, "run_siconos", theirs)
     monkeypatch.setattr(script, "siconos_available", lambda: True)
     monkeypatch.setattr(script, "calibration_call", calibration)
-    monkeypatch.setattr(script.newton, "warmup", lambda: None)
-    monkeypatch.setattr(script.nsgs, "warmup", lambda: None)
-    monkeypatch.setattr(script.socp_cd, "solve", lambda *a, **k: None)
     monkeypatch.setattr(script, "write", lambda rows, args, have_sic: calls.append(("write", rows)))
     script.main(["--ours", "auto", "--chunk", "3", "--sweep", "1e-4", "--out", str(tmp_path)])
     rows = calls.pop()[1]
@@ -79,24 +88,18 @@ def test_main_with_siconos_from_runs_ours_only_and_takes_their_rows(script, monk
                                                                      tmp_path):
     # --siconos-from: our side alone, in the same chunks, then the previous run's Siconos
     # rows at --tol for the same problems (others and other tolerances left out)
-    items = [dict(set="shared", id=f"p{k}", split="shared", kind="local3", nc=1,
-                  problem=manufactured(1, 3, mu=0.5, seed=k)) for k in range(4)]
+    _offline(script, monkeypatch, 4)
     calls, written = [], []
-    rec = dict(error=1e-12, status="converged", time=1e-5, claimed=True, guard=1e-12, path="")
     previous = [dict(tol=1e-8, set="shared", problem="p1", side="siconos", solver="siconos:nsgs"),
                 dict(tol=1e-4, set="shared", problem="p1", side="siconos", solver="siconos:nsgs"),
                 dict(tol=1e-8, set="shared", problem="elsewhere", side="siconos",
                      solver="siconos:nsgs"),
                 dict(tol=1e-8, set="shared", problem="p2", side="ours", solver="auto")]
-    monkeypatch.setattr(script, "problem_set", lambda args: items)
     monkeypatch.setattr(script, "run_ours",
-                        lambda it, s, tol, args: calls.append(it["id"]) or dict(rec))
+                        lambda it, s, tol, args: calls.append(it["id"]) or dict(REC))
     monkeypatch.setattr(script, "run_siconos", lambda *a: pytest.fail("Siconos must not run"))
     monkeypatch.setattr(script, "read_rows", lambda path: previous)
     monkeypatch.setattr(script, "calibration_call", lambda: 5.0)
-    monkeypatch.setattr(script.newton, "warmup", lambda: None)
-    monkeypatch.setattr(script.nsgs, "warmup", lambda: None)
-    monkeypatch.setattr(script.socp_cd, "solve", lambda *a, **k: None)
     monkeypatch.setattr(script, "write",
                         lambda rows, args, have_sic: written.append((rows, have_sic)))
     script.main(["--ours", "auto", "--chunk", "3", "--sweep", "--siconos-from",
