@@ -641,6 +641,37 @@ def test_one_contact_nsgs_checks_its_first_sweep(dim):
         assert socp_cd.error(p, res.r) <= 1e-8
 
 
+def _decoupled(nc, dim, seed, coupled=False):
+    """``nc`` one-contact problems of :func:`_random` side by side (W block diagonal); with
+    ``coupled``, contacts 0 and 1 share a small off-diagonal block (W stays SPD)."""
+    ps = [_random(1, dim, seed * 100 + i, mu=0.2 + 0.1 * i) for i in range(nc)]
+    W = np.zeros((nc * dim, nc * dim))
+    for i, p in enumerate(ps):
+        W[i * dim:(i + 1) * dim, i * dim:(i + 1) * dim] = p.W.toarray()
+    if coupled:
+        c = 1e-3 * min(W[0, 0], W[dim, dim])
+        W[0, dim] = W[dim, 0] = c
+    q = np.concatenate([p.q for p in ps])
+    return FrictionContactProblem(W, q, np.array([p.mu[0] for p in ps]), dim)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_block_diagonal_w_nsgs_checks_its_first_sweep(monkeypatch, dim):
+    # W block diagonal: every local solve is its own whole problem, so the first sweep is the
+    # answer and NSGS checks it (session 29; one contact was the only such case before), on
+    # the compiled route and the general path alike; a coupled W still confirms it by a
+    # second sweep, whose light error is the first one that can be small
+    for seed in range(3):
+        p = _decoupled(12, dim, seed)
+        for res in (socp_cd.solve(p, "nsgs"), _general(monkeypatch, p, solver="nsgs"),
+                    socp_cd.solve(p)):
+            assert res.converged and res.iterations == 1, (seed, res)
+            assert socp_cd.error(p, res.r) <= 1e-8
+        _same(socp_cd.solve(p, "nsgs"), _general(monkeypatch, p, solver="nsgs"))
+        res = socp_cd.solve(_decoupled(12, dim, seed, coupled=True), "nsgs")
+        assert res.converged and res.iterations >= 2, (seed, res)
+
+
 def _heavy_and_light(nc, dim, structure, seed, mass_ratio, scale):
     """A manufactured problem (mu 0.6) with bodies of very different masses / contact scales."""
     return manufactured(nc, dim, mu=0.6, structure=structure, mass_ratio=mass_ratio,

@@ -204,9 +204,9 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
     the light error drops below the light tolerance (initially ``tol``; on a
     false alarm it is tightened to ``light * tol / full``), every
     ``error_every`` sweeps (``0``: never), at the last sweep, and at every
-    sweep when ``record`` or when the problem has one contact (its local
-    solve is then the whole problem: a one-contact call stops after one
-    sweep, not two).  Convergence is declared on the full error only:
+    sweep when ``record`` or when ``W`` is block diagonal (one contact, or
+    contacts that do not couple: each local solve is then its whole problem,
+    and such a call stops after one sweep, not two).  Convergence is declared on the full error only:
     Siconos' relative error and the same residual relative to the velocity
     scale (:func:`full_errors`, the dispatcher's units-guard measure) must
     both be ``<= tol``; ``error`` is Siconos'.  With an ``origin`` (the sweeps
@@ -250,6 +250,10 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
     window_err = sweeps.predict_prev    # the full error at the previous window's end (-1: none)
     deadline = sweeps.deadline
     check_every = max(1, CHECK_BLOCKS // max(indptr[nc], 1))
+    # W block diagonal (one stored block per contact: its diagonal one, which is never empty)
+    # the contacts are decoupled, each local solve is its whole problem, and a sweep is the
+    # answer: checked at once, as one contact's (a 20-sphere pile on its floor: 1 sweep, not 2)
+    decoupled = indptr[nc] == nc
     order = np.arange(nc)
     if shuffle:
         np.random.seed(seed)
@@ -316,8 +320,7 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
         light = np.sqrt(dsum)
         if nr > 2.220446049250313e-16:
             light /= nr
-        # (one contact: the local solve is the whole problem, so its sweep is checked at once)
-        full_now = record or light <= light_tol or it == max_iter or nc == 1
+        full_now = record or light <= light_tol or it == max_iter or decoupled
         if error_every > 0 and it % error_every == 0:
             full_now = True
         window_end = window > 0 and it % window == 0
