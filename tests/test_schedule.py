@@ -55,3 +55,28 @@ def test_run_tasks_runs_both_sides_chunk_by_chunk(monkeypatch):
     skipped = [r for r, t in zip(recs, tasks) if t.tol == 1e-8 and t.problem.name == names[0]
                and not t.solver.is_siconos]
     assert len(skipped) == 1 and skipped[0]["status"] == "time_limit"
+
+
+def test_run_tasks_runs_a_siconos_task_its_batch_left_without_a_record(monkeypatch):
+    # a Siconos worker that answers for fewer tasks than it was given (a batch cut short):
+    # the tasks left without a record are run one by one (run_one), once each, at the end
+    # of their level, and every task still gets exactly one record, its own
+    problems = generated_problems("manufactured", sizes=(2,), dims=(3,), seeds=(0, 1, 2))
+    tasks = make_tasks(problems, ["nsgs", "siconos:nsgs"], [1e-6], time_limit=1.0)
+    single = []
+
+    def native(task, isolation=None):
+        if task.solver.is_siconos:
+            single.append(task.problem.name)
+        return base_record(task, status="converged")
+
+    def short_peer(batch):
+        return [base_record(t, status="converged") for t in batch[:-1]]
+
+    monkeypatch.setattr(campaign, "run_one", native)
+    monkeypatch.setattr(campaign, "run_siconos_batch", short_peer)
+    recs = campaign.run_tasks(tasks, chunk=2)
+    sic = sorted(t.problem.name for t in tasks if t.solver.is_siconos)
+    assert single == [sic[1], sic[2]]   # the last of each chunk's batch ({0, 1}, then {2})
+    assert [(r["problem"], r["solver"]) for r in recs] == [(t.problem.name, t.solver.label)
+                                                            for t in tasks]
