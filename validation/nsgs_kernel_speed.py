@@ -5,7 +5,9 @@ Prints one line per run: for each problem, the min over repeats (µs) of
 * ``sweep``: one NSGS sweep (the difference of 3 and 1 sweeps of
   :func:`socp_cd.solvers.nsgs_kernels.nsgs_loop` from the same start, error
   checks off), divided by the contacts: the per-contact cost of a local solve
-  and its free velocity (ns);
+  and its free velocity (ns); since session 29 a block-diagonal ``W`` (a sphere
+  pile on its floor) has its full error computed after every sweep, so there the
+  figure includes it;
 * ``nsgs``: a whole ``socp_cd.solve(copy.copy(p), "nsgs", time_limit=1)``,
   the benchmark's call (the copy made before the timer).
 

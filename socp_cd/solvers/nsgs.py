@@ -23,7 +23,10 @@ seed : int, default 0
 error_every : int, default 10
     Evaluate the full relative error every ``error_every`` sweeps (``0``: only
     when the light error ``||r_k+1 - r_k|| / ||r_k+1||`` falls below its
-    tolerance, as Siconos' LIGHT_WITH_FULL_FINAL).
+    tolerance, as Siconos' LIGHT_WITH_FULL_FINAL, and at the last sweep; also
+    every sweep with ``history``, every ``predict_window`` sweeps, and every
+    sweep when the contacts do not couple: one contact, or ``W`` block diagonal
+    with ``omega = 1``, where one sweep is the answer).
 stall_window : int, default 5000
     Status ``"stalled"`` when the full error has not dropped by 1 % over that
     many sweeps (``0``: never).

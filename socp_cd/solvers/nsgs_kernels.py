@@ -204,9 +204,10 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
     the light error drops below the light tolerance (initially ``tol``; on a
     false alarm it is tightened to ``light * tol / full``), every
     ``error_every`` sweeps (``0``: never), at the last sweep, and at every
-    sweep when ``record`` or when ``W`` is block diagonal (one contact, or
-    contacts that do not couple: each local solve is then its whole problem,
-    and such a call stops after one sweep, not two).  Convergence is declared on the full error only:
+    sweep when ``record`` or when the contacts do not couple (one contact, or
+    ``W`` block diagonal with ``omega = 1``: each local solve is then its whole
+    problem, and such a call stops after one sweep, not two).  Convergence is
+    declared on the full error only:
     Siconos' relative error and the same residual relative to the velocity
     scale (:func:`full_errors`, the dispatcher's units-guard measure) must
     both be ``<= tol``; ``error`` is Siconos'.  With an ``origin`` (the sweeps
@@ -250,10 +251,12 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
     window_err = sweeps.predict_prev    # the full error at the previous window's end (-1: none)
     deadline = sweeps.deadline
     check_every = max(1, CHECK_BLOCKS // max(indptr[nc], 1))
-    # W block diagonal (one stored block per contact: its diagonal one, which is never empty)
-    # the contacts are decoupled, each local solve is its whole problem, and a sweep is the
-    # answer: checked at once, as one contact's (a 20-sphere pile on its floor: 1 sweep, not 2)
-    decoupled = indptr[nc] == nc
+    # W block diagonal (one stored block per contact; the callers decline a contact whose
+    # diagonal block is missing or not positive before the sweeps, local_parameters' ``bad``,
+    # so that block is its diagonal one): the contacts do not couple, each local solve is its
+    # whole problem, and without relaxation (omega = 1) one sweep is the answer: checked at
+    # once, as one contact's always was (a 20-sphere pile on its floor: 1 sweep, not 2)
+    decoupled = nc == 1 or (indptr[nc] == nc and omega == 1.0)
     order = np.arange(nc)
     if shuffle:
         np.random.seed(seed)
