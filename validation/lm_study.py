@@ -57,9 +57,11 @@ CASES = ("real-manufactured/KaplasTower-i1061-4.hdf5.dat/mu0.5-sticking-s1",
          "real-scaled/Capsules-i122-1617.dat/Wqx1e+06")
 
 
-def levenberg_marquardt(problem, r0=None, tol=1e-8, time_limit=10.0, c0=1e-2, delta=2.0):
-    """The prototype (module docstring): ``(status, r as written, iterations, factorizations,
-    seconds)``, ``r`` the iterate with the lowest ``max(error, guard)``."""
+def balanced_setup(problem):
+    """What the prototypes share: ``(a, W, q, mu, d, m, nc, rho, jac)`` of the dispatcher's
+    balanced copy of ``problem`` (``r = a r~``; ``W`` CSR; ``rho`` per contact by
+    ``solver="newton"``'s "block" strategy; ``jac`` the Newton backend's
+    :class:`~socp_cd.solvers.newton.BlockJacobian` of ``W``)."""
     rec = balanced(problem)
     bp, a = rec.problem, rec.a
     W = sp.csr_matrix(bp.W, dtype=np.float64)
@@ -69,7 +71,22 @@ def levenberg_marquardt(problem, r0=None, tol=1e-8, time_limit=10.0, c0=1e-2, de
     mu = np.asarray(bp.mu, dtype=np.float64)
     rho = np.empty(nc)
     block_rho_dense(np.ascontiguousarray(W.toarray()), d, rho)
-    jac = BlockJacobian(W, d)
+    return a, W, q, mu, d, m, nc, rho, BlockJacobian(W, d)
+
+
+def judged(problem, r, a, best):
+    """``(e, written, best)``: ``written = a r`` (the balanced iterate as written), ``e`` the
+    larger of its Siconos error and units guard, ``best`` the pair ``(e, written)`` with the
+    lowest ``e`` so far (updated)."""
+    written = r * a
+    e = max(socp_cd.error(problem, written), socp_cd.guard(problem, written)["value"])
+    return e, written, ((e, written.copy()) if e < best[0] else best)
+
+
+def levenberg_marquardt(problem, r0=None, tol=1e-8, time_limit=10.0, c0=1e-2, delta=2.0):
+    """The prototype (module docstring): ``(status, r as written, iterations, factorizations,
+    seconds)``, ``r`` the iterate with the lowest ``max(error, guard)``."""
+    a, W, q, mu, d, m, nc, rho, jac = balanced_setup(problem)
     eye = sp.identity(m, format="csc")
 
     def law(r):
@@ -83,10 +100,7 @@ def levenberg_marquardt(problem, r0=None, tol=1e-8, time_limit=10.0, c0=1e-2, de
     c, t0, facts, k = c0, time.perf_counter(), 0, 0
     best = (np.inf, r * a)
     while True:
-        written = r * a
-        e = max(socp_cd.error(problem, written), socp_cd.guard(problem, written)["value"])
-        if e < best[0]:
-            best = (e, written.copy())
+        e, written, best = judged(problem, r, a, best)
         if e <= tol:
             return "converged", written, k, facts, time.perf_counter() - t0
         if time.perf_counter() - t0 > time_limit:

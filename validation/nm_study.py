@@ -33,7 +33,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 import socp_cd
@@ -41,11 +40,8 @@ from socp_cd.bench import evalset
 from socp_cd.bench.reports import emit
 from socp_cd.cones import natural_map, project_cone_jacobian
 from socp_cd.data import shared_problems_dir
-from socp_cd.solvers.kernels.newton_ac import block_rho_dense
-from socp_cd.solvers.newton import BlockJacobian
-from socp_cd.solvers.scaling import balanced
-
 from auto_probe import write_csv
+from lm_study import balanced_setup, judged
 
 RESULTS = Path(__file__).with_name("results")
 #: the tune Capsules cases `auto` misses at 10 s (results/auto_chain_tune_s28large10.md) that
@@ -59,16 +55,7 @@ CASES = ("real-manufactured/Capsules-i122-1617.dat/mu2-mixed-s0",
 def natural_map_newton(problem, tol=1e-8, time_limit=10.0, max_iter=1000):
     """The prototype (module docstring): ``(status, r as written, steps, full steps taken,
     seconds)``."""
-    rec = balanced(problem)
-    bp, a = rec.problem, rec.a
-    W = sp.csr_matrix(bp.W, dtype=np.float64)
-    q = np.asarray(bp.q, dtype=np.float64)
-    d, m = bp.dim, bp.m
-    nc = m // d
-    mu = np.asarray(bp.mu, dtype=np.float64)
-    rho = np.empty(nc)
-    block_rho_dense(np.ascontiguousarray(W.toarray()), d, rho)
-    jac = BlockJacobian(W, d)
+    a, W, q, mu, d, m, nc, rho, jac = balanced_setup(problem)
     eye = np.eye(d)[None]
     reg = 1e-10 * float(np.mean(W.diagonal()))  # W + reg I when J is singular (§8's plain policy)
 
@@ -91,10 +78,7 @@ def natural_map_newton(problem, tol=1e-8, time_limit=10.0, max_iter=1000):
     F, u = law(r)
     t0, full, best = time.perf_counter(), 0, (np.inf, r * a)
     for k in range(max_iter + 1):
-        written = r * a
-        e = max(socp_cd.error(problem, written), socp_cd.guard(problem, written)["value"])
-        if e < best[0]:
-            best = (e, written.copy())
+        e, written, best = judged(problem, r, a, best)
         if e <= tol:
             return "converged", written, k, full, time.perf_counter() - t0
         if k == max_iter:
