@@ -3,7 +3,8 @@
 ``run``: every 3D local problem of at most ``--max-contacts`` contacts in the small
 simulation collections (``evalset_sim_small_tune``, the tune split's; ``evalset_sim_small``,
 held out), the benchmark's call (``solve(copy.copy(p), time_limit=1.0)``, copies made before
-the timer, garbage collection off), min over 3 loops of 200 calls (30 above 20 contacts);
+the timer, garbage collection off: ``per_call_rounds.per_call_fresh``), min over 3 loops of
+200 calls (30 above 20 contacts), and one more untimed call for its counts;
 writes ``{path: [seconds per call, sweeps or iterations, converged, first stage's
 iterations]}`` as JSON.  ``compare``: two or more such files of different trees (two rounds
 of each, named ``<tree>a.json`` / ``<tree>b.json``, the min taken), against the first tree:
@@ -20,13 +21,12 @@ from __future__ import annotations
 
 import argparse
 import copy
-import gc
 import glob
 import json
-import math
 import statistics
-import time
 from pathlib import Path
+
+from per_call_rounds import per_call_fresh      # (this folder: the one per-call loop)
 
 HERE = Path(__file__).parent
 SETS = {"tune": "evalset_sim_small_tune", "held out": "evalset_sim_small"}
@@ -47,21 +47,11 @@ def run(out: Path, max_contacts: int) -> None:
         for _ in range(3):
             socp_cd.solve(copy.copy(p), time_limit=1.0)
     rec = {}
-    gc.disable()
-    try:
-        for name, p in probs:
-            n = 30 if p.n_contacts > 20 else 200
-            best = math.inf
-            for _ in range(3):
-                cs = [copy.copy(p) for _ in range(n)]
-                t0 = time.perf_counter()
-                for c in cs:
-                    r = socp_cd.solve(c, time_limit=1.0)
-                best = min(best, (time.perf_counter() - t0) / n)
-            path = r.info.get("path")
-            rec[name] = [best, r.iterations, bool(r.converged), path[0]["iterations"] if path else None]
-    finally:
-        gc.enable()
+    for name, p in probs:
+        best = per_call_fresh(p, 30 if p.n_contacts > 20 else 200, 3) * 1e-6
+        r = socp_cd.solve(copy.copy(p), time_limit=1.0)     # (its counts, untimed)
+        path = r.info.get("path")
+        rec[name] = [best, r.iterations, bool(r.converged), path[0]["iterations"] if path else None]
     out.write_text(json.dumps(rec))
 
 
