@@ -259,6 +259,14 @@ def test_cold_plain_stage_starts_from_zero_and_plain_stages_are_capped(monkeypat
             socp_cd.solve(p, "auto", tol=1e-14, max_iter=max_iter,
                           methods=("nsgs", "newton_plain"))
             assert [(s["max_iter"], s["stall_window"]) for s in seen] == [(cap, window)]
+    # the cold stage's own large-problem window, when set, for that stage alone
+    monkeypatch.setattr(auto, "COLD_PLAIN_STALL_LARGE", 11)
+    for small_nc, windows in ((small, [5, 5]), (0, [9, 11])):
+        monkeypatch.setattr(auto, "SMALL_NC", small_nc)
+        seen.clear()
+        socp_cd.solve(p, "auto", tol=1e-14, methods=("nsgs", "newton_plain", "newton_plain_cold"))
+        assert [s["stall_window"] for s in seen] == windows
+    monkeypatch.setattr(auto, "COLD_PLAIN_STALL_LARGE", None)
     monkeypatch.setattr(auto, "SMALL_NC", small)
     seen.clear()            # a global problem is outside the small local chain at any size
     socp_cd.solve(_global(1), "auto", tol=1e-14, methods=("newton_plain",))

@@ -3,8 +3,10 @@ import numpy as np
 import pytest
 
 import socp_cd
-from socp_cd.bench.evalset import (MIXES, exact_error, manufacture, manufactured_cases, rescaled,
-                                   split_of)
+from socp_cd.bench.evalset import (MIXES, REFRAMINGS, exact_error, manufacture, manufactured_cases,
+                                   reframe, reframed_cases, reframing, rescaled, split_of)
+from socp_cd.bench.transforms import contact_map, velocity_back
+from socp_cd.errors import InvalidProblemError
 from socp_cd.data import shared_problems_dir
 
 DATA = shared_problems_dir()
@@ -89,3 +91,57 @@ body = {shape = "disk", radius = 0.05}
         p = c.problem()
         assert p.n_contacts == c.n_contacts == 3
         assert socp_cd.error(p, p.solution.r) <= 1e-10
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_contact_map_is_orthogonal_and_keeps_the_cone(dim):
+    rng = np.random.default_rng(0)
+    nc = 7
+    perm, angles = rng.permutation(nc), rng.uniform(0.0, 2.0 * np.pi, nc)
+    T = contact_map(perm, angles, dim).toarray()
+    assert np.allclose(T.T @ T, np.eye(nc * dim), atol=1e-15)
+    r = rng.standard_normal(nc * dim)
+    Tr = T @ r
+    for k in range(nc):           # new contact k is old contact perm[k], normal kept, |r_T| kept
+        old, new = r[perm[k] * dim:(perm[k] + 1) * dim], Tr[k * dim:(k + 1) * dim]
+        assert new[0] == old[0]
+        assert np.isclose(np.linalg.norm(new[1:]), np.linalg.norm(old[1:]), rtol=1e-14)
+    if dim == 3:                  # a turn, not a reflection: det +1 per block
+        assert np.isclose(np.linalg.det(T[1:3, perm[0] * 3 + 1:perm[0] * 3 + 3]), 1.0)
+    with pytest.raises(ValueError):
+        contact_map([0, 0, 1], np.zeros(3), dim)
+
+
+@pytest.mark.parametrize("name", ["Capsules-i122-1617.dat", "GFC3D_TwoRods1.dat",
+                                  "fc2d_granularflowonwall_00667_00000.dat"])
+@pytest.mark.parametrize("how", REFRAMINGS)
+def test_reframed_copies_keep_the_exact_solution(name, how):
+    base = manufacture(socp_cd.read_problem(DATA / name), 2.0, MIXES["sliding"], 2)
+    p = reframe(base, how, seed=11)
+    assert p.is_global == base.is_global and p.n_contacts == base.n_contacts
+    assert socp_cd.error(p, p.solution.r) < 1e-12
+    assert exact_error(p, p.solution.r) < 1e-12
+    perm, angles = reframing(p.n_contacts, how, 11)
+    tr = ("reframed", contact_map(perm, angles, p.dim))
+    assert np.allclose(velocity_back(p.solution.u, tr), base.solution.u, rtol=0, atol=1e-14)
+    # a copy, not the base: the data differ (order or frames), mu follows the contacts
+    q, q0 = (p.w, base.w) if p.is_global else (p.q, base.q)
+    assert not np.allclose(q, q0)
+    assert np.array_equal(p.mu, base.mu[perm])
+    with pytest.raises(InvalidProblemError):
+        reframe(base, "mirror", 0)
+
+
+def test_reframed_cases_name_their_base_and_split_by_their_own_id(cases):
+    copies = reframed_cases(DATA, max_contacts=100)
+    ids = {c.case_id for c in cases}
+    assert len(copies) == len({c.case_id for c in copies})
+    assert all(c.params["base"] in ids and c.family == "real-reframed" for c in copies)
+    assert all(c.split == split_of(c.case_id) for c in copies)
+    assert {c.params["how"] for c in copies} == set(REFRAMINGS)
+    assert {c.source for c in copies} == {c.source for c in cases}
+    # the draw is the case's own: rebuilding gives the same problem
+    c = copies[5]
+    a, b = c.problem(), c.problem()
+    qa, qb = (a.w, b.w) if a.is_global else (a.q, b.q)
+    assert np.array_equal(qa, qb)

@@ -8,7 +8,7 @@ implies the recomputed Siconos error and the units guard
 (:func:`socp_cd.residuals.guard`) meet ``tol``; the velocity ``u`` (relative
 to ``||q||``) does not change when the problem is written in other units
 (``q`` or ``W, q`` times ``lambda``, ``lambda`` in ``[1e-8, 1e8]``), with
-renumbered contacts or with duplicated contacts.  Plus the regressions of
+renumbered contacts, turned contact frames or with duplicated contacts.  Plus the regressions of
 issue 14 (a false success at ``W, q x 1e8``; Clarabel failing at ``q x 1e8``).
 """
 from __future__ import annotations
@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 import socp_cd
 from socp_cd.bench.generators import manufactured
-from socp_cd.bench.transforms import duplicated, permuted, rescaled, velocity_back
+from socp_cd.bench.transforms import duplicated, permuted, reframed, rescaled, velocity_back
 from socp_cd.data import shared_problems_dir
 from socp_cd.errors import UnsupportedError
 from socp_cd.problem import FrictionContactProblem
@@ -95,6 +95,20 @@ def test_velocity_invariant_under_units(mode, problem, e):
 @given(problem=problems, seed=st.integers(0, 2**31))
 def test_velocity_invariant_under_contact_permutation(problem, seed):
     copy, tr = permuted(problem, np.random.default_rng(seed).permutation(problem.n_contacts))
+    for solver in coulomb_solvers(problem.dim):
+        res, res_copy = solve_or_none(problem, solver), solve_or_none(copy, solver)
+        if res is not None:
+            assert_same_velocity(problem, res, copy, res_copy, tr, solver)
+
+
+@FAST
+@given(problem=problems, seed=st.integers(0, 2**31))
+def test_velocity_invariant_under_turned_contact_frames(problem, seed):
+    """Coulomb's law is isotropic: each contact's tangent basis turned about its normal (and the
+    contacts renumbered) is the same problem, whose velocity maps back."""
+    rng = np.random.default_rng(seed)
+    copy, tr = reframed(problem, rng.permutation(problem.n_contacts),
+                        rng.uniform(0.0, 2.0 * np.pi, problem.n_contacts))
     for solver in coulomb_solvers(problem.dim):
         res, res_copy = solve_or_none(problem, solver), solve_or_none(copy, solver)
         if res is not None:

@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 import socp_cd
-from socp_cd.bench.evalset import collection_cases, manufactured_cases
+from socp_cd.bench.evalset import collection_cases, manufactured_cases, reframed_cases
 from socp_cd.bench.reports import shifted_geometric_mean
 from socp_cd.data import shared_problems_dir
 from socp_cd.solvers import auto
@@ -63,7 +63,9 @@ def items(split, max_contacts, min_contacts, sets=("shared", "eval", "sim"), sim
                 p = socp_cd.read_problem(path)
                 if keep(p):
                     out.append(("shared", path.name, p))
-    for c in (manufactured_cases(data, max_contacts=max_contacts) if "eval" in sets else ()):
+    evals = ((manufactured_cases(data, max_contacts=max_contacts) if "eval" in sets else [])
+             + (reframed_cases(data, max_contacts=max_contacts) if "reframed" in sets else []))
+    for c in evals:
         if c.split == split and not c.is_global and c.n_contacts > min_contacts:
             p = c.problem()
             if keep(p):
@@ -164,7 +166,7 @@ def main(argv=None) -> int:
     ap.add_argument("--time-limit", type=float, default=5.0)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--max-contacts", type=int, default=6000)
-    ap.add_argument("--sets", nargs="+", choices=("shared", "eval", "sim"),
+    ap.add_argument("--sets", nargs="+", choices=("shared", "eval", "reframed", "sim"),
                     default=["shared", "eval", "sim"])
     ap.add_argument("--sim", type=Path, nargs="*", default=None,
                     help="simulation collection folders (default: the split's, see above)")

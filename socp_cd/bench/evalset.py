@@ -19,6 +19,14 @@ seen, each with a deterministic identifier and a ``split`` label:
     for ``λ = 1e±6``: the law is positively homogeneous, so the exact
     solution is known (``r* λ``, ``u* λ`` for ``q × λ``; ``r*``, ``u* λ`` for
     ``(W, q) × λ``).  A solver that depends on units fails these.
+``real-reframed``
+    Copies of ``real-manufactured`` problems (``mu`` in :data:`REFRAMED_MUS`,
+    every seed) with the contacts renumbered (``order``) or each contact's
+    tangent basis turned about its normal (``frames``), both drawn at random
+    from the case identifier (:func:`socp_cd.bench.transforms.reframed`).
+    The law is isotropic and does not depend on the numbering, so the exact
+    solution is the base case's, mapped.  A solver whose outcome depends on how
+    the same problem is written down differs on these from its base case.
 ``sim-*``
     Step problems dumped from socp_cd's own Moreau–Jean simulations (see
     :func:`simulation_collection`), written as FCLib HDF5 collections.
@@ -54,13 +62,22 @@ MIXES = {
 }
 #: Scale factors of the ``real-scaled`` family.
 SCALES = (1e-6, 1e6)
+#: Friction coefficients of the ``real-reframed`` family's base cases.
+REFRAMED_MUS = (0.5, 2.0)
+#: The ``real-reframed`` copies: contacts renumbered, or tangent bases turned.
+REFRAMINGS = ("order", "frames")
 #: Fraction of cases labelled ``tune``.
 TUNE_FRACTION = 0.3
 
 
+def _hash_seed(text: str) -> int:
+    """A 64-bit integer from the SHA-256 of ``text`` (stable across runs and machines)."""
+    return int.from_bytes(hashlib.sha256(text.encode()).digest()[:8], "little")
+
+
 def split_of(case_id: str) -> str:
     """``"tune"`` or ``"holdout"``, a deterministic function of ``case_id``."""
-    h = int.from_bytes(hashlib.sha256(case_id.encode()).digest()[:8], "little")
+    h = _hash_seed(case_id)
     return "tune" if (h % 1000) < TUNE_FRACTION * 1000 else "holdout"
 
 
@@ -203,6 +220,26 @@ def _real_files(data_dir) -> list[Path]:
     return sorted(p for p in d.iterdir() if p.is_file() and p.name != "MANIFEST.tsv")
 
 
+def _real_bases(data_dir, max_contacts):
+    """``(path, problem)`` of every real file, leaving out those of more than ``max_contacts``
+    contacts (None: none left out)."""
+    from ..io import read_problem
+    for path in _real_files(data_dir):
+        base = read_problem(path)
+        if max_contacts is None or base.n_contacts <= max_contacts:
+            yield path, base
+
+
+def _draws(seeds, mus):
+    """``(seed, mu, mix name, mix)`` of the manufactured cases: seed ``k`` takes the ``k``-th
+    mix of :data:`MIXES` (cyclically), with every ``mu``."""
+    mixes = list(MIXES.items())
+    for seed in seeds:
+        mix_name, mix = mixes[seed % len(mixes)]
+        for mu in mus:
+            yield seed, mu, mix_name, mix
+
+
 def manufactured_cases(data_dir, *, mus: Iterable[float] = MUS, seeds: Iterable[int] = range(4),
                        scales: Iterable[float] = SCALES, max_contacts: int | None = None
                        ) -> list[EvalCase]:
@@ -224,23 +261,16 @@ def manufactured_cases(data_dir, *, mus: Iterable[float] = MUS, seeds: Iterable[
     -------
     list of EvalCase
     """
-    from ..io import read_problem
-    mixes = list(MIXES.items())
     cases: list[EvalCase] = []
-    for path in _real_files(data_dir):
-        base = read_problem(path)
+    for path, base in _real_bases(data_dir, max_contacts):
         nc, dim, glob = base.n_contacts, base.dim, base.is_global
-        if max_contacts is not None and nc > max_contacts:
-            continue
-        for seed in seeds:
-            mix_name, mix = mixes[seed % len(mixes)]
-            for mu in mus:
-                cid = f"real-manufactured/{path.name}/mu{mu:g}-{mix_name}-s{seed}"
+        for seed, mu, mix_name, mix in _draws(seeds, mus):
+            cid = f"real-manufactured/{path.name}/mu{mu:g}-{mix_name}-s{seed}"
 
-                def build(base=base, mu=mu, mix=mix, seed=seed):
-                    return manufacture(base, mu, mix, seed)
-                cases.append(EvalCase(cid, "real-manufactured", path.name, split_of(cid), nc, dim,
-                                      glob, build, dict(mu=mu, mix=mix_name, seed=seed)))
+            def build(base=base, mu=mu, mix=mix, seed=seed):
+                return manufacture(base, mu, mix, seed)
+            cases.append(EvalCase(cid, "real-manufactured", path.name, split_of(cid), nc, dim,
+                                  glob, build, dict(mu=mu, mix=mix_name, seed=seed)))
         for lam in scales:
             for what in ("q", "Wq"):
                 cid = f"real-scaled/{path.name}/{what}x{lam:g}"
@@ -249,6 +279,69 @@ def manufactured_cases(data_dir, *, mus: Iterable[float] = MUS, seeds: Iterable[
                     return rescaled(manufacture(base, 0.5, MIXES["mixed"], 0), lam, what)
                 cases.append(EvalCase(cid, "real-scaled", path.name, split_of(cid), nc, dim, glob, build,
                                       dict(mu=0.5, mix="mixed", seed=0, scale=lam, what=what)))
+    return cases
+
+
+def reframing(n_contacts: int, how: str, seed: int):
+    """``(perm, angles)`` of :func:`socp_cd.bench.transforms.contact_map` for :func:`reframe`:
+    a random permutation and no turn (``how="order"``), or no renumbering and angles uniform
+    in ``[0, 2π)`` (``"frames"``), drawn with ``seed``."""
+    if how not in REFRAMINGS:
+        raise InvalidProblemError("how", f"must be one of {REFRAMINGS}, got {how!r}")
+    rng = np.random.default_rng(seed)
+    if how == "order":
+        return rng.permutation(n_contacts), np.zeros(n_contacts)
+    return np.arange(n_contacts), rng.uniform(0.0, 2.0 * np.pi, n_contacts)
+
+
+def reframe(problem, how: str, seed: int):
+    """``problem`` with its contacts renumbered or their tangent bases turned (:func:`reframing`;
+    :func:`socp_cd.bench.transforms.reframed`, the stored solution mapped)."""
+    perm, angles = reframing(problem.n_contacts, how, seed)
+    copy, _ = transforms.reframed(problem, perm, angles)
+    return copy
+
+
+def reframed_cases(data_dir, *, mus: Iterable[float] = REFRAMED_MUS,
+                   seeds: Iterable[int] = range(4), hows: Iterable[str] = REFRAMINGS,
+                   max_contacts: int | None = None) -> list[EvalCase]:
+    """The ``real-reframed`` cases: copies of ``real-manufactured`` cases written differently.
+
+    Case ``real-reframed/<file>/<base parameters>/<how>`` is the
+    ``real-manufactured/<file>/<base parameters>`` case through :func:`reframe`,
+    its random draw (:func:`reframing`) seeded by a hash of its own identifier,
+    ``params["draw"]``; ``params["base"]`` names the base case.  Split by the copy's identifier, as every case.
+
+    Parameters
+    ----------
+    data_dir, max_contacts
+        As :func:`manufactured_cases`.
+    mus, seeds : iterables
+        The base cases' friction coefficients and seeds (as :func:`manufactured_cases`).
+    hows : iterable of str
+        Among :data:`REFRAMINGS`.
+
+    Returns
+    -------
+    list of EvalCase
+        Two per base case with the default ``hows``, in the order of the files, seeds,
+        ``mus`` and ``hows``.
+    """
+    cases: list[EvalCase] = []
+    for path, base in _real_bases(data_dir, max_contacts):
+        nc, dim, glob = base.n_contacts, base.dim, base.is_global
+        for seed, mu, mix_name, mix in _draws(seeds, mus):
+            tail = f"{path.name}/mu{mu:g}-{mix_name}-s{seed}"
+            for how in hows:
+                cid = f"real-reframed/{tail}/{how}"
+                draw = _hash_seed(cid)
+
+                def build(base=base, mu=mu, mix=mix, seed=seed, how=how, draw=draw):
+                    return reframe(manufacture(base, mu, mix, seed), how, draw)
+                cases.append(EvalCase(cid, "real-reframed", path.name, split_of(cid), nc, dim,
+                                      glob, build, dict(mu=mu, mix=mix_name, seed=seed, how=how,
+                                                        draw=draw,
+                                                        base=f"real-manufactured/{tail}")))
     return cases
 
 
@@ -282,4 +375,5 @@ def exact_error(problem, r) -> float:
 
 __all__ = ["MUS", "MIXES", "SCALES", "TUNE_FRACTION", "EvalCase", "split_of", "manufacture",
            "manufacture_local", "manufacture_global", "rescaled", "manufactured_cases",
+           "REFRAMED_MUS", "REFRAMINGS", "reframing", "reframe", "reframed_cases",
            "collection_cases", "iter_problems", "exact_error"]

@@ -109,6 +109,13 @@ PLAIN_STALL = 50
 #: this many (a study knob, session 26: see formulations/auto.md, "The plain stages' stall
 #: window"; None: PLAIN_STALL)
 PLAIN_STALL_LARGE = None
+#: ... and for ``"newton_plain_cold"`` alone on those problems, this many (None: as
+#: ``"newton_plain"``).  Plain Newton from ``r = 0`` wanders among the contact branches, its
+#: best error flat, before it converges, and how long depends on rounding (Capsules-i122
+#: ``q x 1e-6``: 146 steps; the same case renumbered or perturbed by 1e-13: 53-283).  200, the
+#: cap: tune and held out, 1 s and 10 s, won 3 lost 0, sgm within 1 % (session 30;
+#: formulations/auto.md, "The cold plain stage's stall window")
+COLD_PLAIN_STALL_LARGE = 200
 #: ... and after at most this many steps (unless ``max_iter`` is given)
 PLAIN_MAX_ITER = 200
 #: local exact-Coulomb problems with more than SMALL_NC contacts start with an NSGS
@@ -494,6 +501,16 @@ def _cold_trial_order() -> tuple:
 def _cold_steps(method):
     """Step cap of a cold trial stage (:data:`COLD_TRIAL_STEPS`, :data:`COLD_PROX_STEPS`; 0: off)."""
     return COLD_TRIAL_STEPS if method == "newton_trial_cold" else COLD_PROX_STEPS
+
+
+def _plain_stall(method, small):
+    """Stall window of a plain stage (:data:`PLAIN_STALL`; outside the small local chain
+    :data:`PLAIN_STALL_LARGE`, and :data:`COLD_PLAIN_STALL_LARGE` for the cold one)."""
+    if small:
+        return PLAIN_STALL
+    if method == "newton_plain_cold" and COLD_PLAIN_STALL_LARGE is not None:
+        return COLD_PLAIN_STALL_LARGE
+    return PLAIN_STALL if PLAIN_STALL_LARGE is None else PLAIN_STALL_LARGE
 
 
 def _small_cap(max_iter):
@@ -977,8 +994,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 opts["alpha0"] = float(ALT_ALPHA0)
             stage_max_iter = max_iter
             if method in _CAPPED:
-                opts["stall_window"] = (PLAIN_STALL if PLAIN_STALL_LARGE is None
-                                        or _small_local(feats) else PLAIN_STALL_LARGE)
+                opts["stall_window"] = _plain_stall(method, _small_local(feats))
                 if max_iter is None:
                     stage_max_iter = PLAIN_MAX_ITER
             if method == "nsgs_probe" and PROBE_SWEEPS > 0:  # a probe: at most PROBE_SWEEPS sweeps
@@ -1092,7 +1108,7 @@ __all__ = ["auto_backend", "route", "plain", "features", "stage_order", "SPEC", 
            "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS", "HANDOFF_WORK", "TRIAL_STEPS",
            "TRIAL_STALL", "HANDOFF_PREDICT",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
-           "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC", "RETRY_REFUSED",
+           "PLAIN_STALL_LARGE", "COLD_PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC", "RETRY_REFUSED",
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START"]
