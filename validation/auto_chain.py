@@ -102,10 +102,18 @@ Session 26's:
     the hand-off's cap (200 sweeps, 32 000 entry visits); 50 / 8 000 measured with and without
     ``HANDOFF_PREDICT=10``, not adopted (``results/auto_chain_tune_s26handoff.md``).
 
+Session 30's:
+
+``COLD_PLAIN_STALL_LARGE``
+    the stall window of ``newton_plain_cold`` alone outside the small local chain (None: as
+    ``newton_plain``); 200 adopted (``results/auto_chain_{tune,holdout}_s30cold{1,10}.md``,
+    with ``--sets eval reframed``: the ``real-reframed`` copies beside the manufactured cases).
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``) or ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``.  Problems:
-local exact-Coulomb problems of at most ``--max-contacts`` contacts (and more than
+local exact-Coulomb problems (``--sets``: shared, eval, reframed) of at most ``--max-contacts``
+contacts (and more than
 ``--min-contacts``: session 28 ran the large manufactured cases alone at 10 s), ``--split tune
 (shared/ and the evaluation set's tune cases: where the rules were chosen) or ``holdout``
 (run once, to report).  tol 1e-8, ``--time-limit`` per call, min of 3 wall times (10 on at
