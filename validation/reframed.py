@@ -190,7 +190,7 @@ def plot(rows, png) -> None:
     solvers = list(dict.fromkeys(r["solver"] for r in rows))
     ncol = min(3, len(solvers))
     nrow = -(-len(solvers) // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.4 * ncol, 4.3 * nrow), squeeze=False)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(max(4.4 * ncol, 5.6), 4.3 * nrow), squeeze=False)
     for ax in axes.flat[len(solvers):]:
         ax.set_visible(False)
     floor = 1e-17
@@ -212,7 +212,7 @@ def plot(rows, png) -> None:
         ax.set_xlabel("base case: max(error, guard); no answer: 1")
         ax.set_ylabel("reframed copy: max(error, guard)")
         ax.legend(loc="upper left", fontsize=8)
-    fig.suptitle("Same problem, written differently: outcome on the copy vs the base "
+    fig.suptitle("Same problem, written differently:\noutcome on the copy vs the base "
                  f"(tol {args_tol[0]:g}, dashed)")
     fig.tight_layout()
     fig.savefig(png, dpi=120)
