@@ -266,7 +266,11 @@ def test_cold_plain_stage_starts_from_zero_and_plain_stages_are_capped(monkeypat
         seen.clear()
         socp_cd.solve(p, "auto", tol=1e-14, methods=("nsgs", "newton_plain", "newton_plain_cold"))
         assert [s["stall_window"] for s in seen] == windows
-    monkeypatch.setattr(auto, "COLD_PLAIN_STALL_LARGE", None)
+    monkeypatch.setattr(auto, "COLD_PLAIN_STALL_LARGE", None)   # None: as newton_plain
+    monkeypatch.setattr(auto, "SMALL_NC", 0)
+    seen.clear()
+    socp_cd.solve(p, "auto", tol=1e-14, methods=("nsgs", "newton_plain", "newton_plain_cold"))
+    assert [s["stall_window"] for s in seen] == [9, 9]
     monkeypatch.setattr(auto, "SMALL_NC", small)
     seen.clear()            # a global problem is outside the small local chain at any size
     socp_cd.solve(_global(1), "auto", tol=1e-14, methods=("newton_plain",))

@@ -3,8 +3,9 @@ import numpy as np
 import pytest
 
 import socp_cd
-from socp_cd.bench.evalset import (MIXES, REFRAMINGS, exact_error, manufacture, manufactured_cases,
-                                   reframe, reframed_cases, reframing, rescaled, split_of)
+from socp_cd.bench.evalset import (MIXES, REFRAMINGS, case_split, exact_error, manufacture,
+                                   manufactured_cases, reframe, reframed_cases, reframing, rescaled,
+                                   split_of)
 from socp_cd.bench.transforms import contact_map, velocity_back
 from socp_cd.errors import InvalidProblemError
 from socp_cd.data import shared_problems_dir
@@ -132,12 +133,42 @@ def test_reframed_copies_keep_the_exact_solution(name, how):
         reframe(base, "mirror", 0)
 
 
-def test_reframed_cases_name_their_base_and_split_by_their_own_id(cases):
+@pytest.mark.parametrize("dim", [2, 3])
+def test_reframed_copy_permutes_mu_and_keeps_guesses(dim):
+    """One ``mu`` per contact (the manufactured families use one for all): the copy's law holds
+    for the mapped solution only with ``mu`` renumbered alike; guesses map as the solution."""
+    from socp_cd.bench.generators import manufactured
+    from socp_cd.bench.transforms import reframed
+    from socp_cd.problem import Solution
+    base = manufactured(8, dim, mu=np.linspace(0.1, 1.5, 8), seed=4,
+                        mix=(0.1, 0.1, 0.8, 0.0))                  # mostly sliding: mu matters
+    base.guesses = [Solution(r=base.solution.r * 0.5, u=base.solution.u)]
+    rng = np.random.default_rng(2)
+    perm, angles = rng.permutation(8), rng.uniform(0.0, 2.0 * np.pi, 8)
+    p, tr = reframed(base, perm, angles)
+    assert np.array_equal(p.mu, base.mu[perm])
+    assert socp_cd.error(p, p.solution.r) < 1e-12
+    T = tr[1]
+    np.testing.assert_allclose(T.T @ p.guesses[0].r, base.guesses[0].r, atol=1e-15)
+
+
+def test_reframed_global_copy_keeps_v():
+    base = manufacture(socp_cd.read_problem(DATA / "GFC3D_TwoRods1.dat"), 1.0, MIXES["mixed"], 1)
+    p = reframe(base, "frames", seed=3)
+    assert p.solution.v is not None and np.array_equal(p.solution.v, base.solution.v)
+    np.testing.assert_allclose(p.global_velocity(p.solution.r), p.solution.v,
+                               atol=1e-12 * np.abs(p.solution.v).max())
+
+
+def test_reframed_cases_name_their_base_and_take_its_split(cases):
     copies = reframed_cases(DATA, max_contacts=100)
     ids = {c.case_id for c in cases}
     assert len(copies) == len({c.case_id for c in copies})
     assert all(c.params["base"] in ids and c.family == "real-reframed" for c in copies)
-    assert all(c.split == split_of(c.case_id) for c in copies)
+    # a copy is in its base case's split: tuning on a copy is tuning on the case it copies
+    assert all(c.split == split_of(c.params["base"]) == case_split(c.case_id) for c in copies)
+    assert all(case_split(c.case_id) == c.split for c in cases)
+    assert {c.split for c in copies} == {"tune", "holdout"}
     assert {c.params["how"] for c in copies} == set(REFRAMINGS)
     assert {c.source for c in copies} == {c.source for c in cases}
     # the draw is the case's own: rebuilding gives the same problem

@@ -128,6 +128,7 @@ Writes ``validation/results/auto_chain_<split><--tag>.{csv,md}``.
 from __future__ import annotations
 
 import argparse
+import csv
 from collections import defaultdict
 from pathlib import Path
 
@@ -135,6 +136,7 @@ import numpy as np
 
 import socp_cd
 from socp_cd.bench.campaign import warm_up
+from socp_cd.bench.evalset import case_split
 from socp_cd.bench.reports import shifted_geometric_mean
 from socp_cd.bench.tasks import SolverChoice
 from socp_cd.solvers import auto, newton, nsgs
@@ -229,7 +231,12 @@ def write_report(rows, args):
              + (f" and more than {args.min_contacts}" if args.min_contacts else "") +
              f", sets {' '.join(args.sets + (['sim: ' + ' '.join(args.sim)] if args.sim else []))}; a new problem object per call, time limit "
              f"{args.time_limit:g} s, min of 3 wall times (10 on at most 10 contacts, one above "
-             "0.5 s); no Siconos in the run. Ratios are to the first setting.", "",
+             "0.5 s); no Siconos in the run. Ratios are to the first setting."
+             + ("" if not getattr(args, "from_csv", None) else
+                " Reported again (`--from-csv`) from the rows of "
+                + ", ".join(f"`{Path(c).name}`" for c in args.from_csv)
+                + " whose case is in this split by the current rule (a `real-reframed` copy "
+                "in its base case's split)."), "",
              "| dim | contacts | setting | cases | solved | sgm (10 ms shift, s) | "
              "sgm (0.1 ms shift, s) | total (s) | ratio median / min / max | > 1.2× / < 0.8× |",
              "|---|---|---|---|---|---|---|---|---|---|"]
@@ -258,6 +265,27 @@ def write_report(rows, args):
     print("\n".join(lines))
 
 
+def rows_in_split(paths, split):
+    """The rows of earlier CSVs of this script (``auto_chain_<split><tag>.csv``) whose case is in
+    ``split`` now: shared problems in tune, simulation dumps in the split of the run they
+    come from (the collections are built per split), evaluation-set cases by
+    :func:`socp_cd.bench.evalset.case_split`; numbers and flags parsed."""
+    rows = []
+    for path in paths:
+        ran = "tune" if Path(path).name.startswith("auto_chain_tune") else "holdout"
+        with open(path, newline="") as fh:
+            for r in csv.DictReader(fh):
+                fam = r["family"]
+                where = ("tune" if fam == "shared" else ran if fam == "sim"
+                         else case_split(r["case"]))
+                if where != split:
+                    continue
+                r.update(dim=int(r["dim"]), nc=int(r["nc"]), error=float(r["error"]),
+                         time=float(r["time"]), solved=r["solved"] == "True")
+                rows.append(r)
+    return rows
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--split", choices=("tune", "holdout"), required=True)
@@ -274,7 +302,16 @@ def main(argv=None) -> int:
                     help="simulation collections (folders under validation/) to add, e.g. "
                          "evalset_sim_small (validation/build_sim_collections.py --small)")
     ap.add_argument("--tag", default="", help="suffix of the output files")
+    ap.add_argument("--from-csv", nargs="+", type=Path, default=None,
+                    help="no run: the rows of these CSVs (earlier runs of this script) whose "
+                         "case is in --split by the evaluation set's current rule, reported "
+                         "again (e.g. after a change of the split rule)")
     args = ap.parse_args(argv)
+    if args.from_csv:
+        rows = rows_in_split(args.from_csv, args.split)
+        write_csv(rows, OUT / f"auto_chain_{args.split}{args.tag}.csv")
+        write_report(rows, args)
+        return 0
     newton.warmup()
     nsgs.warmup()
     sims = [Path(__file__).resolve().parent / f for f in args.sim] if args.sim else None

@@ -14,6 +14,9 @@ copies with each solver and compares the outcomes:
   (``T^T u'``), relative to ``max(||u*||, ||q||)``;
 * a figure: each pair's error on the copy against the base's, per solver and reframing.
 
+``--report`` writes the table and the figure again from a CSV, each case in its split by the
+evaluation set's current rule.
+
 No parameter was chosen on this family.  Each call runs once on a new problem object, with
 the time limit given (default 1 s; outcomes near the limit depend on the machine's load:
 run it on a quiet machine, one process)::
@@ -72,20 +75,27 @@ def siconos(p, solvers, tol, time_limit):
 
 
 def judged(p, r, tol):
-    """``(error, guard, solved, distance of u to u*)`` of an answer (inf when there is none)."""
+    """``(error, guard, solved)`` of an answer (inf when there is none)."""
     if r is None or not np.all(np.isfinite(r)):
-        return math.inf, math.inf, False, math.inf
+        return math.inf, math.inf, False
     err = float(socp_cd.error(p, r))
     g = float(socp_cd.guard(p, r)["value"])
-    return err, g, max(err, g) <= tol, evalset.exact_error(p, r)
+    return err, g, max(err, g) <= tol
 
 
 def run(bases, copies, solvers, peers, tol, time_limit):
-    """One row per (case, solver): the bases first, then the copies; each copy row's velocity
-    (``_u``) mapped back to its base's order and frames."""
+    """One row per (case, solver), each base case followed by its copies (so that a change of
+    the machine's load falls on both sides of a pair alike), after one untimed call per solver
+    (JIT and imports); each copy row's velocity (``_u``) mapped back to its base's order and
+    frames."""
+    first = next(iter(bases.values())).problem()
+    for s in solvers:
+        ours(first, s, tol, time_limit)
     rows = []
-    todo = [(cid, c, None) for cid, c in sorted(bases.items())]
-    todo += [(cid, c, c.params["base"]) for cid, c in sorted(copies.items())]
+    todo = []
+    for bid, b in sorted(bases.items()):
+        todo.append((bid, b, None))
+        todo += [(cid, c, bid) for cid, c in sorted(copies.items()) if c.params["base"] == bid]
     for cid, case, base in todo:
         p = case.problem()
         outcomes = [(s, ours(p, s, tol, time_limit)) for s in solvers]
@@ -94,7 +104,7 @@ def run(bases, copies, solvers, peers, tol, time_limit):
             outcomes += [("siconos:" + s, o) for s, o in zip(peer, siconos(p, peer, tol,
                                                                            time_limit))]
         for s, (r, status, dt) in outcomes:
-            err, g, ok, ue = judged(p, r, tol)
+            err, g, ok = judged(p, r, tol)
             u = None if r is None or not np.all(np.isfinite(r)) else p.velocity(r)
             if u is not None and base is not None:
                 u = velocity_of_base(case, u)
@@ -103,7 +113,7 @@ def run(bases, copies, solvers, peers, tol, time_limit):
                          "dim": p.dim, "global": p.is_global, "mu": case.params["mu"],
                          "mix": case.params["mix"], "solver": s,
                          "status": status, "error": err, "guard": g, "solved": ok,
-                         "u_error": ue, "u_gap": math.nan, "time": dt,
+                         "u_gap": math.nan, "time": dt,
                          "_u": u,
                          "u_norm": max(float(np.linalg.norm(p.solution.u)),
                                        float(np.linalg.norm(p.q if not p.is_global
@@ -148,7 +158,10 @@ def write_md(rows, args, path, png) -> None:
              "`real-reframed` family (`socp_cd.bench.evalset.reframed_cases`: contacts renumbered, "
              "`order`, or tangent bases turned, `frames`; bases: the manufactured cases of "
              f"mu in {evalset.REFRAMED_MUS}, every seed) of at most {args.max_contacts} contacts"
-             + (f", split {args.split}" if args.split else ", both splits") + ". Solved: "
+             + (f", split {args.split}" if args.split else ", both splits")
+             + " (a copy in its base case's split)"
+             + (" (this table written again from the CSV by `--report`)" if args.report else "")
+             + ". Solved: "
              "recomputed Siconos error and units guard <= tol (for Siconos solvers: our "
              "recomputation of their answer). One call per case on a new problem object. "
              "No parameter was chosen on this family.", "",
@@ -220,15 +233,18 @@ def plot(rows, png) -> None:
 
 
 def read_rows(path):
-    """The rows of a CSV this script wrote, with their numbers and flags parsed (no velocities:
-    enough for :func:`plot`)."""
+    """The rows of a CSV this script wrote, with their numbers and flags parsed and each case's
+    split by the evaluation set's current rule (a copy in its base case's split; the column
+    ``u_gap`` nan where the file has none)."""
     import csv
     with open(path, newline="") as fh:
         rows = list(csv.DictReader(fh))
     for r in rows:
-        for k in ("error", "guard", "time", "u_error"):
-            r[k] = float(r[k])
+        for k in ("error", "guard", "time", "u_gap"):
+            r[k] = float(r.get(k, math.nan))
         r["solved"] = r["solved"] == "True"
+        r["nc"] = int(r["nc"])
+        r["split"] = evalset.case_split(r["case"])
     return rows
 
 
@@ -246,16 +262,19 @@ def main(argv=None) -> int:
     ap.add_argument("--max-contacts", type=int, default=2000)
     ap.add_argument("--split", choices=("tune", "holdout"), default=None)
     ap.add_argument("--out", type=Path, required=True, help="output stem (.csv, .md, .png)")
-    ap.add_argument("--replot", action="store_true",
-                    help="only draw <out>.png again from <out>.csv (no solve)")
+    ap.add_argument("--report", action="store_true",
+                    help="write <out>.md and <out>.png again from <out>.csv (no solve), each "
+                         "case in its split by the evaluation set's current rule")
     args = ap.parse_args(argv)
     args_tol[0] = args.tol
-    if args.replot:
-        plot(read_rows(args.out.with_suffix(".csv")), args.out.with_suffix(".png"))
+    if args.report:
+        rows = read_rows(args.out.with_suffix(".csv"))
+        png = args.out.with_suffix(".png")
+        plot(rows, png)
+        write_md(rows, args, args.out.with_suffix(".md"), png)
         return 0
     if args.siconos and not siconos_available():
         raise SystemExit("Siconos is not available (apt-get install -y python3-siconos)")
-    args_tol[0] = args.tol
     bases, copies = cases(args.max_contacts, args.split)
     print(f"{len(bases)} base cases, {len(copies)} copies", flush=True)
     rows = run(bases, copies, args.solvers, args.siconos, args.tol, args.time_limit)

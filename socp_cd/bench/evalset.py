@@ -24,9 +24,10 @@ seen, each with a deterministic identifier and a ``split`` label:
     every seed) with the contacts renumbered (``order``) or each contact's
     tangent basis turned about its normal (``frames``), both drawn at random
     from the case identifier (:func:`socp_cd.bench.transforms.reframed`).
-    The law is isotropic and does not depend on the numbering, so the exact
-    solution is the base case's, mapped.  A solver whose outcome depends on how
-    the same problem is written down differs on these from its base case.
+    The law is isotropic and does not depend on the numbering, so the base
+    case's exact solution, mapped, is an exact solution of the copy.  A solver
+    whose outcome depends on how the same problem is written down differs on
+    these from its base case.  A copy takes its base case's split.
 ``sim-*``
     Step problems dumped from socp_cd's own Moreau–Jean simulations (see
     :func:`simulation_collection`), written as FCLib HDF5 collections.
@@ -34,7 +35,8 @@ seen, each with a deterministic identifier and a ``split`` label:
 Split.  Every case carries ``split = "tune"`` or ``"holdout"``, decided by a
 hash of its identifier (about 30 % tune).  Parameters may be chosen looking at
 ``tune`` cases only; results are reported on ``holdout`` (and on both, side by
-side).  Simulation dumps are always ``holdout``.
+side).  A ``real-reframed`` copy is in its base case's split (tuning on a copy
+is tuning on the case it copies).  Simulation dumps are always ``holdout``.
 """
 from __future__ import annotations
 
@@ -79,6 +81,15 @@ def split_of(case_id: str) -> str:
     """``"tune"`` or ``"holdout"``, a deterministic function of ``case_id``."""
     h = _hash_seed(case_id)
     return "tune" if (h % 1000) < TUNE_FRACTION * 1000 else "holdout"
+
+
+def case_split(case_id: str) -> str:
+    """The split of a ``real-*`` case from its identifier alone: :func:`split_of` of the
+    identifier, or for a ``real-reframed`` copy of its base case's (:func:`reframed_cases`)."""
+    prefix = "real-reframed/"
+    if case_id.startswith(prefix):
+        return split_of("real-manufactured/" + case_id[len(prefix):].rsplit("/", 1)[0])
+    return split_of(case_id)
 
 
 @dataclass(frozen=True)
@@ -283,9 +294,21 @@ def manufactured_cases(data_dir, *, mus: Iterable[float] = MUS, seeds: Iterable[
 
 
 def reframing(n_contacts: int, how: str, seed: int):
-    """``(perm, angles)`` of :func:`socp_cd.bench.transforms.contact_map` for :func:`reframe`:
-    a random permutation and no turn (``how="order"``), or no renumbering and angles uniform
-    in ``[0, 2π)`` (``"frames"``), drawn with ``seed``."""
+    """The draw of :func:`reframe`: what :func:`socp_cd.bench.transforms.contact_map` takes.
+
+    Parameters
+    ----------
+    n_contacts : int
+    how : {"order", "frames"}
+        A random permutation and no turn, or no renumbering and angles uniform
+        in ``[0, 2π)``.
+    seed : int
+
+    Returns
+    -------
+    perm : ndarray of int (n_contacts,)
+    angles : ndarray (n_contacts,)
+    """
     if how not in REFRAMINGS:
         raise InvalidProblemError("how", f"must be one of {REFRAMINGS}, got {how!r}")
     rng = np.random.default_rng(seed)
@@ -295,8 +318,19 @@ def reframing(n_contacts: int, how: str, seed: int):
 
 
 def reframe(problem, how: str, seed: int):
-    """``problem`` with its contacts renumbered or their tangent bases turned (:func:`reframing`;
-    :func:`socp_cd.bench.transforms.reframed`, the stored solution mapped)."""
+    """``problem`` with its contacts renumbered or their tangent bases turned.
+
+    Parameters
+    ----------
+    problem : FrictionContactProblem or GlobalFrictionContactProblem
+    how, seed
+        As :func:`reframing`.
+
+    Returns
+    -------
+    FrictionContactProblem or GlobalFrictionContactProblem
+        :func:`socp_cd.bench.transforms.reframed`'s copy, its stored solution mapped.
+    """
     perm, angles = reframing(problem.n_contacts, how, seed)
     copy, _ = transforms.reframed(problem, perm, angles)
     return copy
@@ -310,7 +344,8 @@ def reframed_cases(data_dir, *, mus: Iterable[float] = REFRAMED_MUS,
     Case ``real-reframed/<file>/<base parameters>/<how>`` is the
     ``real-manufactured/<file>/<base parameters>`` case through :func:`reframe`,
     its random draw (:func:`reframing`) seeded by a hash of its own identifier,
-    ``params["draw"]``; ``params["base"]`` names the base case.  Split by the copy's identifier, as every case.
+    ``params["draw"]``; ``params["base"]`` names the base case, whose split it
+    takes.
 
     Parameters
     ----------
@@ -335,13 +370,13 @@ def reframed_cases(data_dir, *, mus: Iterable[float] = REFRAMED_MUS,
             for how in hows:
                 cid = f"real-reframed/{tail}/{how}"
                 draw = _hash_seed(cid)
+                base_id = f"real-manufactured/{tail}"
 
                 def build(base=base, mu=mu, mix=mix, seed=seed, how=how, draw=draw):
                     return reframe(manufacture(base, mu, mix, seed), how, draw)
-                cases.append(EvalCase(cid, "real-reframed", path.name, split_of(cid), nc, dim,
-                                      glob, build, dict(mu=mu, mix=mix_name, seed=seed, how=how,
-                                                        draw=draw,
-                                                        base=f"real-manufactured/{tail}")))
+                cases.append(EvalCase(cid, "real-reframed", path.name, case_split(cid), nc,
+                                      dim, glob, build, dict(mu=mu, mix=mix_name, seed=seed,
+                                                             how=how, draw=draw, base=base_id)))
     return cases
 
 
@@ -365,7 +400,8 @@ def iter_problems(cases: Iterable[EvalCase], split: str | None = None) -> Iterat
 
 
 def exact_error(problem, r) -> float:
-    """Relative distance of ``u(r)`` to the manufactured ``u*`` (``u`` is unique; ``r`` may not be)."""
+    """Relative distance of ``u(r)`` to the manufactured ``u*`` (``r`` need not be unique; with
+    strong friction ``u`` need not be either: another solution is then far from ``u*``)."""
     sol = problem.solution
     if sol is None or sol.u is None:
         return float("nan")
@@ -373,7 +409,7 @@ def exact_error(problem, r) -> float:
     return float(np.linalg.norm(u - sol.u) / max(np.linalg.norm(sol.u), np.finfo(float).tiny))
 
 
-__all__ = ["MUS", "MIXES", "SCALES", "TUNE_FRACTION", "EvalCase", "split_of", "manufacture",
-           "manufacture_local", "manufacture_global", "rescaled", "manufactured_cases",
+__all__ = ["MUS", "MIXES", "SCALES", "TUNE_FRACTION", "EvalCase", "split_of", "case_split",
+           "manufacture", "manufacture_local", "manufacture_global", "rescaled", "manufactured_cases",
            "REFRAMED_MUS", "REFRAMINGS", "reframing", "reframe", "reframed_cases",
            "collection_cases", "iter_problems", "exact_error"]

@@ -31,8 +31,8 @@ from ..problem import FrictionContactProblem, GlobalFrictionContactProblem, Solu
 
 def _map_solutions(problem, fr, fu, keep_v=False):
     def one(sol):
-        return Solution(r=None if sol.r is None else fr(sol.r), u=None if sol.u is None else fu(sol.u),
-                        v=sol.v if keep_v else None)
+        return Solution(r=None if sol.r is None else fr(sol.r),
+                        u=None if sol.u is None else fu(sol.u), v=sol.v if keep_v else None)
     return (None if problem.solution is None else one(problem.solution),
             [one(g) for g in problem.guesses])
 
@@ -132,11 +132,17 @@ def contact_map(perm, angles, dim: int) -> sp.csr_matrix:
 
 
 def reframed(problem, perm, angles):
-    """Contacts renumbered (``perm``) and their tangent bases turned (``angles``): :func:`contact_map`.
+    """Contacts renumbered and their tangent bases turned, by ``T`` of :func:`contact_map`.
 
     A local problem becomes ``W' = T W T^T``, ``q' = T q``; a global one
     ``H' = H T^T``, ``w' = T w`` (``M``, ``f`` and ``v`` unchanged); ``mu' =
     mu[perm]``.  Stored solutions map as ``r' = T r``, ``u' = T u``.
+
+    Parameters
+    ----------
+    problem : FrictionContactProblem or GlobalFrictionContactProblem
+    perm, angles
+        As :func:`contact_map`.
 
     Returns
     -------

@@ -112,9 +112,10 @@ PLAIN_STALL_LARGE = None
 #: ... and for ``"newton_plain_cold"`` alone on those problems, this many (None: as
 #: ``"newton_plain"``).  Plain Newton from ``r = 0`` wanders among the contact branches, its
 #: best error flat, before it converges, and how long depends on rounding (Capsules-i122
-#: ``q x 1e-6``: 146 steps; the same case renumbered or perturbed by 1e-13: 53-283).  200, the
-#: cap: tune and held out, 1 s and 10 s, won 3 lost 0, sgm within 1 % (session 30;
-#: formulations/auto.md, "The cold plain stage's stall window")
+#: ``q x 1e-6``: 146 steps; copies with ``q`` perturbed by 1e-13: 51-258, or not in 300;
+#: validation/results/cold_plain_lottery_s30.md).  200, the
+#: cap: tune won 3 lost 0 at 10 s (none at 1 s), held out none won or lost, 3D sgm +1.3-1.6 %
+#: (session 30; formulations/auto.md, "The cold plain stage's stall window")
 COLD_PLAIN_STALL_LARGE = 200
 #: ... and after at most this many steps (unless ``max_iter`` is given)
 PLAIN_MAX_ITER = 200
