@@ -288,6 +288,21 @@ def test_large_local_problems_start_with_an_nsgs_probe(monkeypatch):
     assert auto.stage_order(big, "coulomb", auto.features(big, "coulomb"))[0][0] == "newton"
 
 
+def test_cold_split_knob_adds_a_second_cold_plain_stage_on_large_problems(monkeypatch):
+    big, small = _local(auto.SMALL_NC + 1, 3, 8, mu=0.3), _local(4, 3, 8)
+
+    def names(p):
+        return [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
+    assert "newton_plain_cold_split" not in names(big)          # off by default
+    monkeypatch.setattr(auto, "COLD_SPLIT", True)
+    order = names(big)
+    assert order[order.index("newton_plain_cold") + 1] == "newton_plain_cold_split"
+    assert "newton_plain_cold_split" not in names(small)      # not in the small chain
+    spec, opts = auto._STAGES["newton_plain_cold_split"]
+    assert opts == {"policy": "plain", "rho": "split"} and "newton_plain_cold_split" in auto.ALWAYS_COLD
+    assert auto._plain_stall("newton_plain_cold_split", False) == auto.COLD_PLAIN_STALL_LARGE
+
+
 def _recording_stage(log, name, result_r):
     """A fake stage recording ``r0``, ``max_iter`` and the options it was called with."""
     def func(problem, formulation, *, tol, max_iter, r0, history, time_limit, verbose,

@@ -53,8 +53,9 @@ Options
 -------
 methods : sequence of str, optional
     Explicit stage order (names among ``"newton"``, ``"newton_plain"``,
-    ``"newton_plain_cold"``, ``"newton_trial"``, ``"newton_trial_cold"``,
-    ``"newton_trial_prox"``, ``"newton_cold_alt"``, ``"nsgs"``, ``"nsgs_probe"``, ``"clarabel"``
+    ``"newton_plain_cold"``, ``"newton_plain_cold_split"``, ``"newton_trial"``,
+    ``"newton_trial_cold"``, ``"newton_trial_prox"``, ``"newton_cold_alt"``, ``"nsgs"``,
+    ``"nsgs_probe"``, ``"clarabel"``
     and ``"clarabel_qp"`` (Clarabel on the frictionless QP))
     instead of the feature-based one (no hand-off then).
 
@@ -117,6 +118,12 @@ PLAIN_STALL_LARGE = None
 #: cap: tune won 3 lost 0 at 10 s (none at 1 s), held out none won or lost, 3D sgm +1.3-1.6 %
 #: (session 30; formulations/auto.md, "The cold plain stage's stall window")
 COLD_PLAIN_STALL_LARGE = 200
+#: outside the small local chain, after ``"newton_plain_cold"``, the same stage with the
+#: Alart-Curnier parameters ``rho="split"`` (``"newton_plain_cold_split"``: a second draw of
+#: the same method from ``r = 0``; a study knob, False: off).  Session 30, tune: won 3 lost 1
+#: at 1 s, won 2 lost 2 at 10 s; not adopted (formulations/auto.md, "The cold plain stage's
+#: stall window")
+COLD_SPLIT = False
 #: ... and after at most this many steps (unless ``max_iter`` is given)
 PLAIN_MAX_ITER = 200
 #: local exact-Coulomb problems with more than SMALL_NC contacts start with an NSGS
@@ -218,6 +225,7 @@ _STAGES = {
     "nsgs_probe": (nsgs.SPEC, {}),
     "newton_plain": (newton.SPEC, {"policy": "plain"}),     # + PLAIN_STALL, PLAIN_MAX_ITER
     "newton_plain_cold": (newton.SPEC, {"policy": "plain"}),    # (read when the stage runs)
+    "newton_plain_cold_split": (newton.SPEC, {"policy": "plain", "rho": "split"}),
     "nsgs": (nsgs.SPEC, {}),
     "newton_trial": (newton.SPEC, {"policy": "plain"}),    # + TRIAL_STALL, TRIAL_STEPS
     "newton_trial_cold": (newton.SPEC, {"policy": "plain"}),   # + COLD_TRIAL_* (from r = 0)
@@ -248,23 +256,25 @@ SLOW_TO_STOP = ("clarabel", "clarabel_qp")
 #: none lost (validation/results/auto_chain_tune_s22slow{,01}.md)
 MIN_SLOW_START = 0.1
 #: stages always started from ``r = 0`` (or the caller's ``r0`` when first)
-ALWAYS_COLD = ("newton_plain_cold", "newton_trial_cold", "newton_trial_prox", "newton_cold_alt")
+ALWAYS_COLD = ("newton_plain_cold", "newton_plain_cold_split", "newton_trial_cold",
+               "newton_trial_prox", "newton_cold_alt")
 #: the hand-off's cold trials (run only after a failed first trial, on m <= COLD_MAX_M)
 _COLD_TRIALS = ("newton_trial_cold", "newton_trial_prox")
 #: stages of the Newton method: a refused answer of one is retried as ``"newton"`` (warm)
 _NEWTON_FAMILY = tuple(name for name, (spec, _) in _STAGES.items() if spec is newton.SPEC)
 #: stages with their own stall window (:data:`PLAIN_STALL`, :data:`PLAIN_STALL_LARGE`) and,
 #: when ``max_iter`` is None, iteration cap (:data:`PLAIN_MAX_ITER`), read when the stage runs
-_CAPPED = ("newton_plain", "newton_plain_cold")
+_CAPPED = ("newton_plain", "newton_plain_cold", "newton_plain_cold_split")
 #: share of the remaining budget of the (cheap, trial) plain stages, instead of STAGE_SHARE
 PLAIN_SHARE = 0.25
 _SHARES = {"newton_plain": PLAIN_SHARE, "newton_plain_cold": PLAIN_SHARE,
+           "newton_plain_cold_split": PLAIN_SHARE,
            "newton_trial": PLAIN_SHARE, "newton_trial_cold": PLAIN_SHARE,
            "newton_trial_prox": PLAIN_SHARE}
 
 OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'newton_plain', 'newton_plain_cold', "
-               "'newton_trial', 'newton_trial_cold', 'newton_trial_prox', 'newton_cold_alt', "
+               "'newton_plain_cold_split', 'newton_trial', 'newton_trial_cold', 'newton_trial_prox', 'newton_cold_alt', "
                "'nsgs', 'nsgs_probe', "
                "'clarabel', 'clarabel_qp' (default: chosen from the problem's features)",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
@@ -313,6 +323,8 @@ def stage_order(problem, formulation, feats) -> tuple:
     # right after the first (proximal) Newton stage: plain nonmonotone Newton steps from
     # its iterate, then from r = 0 (Siconos NSN_AC's method; formulations/auto.md)
     plain = (("newton_plain", "coulomb"), ("newton_plain_cold", "coulomb"))
+    if COLD_SPLIT and not _small_local(feats):
+        plain = plain + (("newton_plain_cold_split", "coulomb"),)
     if ALT_ALPHA0 is not None:
         plain = plain + (("newton_cold_alt", "coulomb"),)
     if _small_local(feats):
@@ -506,10 +518,10 @@ def _cold_steps(method):
 
 def _plain_stall(method, small):
     """Stall window of a plain stage (:data:`PLAIN_STALL`; outside the small local chain
-    :data:`PLAIN_STALL_LARGE`, and :data:`COLD_PLAIN_STALL_LARGE` for the cold one)."""
+    :data:`PLAIN_STALL_LARGE`, and :data:`COLD_PLAIN_STALL_LARGE` for the cold ones)."""
     if small:
         return PLAIN_STALL
-    if method == "newton_plain_cold" and COLD_PLAIN_STALL_LARGE is not None:
+    if method != "newton_plain" and COLD_PLAIN_STALL_LARGE is not None:
         return COLD_PLAIN_STALL_LARGE
     return PLAIN_STALL if PLAIN_STALL_LARGE is None else PLAIN_STALL_LARGE
 
