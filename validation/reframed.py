@@ -131,21 +131,24 @@ def velocity_of_base(case, u_copy):
 
 
 def pairs(rows):
-    """``[(base row, copy row, gap)]`` per solver, ``gap`` ``||T^T u' - u|| / max(||u*||, ||q||)``
-    when both are solved (else nan; ``u* = 0`` when every contact sticks or grazes)."""
+    """``[(base row, copy row, gap)]`` per solver, ``gap`` the copy row's ``u_gap``."""
     base = {(r["case"], r["solver"]): r for r in rows if r["how"] == "base"}
     out = []
     for r in rows:
         if r["how"] == "base":
             continue
         b = base.get((r["base"], r["solver"]))
-        if b is None:
-            continue
-        gap = float(r["u_gap"]) if "u_gap" in r else math.nan
-        if b["solved"] and r["solved"] and "_u" in r:
-            gap = float(np.linalg.norm(r["_u"] - b["_u"]) / max(b["u_norm"], 1e-300))
-        out.append((b, r, gap))
+        if b is not None:
+            out.append((b, r, r["u_gap"]))
     return out
+
+
+def fill_gaps(rows) -> None:
+    """Each copy row's ``u_gap``: ``||T^T u' - u|| / max(||u*||, ||q||)`` against its base row
+    when both are solved (else left nan; ``u* = 0`` when every contact sticks or grazes)."""
+    for b, c, _ in pairs(rows):
+        if b["solved"] and c["solved"]:
+            c["u_gap"] = float(np.linalg.norm(c["_u"] - b["_u"]) / max(b["u_norm"], 1e-300))
 
 
 def write_md(rows, args, path, png) -> None:
@@ -193,7 +196,7 @@ def write_md(rows, args, path, png) -> None:
     path.write_text("\n".join(lines) + "\n")
 
 
-def plot(rows, png) -> None:
+def plot(rows, png, tol) -> None:
     """Per solver: the copy's measure (max of error and guard) against the base's, log-log,
     with the tolerance lines; one marker per reframing."""
     import matplotlib
@@ -217,8 +220,8 @@ def plot(rows, png) -> None:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.plot([floor, 1], [floor, 1], color="0.7", lw=0.8)
-        ax.axvline(args_tol[0], color="tab:red", lw=0.8, ls="--")
-        ax.axhline(args_tol[0], color="tab:red", lw=0.8, ls="--")
+        ax.axvline(tol, color="tab:red", lw=0.8, ls="--")
+        ax.axhline(tol, color="tab:red", lw=0.8, ls="--")
         ax.set_xlim(floor, 2)
         ax.set_ylim(floor, 2)
         ax.set_title(s)
@@ -226,7 +229,7 @@ def plot(rows, png) -> None:
         ax.set_ylabel("reframed copy: max(error, guard)")
         ax.legend(loc="upper left", fontsize=8)
     fig.suptitle("Same problem, written differently:\noutcome on the copy vs the base "
-                 f"(tol {args_tol[0]:g}, dashed)")
+                 f"(tol {tol:g}, dashed)")
     fig.tight_layout()
     fig.savefig(png, dpi=120)
     plt.close(fig)
@@ -248,10 +251,6 @@ def read_rows(path):
     return rows
 
 
-#: the tolerance the figure draws (set by main)
-args_tol = [1e-8]
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--solvers", nargs="+", default=["auto"])
@@ -266,11 +265,10 @@ def main(argv=None) -> int:
                     help="write <out>.md and <out>.png again from <out>.csv (no solve), each "
                          "case in its split by the evaluation set's current rule")
     args = ap.parse_args(argv)
-    args_tol[0] = args.tol
     if args.report:
         rows = read_rows(args.out.with_suffix(".csv"))
         png = args.out.with_suffix(".png")
-        plot(rows, png)
+        plot(rows, png, args.tol)
         write_md(rows, args, args.out.with_suffix(".md"), png)
         return 0
     if args.siconos and not siconos_available():
@@ -278,13 +276,12 @@ def main(argv=None) -> int:
     bases, copies = cases(args.max_contacts, args.split)
     print(f"{len(bases)} base cases, {len(copies)} copies", flush=True)
     rows = run(bases, copies, args.solvers, args.siconos, args.tol, args.time_limit)
-    for _, c, gap in pairs(rows):
-        c["u_gap"] = gap
+    fill_gaps(rows)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     write_csv([{k: v for k, v in r.items() if not k.startswith("_") and k != "u_norm"}
                for r in rows], args.out.with_suffix(".csv"))
     png = args.out.with_suffix(".png")
-    plot(rows, png)
+    plot(rows, png, args.tol)
     write_md(rows, args, args.out.with_suffix(".md"), png)
     return 0
 
