@@ -1,7 +1,7 @@
 """``solver="auto"``: a portfolio that chains the built-in methods (the default of ``solve()``).
 
 It models only what the problem requires and tries methods in an order chosen
-from cheap problem features, handing the best iterate so far to the next
+from cheap problem features, handing the best iterate so far (the seed) to the next
 method as its warm start (the De Saxcé fixed point only when that iterate is
 close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
 
@@ -46,8 +46,12 @@ judges by that error first); after a stage that met the first and not the second
 once more from its answer (:data:`RETRY_REFUSED`) and the later stages aim at
 the dispatcher's retry tolerance
 (:func:`~socp_cd.solvers.options.tightened_tolerance`).  The dispatcher
-recomputes both once more independently.  The returned ``r`` is
-the best iterate of all stages (never worse than any stage).
+recomputes both once more independently.  Later stages start from the *seed*
+(:data:`SEED_BY_GUARD`): the best iterate by the error, except that one within
+``tol`` by the error ranks by the larger of the error and the guard, so an answer
+the guard refuses by far is not a start; the chain also stops at a seed that meets
+both measures.  The returned ``r`` is that seed when the chain converged, else the
+best iterate of all stages by the error (never worse than any stage).
 
 Options
 -------
@@ -120,10 +124,21 @@ PLAIN_STALL_LARGE = None
 COLD_PLAIN_STALL_LARGE = 200
 #: outside the small local chain, after ``"newton_plain_cold"``, the same stage with the
 #: Alart-Curnier parameters ``rho="split"`` (``"newton_plain_cold_split"``: a second draw of
-#: the same method from ``r = 0``; a study knob, False: off).  Session 30, tune: won 3 lost 1
-#: at 1 s, won 2 lost 2 at 10 s; not adopted (formulations/auto.md, "The cold plain stage's
-#: stall window")
-COLD_SPLIT = False
+#: the same method from ``r = 0``; False: off).  Session 30, tune: won 3 lost 1 at 1 s, won 2
+#: lost 2 at 10 s, its losses a guard-refused answer that became the seed of later stages;
+#: session 31, with SEED_BY_GUARD: won 3 lost 0 and won 3 lost 2 at 1 s (the two under a
+#: loaded machine), won 2 lost 1 at 10 s (a Kapla case at the budget's edge); adopted
+#: (formulations/auto.md, "Two iterates")
+COLD_SPLIT = True
+#: the iterate later stages start from (the *seed*): False, the best iterate by the stage
+#: judge's error (Siconos' error), the one returned when no stage meets ``tol``; True, the
+#: same, except that an iterate within ``tol`` by that error ranks by the larger of the error
+#: and the units guard's value.  On a rank-deficient ``W`` a stage can end at a tiny error
+#: with an impulse large in ``W``'s null space, which the guard refuses: ranked by the error
+#: alone it became every later stage's start (Capsules-i125 μ = 2 mixed, session 30).  With
+#: the knob the chain also stops at a seed that meets both measures, and returns it
+#: (formulations/auto.md, "Two iterates")
+SEED_BY_GUARD = True
 #: ... and after at most this many steps (unless ``max_iter`` is given)
 PLAIN_MAX_ITER = 200
 #: local exact-Coulomb problems with more than SMALL_NC contacts start with an NSGS
@@ -833,12 +848,27 @@ def _route_info(dim, nc, x, method, seconds, status) -> dict:
             "route": "compiled"}
 
 
-def _starts_cold(method, k, best_err) -> bool:
+def _starts_cold(method, k, seed_err) -> bool:
     """Whether stage ``k`` (``method``) starts from ``r = 0`` (the first stage starts from the
-    caller's ``r0``): :data:`ALWAYS_COLD`, or :data:`COLD_STAGES` while the best error is above
+    caller's ``r0``): :data:`ALWAYS_COLD`, or :data:`COLD_STAGES` while the seed's error is above
     :data:`WARM_MAX`."""
     return k > 0 and (method in ALWAYS_COLD
-                      or (method in COLD_STAGES and not best_err <= WARM_MAX))
+                      or (method in COLD_STAGES and not seed_err <= WARM_MAX))
+
+
+def _seed_score(judge, r, err, tol) -> float:
+    """The rank of ``r`` (stage judge's error ``err``) as the chain's seed, least first
+    (:data:`SEED_BY_GUARD`): ``err``; with the knob, an ``r`` within ``tol`` by ``err``
+    ranks by the larger of ``err`` and the units guard's value, so that one the guard
+    refuses ranks by how far it is refused (``inf`` without an iterate).  Iterates farther
+    than ``tol`` keep their rank by the error: ranked by the guard there too, the chain's
+    warm starts changed on held-out cases (OneObject ×6.5 slower; formulations/auto.md)."""
+    if r is None or not err < np.inf:
+        return np.inf
+    if not (SEED_BY_GUARD and err <= tol):
+        return err
+    g = judge.guard_value(r)
+    return err if err >= g else g       # (NaN guard: inf from guard_value, never NaN)
 
 
 def _round_gain(bests, since) -> bool:
@@ -885,6 +915,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     best_r = None if r0 is None else np.array(r0, dtype=np.float64)
     best_err = judge(best_r) if best_r is not None else np.inf
     best_v, best_stage = None, -1
+    # the seed: the iterate later stages start from (SEED_BY_GUARD), its error and its rank
+    seed_r, seed_err, seed_v, seed_stage = best_r, best_err, None, -1
+    seed_score = _seed_score(judge, best_r, best_err, tol)
     local = None
     path, hist = [], ([] if history else None)
     iterations, status, message = 0, "max_iter", ""
@@ -927,7 +960,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             variant = "at_cap"      # the second trial starts from NSGS's iterate, not the best
         # a stage started from r = 0 (or the caller's r0) has the same start whatever the best
         # iterate: keyed without its version (a round's fixed point after a cold one: skipped)
-        cold = _starts_cold(method, k, best_err)
+        cold = _starts_cold(method, k, seed_err)
         key = (method, form, None if cold else version, variant)
         if key in ran:
             continue    # same deterministic method from the same start: nothing to gain
@@ -966,8 +999,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             st, its, dt = stage["status"], int(stage["iterations"]), float(stage["time"])
             err = judge(r)
         elif (trials and method == trials[0]["stage"]["method"] and stage_tol == tol
-              and (not trials[0]["warm"] or (best_r is not None
-                                             and np.array_equal(best_r, resume["r"])))):
+              and (not trials[0]["warm"] or (seed_r is not None
+                                             and np.array_equal(seed_r, resume["r"])))):
             # the next trial the compiled route ran after it, from the same start and tol
             done = trials.pop(0)
             stage, r, res = done["stage"], np.asarray(done["r"], dtype=np.float64), None
@@ -999,7 +1032,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             opts = dict(stage_opts)
             # a probe that missed by far hands nothing on: Newton from a far NSGS iterate with
             # the warm proximal parameter was 2-5x slower than from the start (auto_probe.md)
-            if method == "newton" and best_r is not None and not after_far_probe:
+            if method == "newton" and seed_r is not None and not after_far_probe:
                 opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
             if method in ("newton", "newton_cold_alt") and NEWTON_STALL is not None:
                 opts["stall_window"] = NEWTON_STALL
@@ -1036,9 +1069,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 opts["threshold"] = options["threshold"]
             t0 = _clock()
             try:
-                start = None if cold else r0 if after_far_probe else best_r
+                start = None if cold else r0 if after_far_probe else seed_r
                 if method == "newton_trial" and not mid_ran:
-                    start = best_r          # the first trial: from NSGS's iterate, far or not
+                    start = seed_r          # the first trial: from NSGS's iterate, far or not
                 if method in ("nsgs_mid", "nsgs_rest") or (method == "newton_trial" and mid_ran):
                     start = nsgs_own[0]     # NSGS's own iterate (the second trial: at the cap)
                 res = spec.func(target, form, tol=stage_tol, max_iter=stage_max_iter, r0=start,
@@ -1076,12 +1109,23 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         if err < best_err:
             best_r, best_err, best_stage = r, err, k
             best_v = res.v if (res is not None and target is problem) else None
-            version += 1
+        if err < seed_score:        # (the rank is at least the error: else no gain)
+            score = _seed_score(judge, r, err, tol)
+            if score < seed_score:
+                seed_r, seed_err, seed_score, seed_stage = r, err, score, k
+                seed_v = res.v if (res is not None and target is problem) else None
+                version += 1        # (the start of the warm stages changed)
         status = st if st != "converged" else "stalled"
         if best_err <= tol:
             g = judge.guard_value(best_r)
             if g <= tol:
                 status, message = "converged", f"{method} met tol"
+                break
+            if SEED_BY_GUARD and seed_score <= tol:
+                # the best by the error is refused, the seed meets both measures: the answer
+                best_r, best_err, best_v, best_stage = seed_r, seed_err, seed_v, seed_stage
+                status = "converged"
+                message = f"{order[seed_stage][0] if seed_stage >= 0 else 'r0'} met tol"
                 break
             # within tol by the stages' measure, not by the guard: the later stages aim lower,
             # as the dispatcher's retry would (options.tightened_tolerance)
@@ -1124,4 +1168,4 @@ __all__ = ["auto_backend", "route", "plain", "features", "stage_order", "SPEC", 
            "PLAIN_STALL_LARGE", "COLD_PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC", "RETRY_REFUSED",
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
-           "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START"]
+           "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD"]
