@@ -637,8 +637,7 @@ def plain(problem, tol, time_limit, t0):
     # "converged", keep the two in step)
     if stage_error <= lo and guard_value <= lo and error <= lo:
         s = _clock()
-        m = dim * nc
-        return SolverResult.of_local(out[m:2 * m], out[2 * m:3 * m], "converged", error, sweeps,
+        return SolverResult.of_local(out[1], out[2], "converged", error, sweeps,
                                      LazyInfo((_flat_route_info, dim, nc, out, "nsgs", s - s0,
                                                code)),
                                      "nsgs met tol", zero_error <= tol, True, "auto",

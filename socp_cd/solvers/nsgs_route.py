@@ -232,22 +232,24 @@ def nsgs_checked_flat(indptr, indices, data, q, mu, dim, warm, tol, max_iter, bl
                       first_block, time_left, kind, loc_tol, newton_max_iter,
                       projection_max_iter, omega, error_every, stall_window, need_friction,
                       handoff_sweeps, handoff_work, predict_window, out):
-    """:func:`nsgs_checked` with its outputs in one vector ``out`` of ``3 m +`` :data:`_N_OUT`
-    entries: the rows of ``vectors`` one after the other (the start ``r0`` in the first ``m``
-    with ``warm``), then ``stats``.
+    """:func:`nsgs_checked` with its outputs in one array ``out`` of :func:`flat_rows`
+    ``(m)`` rows of ``m``: the rows of ``vectors`` (the start ``r0`` in the first with
+    ``warm``), then ``stats`` (the first :data:`_N_OUT` entries of the rows after, in
+    order).
 
     Returns ``(code, sweeps, internal_error, error, guard_value, zero_error)``: the
     code and the entries of ``stats`` a caller judges a run by (:func:`run_flat`).  Boxing
     these five numbers, not the twenty of the tuple, saves 0.2 µs of a one-contact call.
     """
     m = q.shape[0]
-    stats = out[3 * m:]
+    entries = out.reshape(out.size)
+    stats = entries[3 * m:3 * m + _N_OUT]
     stats[:] = 0.0
     code = checked_work(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked,
                         first_block, time_left, kind, loc_tol, newton_max_iter,
                         projection_max_iter, omega, error_every, stall_window, need_friction,
                         handoff_sweeps, handoff_work, predict_window,
-                        out[:3 * m].reshape((3, m)), stats)
+                        entries[:3 * m].reshape((3, m)), stats)
     return (code, int(stats[SWEEPS]), stats[INTERNAL_ERROR], stats[ERROR], stats[GUARD_VALUE],
             stats[ZERO_ERROR])
 
@@ -566,7 +568,14 @@ def run_prepared(problem, tail, tol, max_iter, r0, time_limit, _new=tuple.__new_
     :func:`run_flat`)."""
     mu = problem.mu
     indptr, indices, data = problem.csr_parts
-    if not _takes(mu.shape[0], max_iter, time_limit, indptr):
+    nc = mu.shape[0]
+    # the bounds (MAX_CONTACTS; a sweep cap the kernel's int64 holds, options.MAX_ITER;
+    # with a time limit and no compiled clock, MIN_TIME_LIMIT and MAX_TIMED_WORK, compared
+    # in floats, where max_iter * nnz would wrap around in int64; run_flat's too)
+    if (nc > MAX_CONTACTS or nc == 0 or max_iter > MAX_ITER
+            or time_limit is not None and not clock.AVAILABLE and not (
+                time_limit >= MIN_TIME_LIMIT
+                and float(max_iter) * max(int(indptr[-1]), 1) <= MAX_TIMED_WORK)):
         return None
     q = problem.q
     vectors = np.empty((3, q.shape[0]))
@@ -589,19 +598,23 @@ def run_flat(problem, tail, tol, max_iter, r0, time_limit):
 
     ``numbers`` are the kernel's returns ``(code, sweeps, internal_error, error, guard_value,
     zero_error)`` (``code`` one of :data:`~socp_cd.solvers.nsgs_kernels.STATUS_NAMES`), ``out``
-    its vector: ``r = out[m:2 m]``, ``u = out[2 m:3 m]`` (:func:`flat_outcome` makes the
+    its array: rows ``r~``, ``r``, ``u``, then the stats (:func:`flat_outcome` makes the
     :data:`RouteOutcome` :func:`run_prepared` returns, :func:`flat_stats` its ``stats``).
     For a caller that judges most runs by these numbers alone
-    (:func:`socp_cd.solvers.auto.plain`)."""
+    (:func:`socp_cd.solvers.auto.plain`; a row of ``out`` costs it less than a slice)."""
     mu = problem.mu
     indptr, indices, data = problem.csr_parts
-    if not _takes(mu.shape[0], max_iter, time_limit, indptr):
+    nc = mu.shape[0]
+    if (nc > MAX_CONTACTS or nc == 0 or max_iter > MAX_ITER      # (run_prepared's bounds)
+            or time_limit is not None and not clock.AVAILABLE and not (
+                time_limit >= MIN_TIME_LIMIT
+                and float(max_iter) * max(int(indptr[-1]), 1) <= MAX_TIMED_WORK)):
         return None
     q = problem.q
     m = q.shape[0]
-    out = np.empty(3 * m + _N_OUT)
+    out = np.empty((3 - (-_N_OUT // m), m))      # (flat_rows(m), without a call)
     if r0 is not None:
-        out[:m] = problem.check_reaction(r0, "r0")
+        out[0] = problem.check_reaction(r0, "r0")
     kernel = _FLAT.get(indptr.dtype) if indices.dtype is indptr.dtype else None
     x = (kernel or _flat_entry(indptr, indices))(
         indptr, indices, data, q, mu, problem.dim, r0 is not None, tol,
@@ -612,27 +625,21 @@ def run_flat(problem, tail, tol, max_iter, r0, time_limit):
     return x, out
 
 
+def flat_rows(m) -> int:
+    """Rows of :func:`nsgs_checked_flat`'s ``out`` for ``m`` unknowns: three, and those the
+    :data:`_N_OUT` stats fill."""
+    return 3 - (-_N_OUT // m)
+
+
 def flat_stats(out) -> tuple:
     """The ``stats`` tuple of :func:`run_flat`'s ``out`` (:func:`nsgs_checked`'s)."""
-    return tuple(out[out.shape[0] - _N_OUT:].tolist())
+    m = out.shape[1]
+    return tuple(out.reshape(-1)[3 * m:3 * m + _N_OUT].tolist())
 
 
 def flat_outcome(numbers, out):
     """The :data:`RouteOutcome` of :func:`run_flat`'s returns (:func:`run_prepared`'s)."""
-    m = (out.shape[0] - _N_OUT) // 3
-    return RouteOutcome(STATUS_NAMES[numbers[0]], out[:3 * m].reshape(3, m), flat_stats(out))
-
-
-def _takes(nc, max_iter, time_limit, indptr) -> bool:
-    """Whether the route takes ``nc`` contacts, ``max_iter`` sweeps and ``time_limit``
-    (:func:`run`'s bounds; ``indptr``: ``W``'s)."""
-    # (MAX_CONTACTS; a sweep cap the kernel's int64 holds, options.MAX_ITER; with a time
-    # limit and no compiled clock, MIN_TIME_LIMIT and MAX_TIMED_WORK, compared in floats,
-    # where max_iter * nnz would wrap around in int64)
-    return not (nc > MAX_CONTACTS or nc == 0 or max_iter > MAX_ITER
-                or time_limit is not None and not clock.AVAILABLE and not (
-                    time_limit >= MIN_TIME_LIMIT
-                    and float(max_iter) * max(int(indptr[-1]), 1) <= MAX_TIMED_WORK))
+    return RouteOutcome(STATUS_NAMES[numbers[0]], out[:3], flat_stats(out))
 
 
 #: :func:`nsgs_checked`'s entry point (:mod:`~socp_cd.solvers.kernels.entry`) by the dtype of
@@ -652,7 +659,7 @@ def _checked_entry(indptr, indices):
 
 def _flat_entry(indptr, indices):
     """:func:`nsgs_checked_flat`'s entry point, as :func:`_checked_entry` (in :data:`_FLAT`)."""
-    return _entry(indptr, indices, nsgs_checked_flat, _FLAT, F64_VECTOR)
+    return _entry(indptr, indices, nsgs_checked_flat, _FLAT, types.Array(types.float64, 2, "C"))
 
 
 def _entry(indptr, indices, kernel, table, last):
@@ -751,7 +758,7 @@ def trial_outcome(problem, norm_q, status, r_s):
 
 
 __all__ = ["nsgs_checked", "nsgs_checked_flat", "checked_work", "run", "run_prepared", "run_flat",
-           "flat_outcome", "flat_stats", "prepared", "trial_run", "trial_checked", "newton_checked", "trial_runner", "run_record", "trial_outcome", "judge_norm", "judge_units",
+           "flat_outcome", "flat_stats", "flat_rows", "prepared", "trial_run", "trial_checked", "newton_checked", "trial_runner", "run_record", "trial_outcome", "judge_norm", "judge_units",
            "checked_answer", "TRIAL_MAX_M", "TRIAL_CONSTANTS", "C_ALPHA0", "C_ALPHA_MIN", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
            "MIN_TIME_LIMIT", "MAX_TIMED_WORK", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
            "LIGHT", "ERROR", "ZERO_ERROR", "START_ERROR", "MU_MAX", "GUARD_VALUE"]
