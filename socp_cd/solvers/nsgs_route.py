@@ -162,7 +162,7 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked
                  vectors):
     """Balance, NSGS sweeps from ``vectors[0]`` or 0, map back, and the dispatcher's checks, in
     one call (:func:`checked_work`; :func:`nsgs_checked_flat` is the same call with its
-    outputs in one vector).
+    outputs in one array).
 
     Parameters
     ----------
