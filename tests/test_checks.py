@@ -174,8 +174,13 @@ def test_problem_from_csr_arrays_builds_its_matrix_only_when_asked():
     W = bp.W
     assert bp.W is W and bp._W is W                               # built once
     assert np.array_equal(W.toarray(), p.rescaled(rec.a, rec.b).W.toarray())
-    parts = bp.csr_parts                                          # now read from the matrix
-    assert parts[0] is W.indptr and parts[2] is W.data
+    # the arrays the problem was made with, kept (made once: the compiled calls read them),
+    # the matrix's entries
+    assert all(x is y for x, y in zip(bp.csr_parts, (indptr, indices, data)))
+    assert all(np.array_equal(x, y) for x, y in zip(bp.csr_parts, (W.indptr, W.indices, W.data)))
+    # a problem made from a matrix: its arrays, the tuple made with the problem
+    assert p.csr_parts is p.csr_parts and all(
+        x is y for x, y in zip(p.csr_parts, (p.W.indptr, p.W.indices, p.W.data)))
 
 
 def test_block_storage_from_arrays_equals_block_csr():

@@ -386,6 +386,31 @@ def test_stats_layout_of_the_route():
                                             for name in ("velocity_scale", "diag_min", "diag_max")}
 
 
+def test_flat_kernel_is_the_tuple_kernel():
+    # nsgs_checked_flat (auto.plain's call, run_flat) is nsgs_checked with its outputs in one
+    # vector: the same code, vectors and stats, bit for bit, cold and warm, with and without a
+    # time limit, the hand-off on or off; its five numbers are the stats' entries
+    from socp_cd.solvers import nsgs
+    for nc, dim, seed in ((1, 3, 1), (3, 3, 2), (4, 2, 3), (30, 3, 4)):
+        p = _random(nc, dim, seed, mu=0.4)
+        r0 = np.random.default_rng(seed).random(p.m)
+        settings = nsgs.route_settings(dim)
+        for r0_, limit, handoff, window in ((None, None, (0, 0), 0), (r0, 1.0, (0, 0), 0),
+                                            (None, 1.0, (2, 10), 3), (r0, None, (200, 32000), 20)):
+            tail = nsgs_route.prepared(settings, True, handoff, window)
+            for tol in (1e-8, 1e-14):
+                ref = nsgs_route.run_prepared(p, tail, tol, 50, r0_, limit)
+                got = nsgs_route.run_flat(p, tail, tol, 50, r0_, limit)
+                out = nsgs_route.flat_outcome(*got)
+                assert out.status == ref.status and out.stats == ref.stats
+                assert np.array_equal(out.vectors, ref.vectors) and out.vectors.shape == (3, p.m)
+                x = ref.stats
+                assert got[0][1:] == (int(x[nsgs_route.SWEEPS]), x[nsgs_route.INTERNAL_ERROR],
+                                      x[nsgs_route.ERROR], x[nsgs_route.GUARD_VALUE],
+                                      x[nsgs_route.ZERO_ERROR])
+                assert type(got[0][1]) is int and all(type(v) is float for v in got[0][2:])
+
+
 def test_of_local_fills_the_fields_it_names():
     from dataclasses import fields
     from socp_cd.solvers.result import SolverResult
@@ -814,7 +839,7 @@ def test_auto_route_gives_its_stages_the_general_paths_shares(monkeypatch):
     # deadlines on the compiled clock; before session 24 the route read no clock)
     from socp_cd.solvers import auto
     budgets, trials = [], []
-    real_run, real_runs = nsgs_route.run_prepared, newton.compiled_runs
+    real_run, real_runs = nsgs_route.run_flat, newton.compiled_runs
 
     def run_spy(problem, tail, tol, max_iter, r0, time_limit, *a, **kw):
         budgets.append(time_limit)
@@ -823,7 +848,7 @@ def test_auto_route_gives_its_stages_the_general_paths_shares(monkeypatch):
     def runs_spy(*a, time_left=None, **kw):
         trials.append(time_left)
         return real_runs(*a, time_left=time_left, **kw)
-    monkeypatch.setattr(nsgs_route, "run_prepared", run_spy)
+    monkeypatch.setattr(nsgs_route, "run_flat", run_spy)
     monkeypatch.setattr(newton, "compiled_runs", runs_spy)
     p = manufactured(12, 3, mu=0.6, structure="redundant", mass_ratio=1e6, contact_scale=1e4,
                      seed=6)

@@ -260,12 +260,14 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
     order = np.arange(nc)
     if shuffle:
         np.random.seed(seed)
-    # one allocation for the small buffers (each costs ~20 ns of a one-contact call's few µs)
-    small = np.zeros((7, d))
+    # one allocation for the small buffers, M and u (each costs ~20 ns of a one-contact call's
+    # few µs)
+    buf = np.zeros(7 * d + d * (d + 1) + nc * d)
+    small = buf[:7 * d].reshape((7, d))
     work = small[:4]            # local_solve's buffer (rows 0-3)
     b, rl, rold = small[4], small[5], small[6]
-    M = np.zeros((d, d + 1))
-    u = np.zeros(nc * d)
+    M = buf[7 * d:(8 + d) * d].reshape((d, d + 1))
+    u = buf[(8 + d) * d:]
     norm_q = 0.0
     for k in range(nc * d):
         norm_q += q[k] * q[k]

@@ -140,16 +140,18 @@ def balance_csr(indptr, indices, data, q, mu, dim):
     zero_error : float
         Siconos' relative error of ``r = 0`` (``u = q``) of the original problem.
     """
-    # (five arrays, four of them the outputs: a one-contact call of the compiled route runs this,
-    # and each allocation costs ~20 ns of its few microseconds)
+    # (one allocation, the four outputs and d views of it: a one-contact call of the compiled
+    # route runs this, and each allocation costs ~20 ns of its few microseconds)
     m = q.shape[0]
     nc = m // dim
-    a = np.empty(m)
-    b = np.empty(m)
-    q_s = np.empty(m)
-    data_s = np.empty(data.shape[0])
+    buf = np.empty(4 * m + data.shape[0])
+    a = buf[:m]
+    b = buf[m:2 * m]
+    q_s = buf[2 * m:3 * m]
     # d: the sums of |diag| per contact (d[:nc]), then the zero r, then sqrt(a / b) per unknown
-    d = np.zeros(m)
+    d = buf[3 * m:4 * m]
+    d[:] = 0.0
+    data_s = buf[4 * m:]
     for i in range(nc):
         for k in range(dim):
             row = i * dim + k
@@ -199,8 +201,13 @@ def balanced_guard_parts(r, u, a, b, mu, dim):
         :func:`~socp_cd.solvers.kernels.cone.coulomb_violations` of the
         balanced pair (the compiled pieces of :func:`socp_cd.residuals.guard`).
     """
+    return guard_parts_into(r, u, a, b, mu, dim, np.empty((2, r.shape[0])))
+
+
+@njit(cache=True, inline="always")
+def guard_parts_into(r, u, a, b, mu, dim, both):
+    """:func:`balanced_guard_parts` with ``both`` ``(2, m)`` for the balanced pair."""
     m = r.shape[0]
-    both = np.empty((2, m))     # (one allocation)
     rs, us = both[0], both[1]
     for j in range(m):
         rs[j] = r[j] / a[j]
@@ -252,8 +259,12 @@ def balanced_guard(r, u, a, b, mu, dim, q_norm):
     out : ndarray (7,)
         The entries named by :data:`GUARD_KEYS` (non-finite ones as ``inf``).
     """
-    out = np.full(7, np.inf)
-    finite, f2, r2, u2, cone, normal, gap = balanced_guard_parts(r, u, a, b, mu, dim)
+    m = r.shape[0]
+    buf = np.empty(2 * m + 7)       # (one allocation: the balanced pair, then out)
+    out = buf[2 * m:]
+    out[:] = np.inf
+    finite, f2, r2, u2, cone, normal, gap = guard_parts_into(r, u, a, b, mu, dim,
+                                                            buf[:2 * m].reshape((2, m)))
     if not finite:
         return False, out
     measured = relative_error(f2, r2, u2, q_norm)
