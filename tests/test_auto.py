@@ -118,83 +118,70 @@ def test_warm_start_is_the_best_iterate_so_far(monkeypatch):
     assert res.info["best_stage"] == 0
 
 
+def _three_stages(monkeypatch, p, first, second, refused, by_guard, tol):
+    """``solve(p, "auto", methods=(nsgs, newton_plain, newton))`` with fake stages returning
+    ``first`` ("1"), ``second`` ("2") and a bad iterate ("3"), the units guard refusing
+    ``refused`` by far (1.0), ``SEED_BY_GUARD = by_guard`` and no retry of a refused stage
+    (not these tests'): ``(result, the stages' names and starts, the path's errors)``."""
+    log = []
+    monkeypatch.setitem(auto._STAGES, "nsgs", (_spy_stage(log, "1", first), {}))
+    monkeypatch.setitem(auto._STAGES, "newton_plain", (_spy_stage(log, "2", second), {}))
+    monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage(log, "3", np.full(p.m, 1e3)), {}))
+    real = auto._Judge.guard_value
+    monkeypatch.setattr(auto._Judge, "guard_value",
+                        lambda self, r: 1.0 if np.array_equal(r, refused) else real(self, r))
+    monkeypatch.setattr(auto, "SEED_BY_GUARD", by_guard)
+    monkeypatch.setattr(auto, "RETRY_REFUSED", False)
+    res = socp_cd.solve(p, "auto", tol=tol, methods=("nsgs", "newton_plain", "newton"))
+    return res, log, [s["error"] for s in res.info["path"]]
+
+
+def _nsgs_iterate(p, sweeps):
+    """NSGS's iterate after ``sweeps`` sweeps in the balanced units auto works in."""
+    return socp_cd.solve(p, "nsgs", tol=1e-15, max_iter=sweeps).r / contact_scales(p)[0]
+
+
 @pytest.mark.parametrize("by_guard", [False, True])
 def test_seed_ranks_by_the_guard_and_the_answer_by_the_error(monkeypatch, by_guard):
-    # formulations/auto.md, "Two iterates": stage b ends at a smaller Siconos error than a
-    # but an answer the units guard refuses by far (an impulse large in W's null space).
-    # The result is b's either way (never worse than any stage by the error); with
-    # SEED_BY_GUARD the next stage starts from a's iterate, without it from b's.
+    # formulations/auto.md, "Two iterates": stage 2 ends within tol by Siconos' error, below
+    # stage 1's, with an answer the units guard refuses by far (an impulse large in W's null
+    # space).  The result is 2's either way (never worse than any stage by the error); with
+    # SEED_BY_GUARD stage 3 starts from 1's iterate, without it from 2's.
     p = _local(4, 3, 2)
-    a, _ = contact_scales(p)
-    r_a = socp_cd.solve(p, "nsgs", tol=1e-14, max_iter=4).r / a
-    r_b = socp_cd.solve(p, "nsgs", tol=1e-15, max_iter=2000).r / a
-    log = []
-    monkeypatch.setitem(auto._STAGES, "nsgs", (_spy_stage(log, "a", r_a), {}))
-    monkeypatch.setitem(auto._STAGES, "newton_plain", (_spy_stage(log, "b", r_b), {}))
-    monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage(log, "c", np.full(p.m, 1e3)), {}))
-    real = auto._Judge.guard_value
-
-    def guard(self, r):
-        return 1.0 if np.array_equal(r, r_b) else real(self, r)
-    monkeypatch.setattr(auto._Judge, "guard_value", guard)
-    monkeypatch.setattr(auto, "SEED_BY_GUARD", by_guard)
-    monkeypatch.setattr(auto, "RETRY_REFUSED", False)       # (b once more: not this test's)
-    res = socp_cd.solve(p, "auto", tol=1e-8, methods=("nsgs", "newton_plain", "newton"))
-    errors = [s["error"] for s in res.info["path"]]
-    assert errors[1] <= 1e-8 < errors[0] < errors[2]     # b best by the error, c worst
+    r_a, r_b = _nsgs_iterate(p, 4), _nsgs_iterate(p, 2000)
+    res, log, errors = _three_stages(monkeypatch, p, r_a, r_b, r_b, by_guard, 1e-8)
+    assert errors[1] <= 1e-8 < errors[0] < errors[2]
     assert np.array_equal(log[1]["r0"], r_a)
     assert np.array_equal(log[2]["r0"], r_a if by_guard else r_b)
     assert res.info["best_stage"] == 1
-    np.testing.assert_allclose(res.r, a * r_b, rtol=1e-14)
+    np.testing.assert_allclose(res.r, contact_scales(p)[0] * r_b, rtol=1e-14)
 
 
 def test_iterates_farther_than_tol_seed_by_the_error(monkeypatch):
     # SEED_BY_GUARD ranks by the guard only iterates within tol by the error: far ones keep
     # their rank by the error (ranked by the guard, the warm starts changed on held-out cases)
     p = _local(4, 3, 2)
-    a, _ = contact_scales(p)
-    r_a = socp_cd.solve(p, "nsgs", tol=1e-15, max_iter=2).r / a
-    r_b = socp_cd.solve(p, "nsgs", tol=1e-15, max_iter=4).r / a
-    log = []
-    monkeypatch.setitem(auto._STAGES, "nsgs", (_spy_stage(log, "a", r_a), {}))
-    monkeypatch.setitem(auto._STAGES, "newton_plain", (_spy_stage(log, "b", r_b), {}))
-    monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage(log, "c", np.full(p.m, 1e3)), {}))
-    real = auto._Judge.guard_value
-    monkeypatch.setattr(auto._Judge, "guard_value",
-                        lambda self, r: 1.0 if np.array_equal(r, r_b) else real(self, r))
-    monkeypatch.setattr(auto, "SEED_BY_GUARD", True)
-    res = socp_cd.solve(p, "auto", tol=1e-15, methods=("nsgs", "newton_plain", "newton"))
-    errors = [s["error"] for s in res.info["path"]]
+    r_a, r_b = _nsgs_iterate(p, 2), _nsgs_iterate(p, 4)
+    res, log, errors = _three_stages(monkeypatch, p, r_a, r_b, r_b, True, 1e-15)
     assert 1e-15 < errors[1] < errors[0]
     assert np.array_equal(log[2]["r0"], r_b)
 
 
 @pytest.mark.parametrize("by_guard", [False, True])
 def test_a_seed_that_meets_both_measures_ends_the_chain(monkeypatch, by_guard):
-    # the best iterate by the error (b's) is refused by the guard; a's meets tol by both
-    # measures: with SEED_BY_GUARD the chain stops there and returns a's answer, converged
-    # (without it, only the best by the error is judged and the chain goes on to c)
+    # the best iterate by the error (stage 1's) is refused by the guard; stage 2's meets tol
+    # by both measures: with SEED_BY_GUARD the chain stops there and returns 2's answer,
+    # converged (without it, only the best by the error is judged and stage 3 runs)
     p = _local(4, 3, 2)
-    a, _ = contact_scales(p)
-    r_b = socp_cd.solve(p, "nsgs", tol=1e-15, max_iter=2000).r / a
+    r_b = _nsgs_iterate(p, 2000)
     r_a = r_b.copy()
     r_a[::3] += 1e-10 * max(1.0, np.abs(r_b).max())     # normal parts: still in K, near b
-    log = []
-    monkeypatch.setitem(auto._STAGES, "nsgs", (_spy_stage(log, "b", r_b), {}))
-    monkeypatch.setitem(auto._STAGES, "newton_plain", (_spy_stage(log, "a", r_a), {}))
-    monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage(log, "c", np.full(p.m, 1e3)), {}))
-    real = auto._Judge.guard_value
-    monkeypatch.setattr(auto._Judge, "guard_value",
-                        lambda self, r: 1.0 if np.array_equal(r, r_b) else real(self, r))
-    monkeypatch.setattr(auto, "SEED_BY_GUARD", by_guard)
-    monkeypatch.setattr(auto, "RETRY_REFUSED", False)       # (b once more: not this test's)
-    res = socp_cd.solve(p, "auto", tol=1e-8, methods=("nsgs", "newton_plain", "newton"))
-    errors = [s["error"] for s in res.info["path"]]
+    res, log, errors = _three_stages(monkeypatch, p, r_b, r_a, r_b, by_guard, 1e-8)
     assert errors[0] < errors[1] <= 1e-8
-    assert [e["name"] for e in log] == (["b", "a"] if by_guard else ["b", "a", "c"])
+    assert [e["name"] for e in log] == (["1", "2"] if by_guard else ["1", "2", "3"])
     if by_guard:
         assert res.converged and res.info["best_stage"] == 1
-        np.testing.assert_allclose(res.r, a * r_a, rtol=1e-14)
+        np.testing.assert_allclose(res.r, contact_scales(p)[0] * r_a, rtol=1e-14)
     else:
         assert res.info["best_stage"] == 0
 
