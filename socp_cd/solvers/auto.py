@@ -43,7 +43,7 @@ units guard (:func:`socp_cd.residuals.guard`, the dispatcher's second test)
 does too (on a local Coulomb problem, with Siconos' error of the problem as
 written: the chain runs on the dispatcher's balanced copy, and the dispatcher
 judges by that error first); after a stage that met the first and not the second, that stage runs
-once more from its answer (:data:`RETRY_REFUSED`) and the later stages aim at
+once more from the seed (:data:`RETRY_REFUSED`) and the later stages aim at
 the dispatcher's retry tolerance
 (:func:`~socp_cd.solvers.options.tightened_tolerance`).  The dispatcher
 recomputes both once more independently.  Later stages start from the *seed*
@@ -172,7 +172,9 @@ TRIAL_STALL = 2
 #: follows there, as without the prediction: a failed early trial costs its steps
 HANDOFF_PREDICT = 20
 #: a stage whose answer meets ``tol`` by the stages' measure and not by the units guard runs
-#: once more, from that answer, aiming at the tightened tolerance (the dispatcher's retry,
+#: once more, from the seed (that answer when it is refused by little enough to be the seed,
+#: :data:`SEED_BY_GUARD`; else the run is skipped as already made from that start), aiming at
+#: the tightened tolerance (the dispatcher's retry,
 #: :func:`~socp_cd.solvers.options.tightened_tolerance`, done by the chain itself)
 RETRY_REFUSED = True
 #: (measured, not adopted: ``validation/results/auto_chain_tune.md``) on small local problems,
@@ -933,7 +935,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     local = None
     path, hist = [], ([] if history else None)
     iterations, status, message = 0, "max_iter", ""
-    version, ran = 0, set()       # version: bumped whenever the best iterate changes
+    version, ran = 0, set()       # version: bumped whenever the seed (the start) changes
     after_far_probe = False       # the previous stage was a probe that ended far from tol
     stage_tol = tol               # the stages' target: tightened after a guard refusal
     knobs = _small_knobs()
@@ -1083,7 +1085,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             try:
                 start = None if cold else r0 if after_far_probe else seed_r
                 if method == "newton_trial" and not mid_ran:
-                    start = seed_r          # the first trial: from NSGS's iterate, far or not
+                    start = seed_r          # the first trial: from the seed, far or not
                 if method in ("nsgs_mid", "nsgs_rest") or (method == "newton_trial" and mid_ran):
                     start = nsgs_own[0]     # NSGS's own iterate (the second trial: at the cap)
                 res = spec.func(target, form, tol=stage_tol, max_iter=stage_max_iter, r0=start,
@@ -1143,7 +1145,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             # as the dispatcher's retry would (options.tightened_tolerance)
             stage_tol = min(stage_tol, tightened_tolerance(tol, best_err, max(best_err, g)))
             if RETRY_REFUSED and best_stage == k and not retried and k + 1 < len(order):
-                # this stage's answer was refused: the same stage once more from it (next);
+                # this stage's answer was refused: the same stage once more from the seed
+                # (next; the answer itself when refused by little enough to be the seed);
                 # a Newton-family stage as the warm proximal Newton method (a trial's or a
                 # cold stage's rerun would start elsewhere, or be skipped as already run)
                 again = "newton" if method in _NEWTON_FAMILY else method
@@ -1168,7 +1171,7 @@ SPEC = SolverSpec(
     "auto", auto_backend, ("coulomb", "associated", "tresca", "frictionless"),
     global_native=("coulomb", "associated"), dims=(2, 3),
     description="portfolio: models only what the law needs, chains newton / nsgs / clarabel "
-                "from cheap problem features, warm-starting each stage from the best iterate",
+                "from cheap problem features, warm-starting each stage from the best iterate (the seed)",
     default_max_iter=newton.DEFAULT_MAX_ITER, options=OPTIONS,
     inner_settings="not applicable (rejected)", check=check, route=route,
     plain=plain)
