@@ -416,6 +416,22 @@ def test_flat_kernel_is_the_tuple_kernel():
                 assert type(got[0][1]) is int and all(type(v) is float for v in got[0][2:])
 
 
+def test_flat_kernel_declines_an_output_array_too_short():
+    # numba does not check bounds: an out with fewer than 3 m + _N_OUT entries would have the
+    # stats written past its end; the kernel declines it instead, before any work
+    from socp_cd.solvers import nsgs
+    p = _random(2, 3, 5, mu=0.4)
+    tail = nsgs_route.prepared(nsgs.route_settings(3), True, (0, 0), 0)
+    indptr, indices, data = p.csr_parts
+    for rows in (3, nsgs_route.flat_rows(p.m)):
+        out = np.zeros((rows, p.m))
+        x = nsgs_route.nsgs_checked_flat(indptr, indices, data, p.q, p.mu, 3, False, 1e-8, 50,
+                                         False, nsgs_route.TIME_CHECK_SWEEPS, np.inf, *tail,
+                                         out)
+        assert (x[0] == nsgs_route.DECLINED_SHORT_OUT) is (rows == 3)
+        assert (rows == 3) is not out.any()         # (declined: nothing written)
+
+
 def test_of_local_fills_the_fields_it_names():
     from dataclasses import fields
     from socp_cd.solvers.result import SolverResult

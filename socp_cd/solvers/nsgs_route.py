@@ -88,6 +88,7 @@ TIME_CHECK_SWEEPS = 10
 #: kernel outcome codes besides the sweep statuses of :mod:`~socp_cd.solvers.nsgs_kernels`
 DECLINED_FRICTIONLESS = -2   # every mu = 0 and friction was required
 DECLINED_ILL_POSED = -3      # a contact with W_NN <= 0 (the general path reports it)
+DECLINED_SHORT_OUT = -5      # nsgs_checked_flat's out has fewer than 3 m + _N_OUT entries
 DECLINED_NOT_FINITE = -4     # r or u not finite, or the checks cannot judge them (the
                              # general path reports it: checked_answer)
 
@@ -242,6 +243,8 @@ def nsgs_checked_flat(indptr, indices, data, q, mu, dim, warm, tol, max_iter, bl
     these five numbers, not the twenty of the tuple, saves 0.2 µs of a one-contact call.
     """
     m = q.shape[0]
+    if out.size < 3 * m + _N_OUT:     # (no bounds checks in compiled code: a short out declines)
+        return DECLINED_SHORT_OUT, 0, np.inf, np.inf, np.inf, np.inf
     entries = out.reshape(out.size)
     stats = entries[3 * m:3 * m + _N_OUT]
     stats[:] = 0.0
