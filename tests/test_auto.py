@@ -68,7 +68,8 @@ def test_converged_only_when_recomputed_error_meets_tol(name, make, tol):
         # (or converged: a seed that meets both measures ends the chain though a stage's
         # answer refused by the guard had a smaller error, SEED_BY_GUARD)
         assert (mine <= best * (1 + 1e-3) + slack
-                or res.converged and auto.SEED_BY_GUARD), (name, seed, mine, res.info["path"])
+                or res.converged and auto.SEED_BY_GUARD and mine <= tol), (name, seed, mine,
+                                                                        res.info["path"])
 
 
 def test_path_records_every_stage():
