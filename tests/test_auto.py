@@ -119,7 +119,7 @@ def test_warm_start_is_the_best_iterate_so_far(monkeypatch):
     assert res.info["best_stage"] == 0
 
 
-def _three_stages(monkeypatch, p, first, second, refused, by_guard, tol):
+def _three_stages(monkeypatch, p, first, second, refused, by_guard, tol, third=None):
     """``solve(p, "auto", methods=(nsgs, newton_plain, newton))`` with fake stages returning
     ``first`` ("1"), ``second`` ("2") and a bad iterate ("3"), the units guard refusing
     ``refused`` by far (1.0), ``SEED_BY_GUARD = by_guard`` and no retry of a refused stage
@@ -127,7 +127,8 @@ def _three_stages(monkeypatch, p, first, second, refused, by_guard, tol):
     log = []
     monkeypatch.setitem(auto._STAGES, "nsgs", (_spy_stage(log, "1", first), {}))
     monkeypatch.setitem(auto._STAGES, "newton_plain", (_spy_stage(log, "2", second), {}))
-    monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage(log, "3", np.full(p.m, 1e3)), {}))
+    monkeypatch.setitem(auto._STAGES, "newton",
+                        (third or _spy_stage(log, "3", np.full(p.m, 1e3)), {}))
     real = auto._Judge.guard_value
     monkeypatch.setattr(auto._Judge, "guard_value",
                         lambda self, r: 1.0 if np.array_equal(r, refused) else real(self, r))
@@ -166,6 +167,24 @@ def test_iterates_farther_than_tol_seed_by_the_error(monkeypatch):
     res, log, errors = _three_stages(monkeypatch, p, r_a, r_b, r_b, True, 1e-15)
     assert 1e-15 < errors[1] < errors[0]
     assert np.array_equal(log[2]["r0"], r_b)
+
+
+@pytest.mark.parametrize("from_seed", [False, True])
+def test_tightened_tolerance_after_a_refusal_by_far(monkeypatch, from_seed):
+    # a refused answer (stage 2, guard 1) tightens the later stages' tol (the dispatcher's
+    # retry); with TIGHTEN_FROM_SEED only when it is the seed they start from, which an
+    # answer refused by far is not
+    p = _local(4, 3, 2)
+    r_a, r_b = _nsgs_iterate(p, 4), _nsgs_iterate(p, 2000)
+    tols = []
+
+    def spy(problem, formulation, **kw):
+        tols.append(kw["tol"])
+        return SolverResult(r=np.full(problem.m, 1e3), status="max_iter", iterations=1)
+    monkeypatch.setattr(auto, "TIGHTEN_FROM_SEED", from_seed)
+    _three_stages(monkeypatch, p, r_a, r_b, r_b, True, 1e-8,
+                  third=SolverSpec("3", spy, ("coulomb",), global_native=("coulomb",)))
+    assert len(tols) == 1 and (tols[0] == 1e-8) is from_seed
 
 
 @pytest.mark.parametrize("by_guard", [False, True])

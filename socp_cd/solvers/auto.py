@@ -139,6 +139,9 @@ COLD_SPLIT = True
 #: the knob the chain also stops at a seed that meets both measures, and returns it
 #: (formulations/auto.md, "Two iterates")
 SEED_BY_GUARD = True
+#: (a study knob, session 31's review; False: off) after a refused answer, tighten the later
+#: stages' tolerance only when that answer is the seed they start from
+TIGHTEN_FROM_SEED = False
 #: ... and after at most this many steps (unless ``max_iter`` is given)
 PLAIN_MAX_ITER = 200
 #: local exact-Coulomb problems with more than SMALL_NC contacts start with an NSGS
@@ -1142,8 +1145,10 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 message = f"{order[seed_stage][0] if seed_stage >= 0 else 'r0'} met tol"
                 break
             # within tol by the stages' measure, not by the guard: the later stages aim lower,
-            # as the dispatcher's retry would (options.tightened_tolerance)
-            stage_tol = min(stage_tol, tightened_tolerance(tol, best_err, max(best_err, g)))
+            # as the dispatcher's retry would (options.tightened_tolerance); with
+            # TIGHTEN_FROM_SEED only when they start from that answer (it is the seed)
+            if not TIGHTEN_FROM_SEED or seed_r is best_r:
+                stage_tol = min(stage_tol, tightened_tolerance(tol, best_err, max(best_err, g)))
             if RETRY_REFUSED and best_stage == k and not retried and k + 1 < len(order):
                 # this stage's answer was refused: the same stage once more from the seed
                 # (next; the answer itself when refused by little enough to be the seed);
@@ -1183,4 +1188,5 @@ __all__ = ["auto_backend", "route", "plain", "features", "stage_order", "SPEC", 
            "PLAIN_STALL_LARGE", "COLD_PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC", "RETRY_REFUSED",
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
-           "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD"]
+           "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
+           "TIGHTEN_FROM_SEED"]
