@@ -1134,7 +1134,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 version += 1        # (the start of the warm stages changed)
         status = st if st != "converged" else "stalled"
         if best_err <= tol:
-            g = judge.guard_value(best_r)
+            # (the seed's rank is already max(error, guard) of this iterate when it is the seed:
+            # taken as g, the tests below read the same; the guard is not computed again)
+            g = seed_score if SEED_BY_GUARD and seed_r is best_r else judge.guard_value(best_r)
             if g <= tol:
                 status, message = "converged", f"{method} met tol"
                 break

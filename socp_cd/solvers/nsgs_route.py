@@ -657,15 +657,17 @@ _INDEX_DTYPES = (np.dtype(np.int32), np.dtype(np.int64))
 def _checked_entry(indptr, indices):
     """:func:`nsgs_checked`'s entry point for these index arrays (recorded in :data:`_CHECKED`
     when both have the same dtype; else the dispatcher, which checks every argument)."""
-    return _entry(indptr, indices, nsgs_checked, _CHECKED, types.Array(types.float64, 2, "C"))
+    return _entry(indptr, indices, nsgs_checked, _CHECKED)
 
 
 def _flat_entry(indptr, indices):
     """:func:`nsgs_checked_flat`'s entry point, as :func:`_checked_entry` (in :data:`_FLAT`)."""
-    return _entry(indptr, indices, nsgs_checked_flat, _FLAT, types.Array(types.float64, 2, "C"))
+    return _entry(indptr, indices, nsgs_checked_flat, _FLAT)
 
 
-def _entry(indptr, indices, kernel, table, last):
+def _entry(indptr, indices, kernel, table):
+    """The entry point of ``kernel`` (:func:`nsgs_checked` or :func:`nsgs_checked_flat`: the
+    same argument types) for these index arrays, recorded in ``table`` by dtype."""
     dtype = indptr.dtype
     if indices.dtype != dtype or dtype not in _INDEX_DTYPES:
         return kernel
@@ -675,7 +677,8 @@ def _entry(indptr, indices, kernel, table, last):
     ix = index_vector(dtype)
     b, i = types.boolean, types.int64
     sig = (ix, ix, F64_VECTOR, F64_VECTOR, F64_VECTOR, i, b, types.float64, i, b, i,
-           types.float64, i, types.float64, i, i, types.float64, i, i, b, i, i, i, last)
+           types.float64, i, types.float64, i, i, types.float64, i, i, b, i, i, i,
+           types.Array(types.float64, 2, "C"))
     ep = table[dtype] = entry_point(kernel, sig)
     return ep
 
