@@ -140,6 +140,28 @@ def test_unregister_removes_a_registered_solver():
     assert "t_tmp" not in socp_cd.solvers()
 
 
+def test_a_solver_registered_over_a_routed_name_takes_its_plain_calls():
+    # solve()'s plain call finds a routed solver by (name, dim) in a table made with the
+    # solver table: a solver registered under a built-in's name must take the plain calls at
+    # once (it has no compiled route), and unregistering it must give them back
+    calls = []
+
+    def mine(problem, formulation, *, tol, max_iter, r0, history, **kw):
+        calls.append(1)
+        return socp_cd.SolverResult(r=np.zeros(problem.m), status="max_iter")
+    p = FrictionContactProblem(2 * np.eye(3), np.array([-1.0, 0.1, 0.0]), 0.3, 3)
+    before = socp_cd.solve(p, "nsgs")          # (the table loaded, the route taken)
+    assert before.converged and before.r[0] > 0
+    try:
+        registry.register("nsgs", ("coulomb",))(mine)
+        res = socp_cd.solve(p, "nsgs")
+        assert calls == [1] and not res.converged and not res.r.any()
+    finally:
+        registry.unregister("nsgs")
+    again = socp_cd.solve(p, "nsgs")
+    assert calls == [1] and np.array_equal(again.r, before.r)
+
+
 # ------------------------------------------------------------------ issue 14: arguments
 @pytest.mark.parametrize("kwargs,field", [
     ({"tol": "1e-8"}, "tol"), ({"tol": None}, "tol"), ({"tol": float("nan")}, "tol"),

@@ -392,7 +392,7 @@ def test_stats_layout_of_the_route():
 
 
 def test_flat_kernel_is_the_tuple_kernel():
-    # nsgs_checked_flat (auto.plain's call, run_flat) is nsgs_checked with its outputs in one
+    # nsgs_checked_flat (auto.plain's call) is nsgs_checked with its outputs in one
     # vector: the same code, vectors and stats, bit for bit, cold and warm, with and without a
     # time limit, the hand-off on or off; its five numbers are the stats' entries
     from socp_cd.solvers import nsgs
@@ -405,7 +405,14 @@ def test_flat_kernel_is_the_tuple_kernel():
             tail = nsgs_route.prepared(settings, True, handoff, window)
             for tol in (1e-8, 1e-14):
                 ref = nsgs_route.run_prepared(p, tail, tol, 50, r0_, limit)
-                got = nsgs_route.run_flat(p, tail, tol, 50, r0_, limit)
+                indptr, indices, data = p.csr_parts
+                flat = np.empty((nsgs_route.flat_rows(p.m), p.m))
+                if r0_ is not None:
+                    flat[0] = r0_
+                got = (nsgs_route.flat_entry(indptr, indices)(
+                    indptr, indices, data, p.q, p.mu, dim, r0_ is not None, tol, 50,
+                    limit is not None, nsgs_route.TIME_CHECK_SWEEPS,
+                    np.inf if limit is None else limit, *tail, flat), flat)
                 out = nsgs_route.flat_outcome(*got)
                 assert out.status == ref.status and out.stats == ref.stats
                 assert np.array_equal(out.vectors, ref.vectors) and out.vectors.shape == (3, p.m)
@@ -417,7 +424,7 @@ def test_flat_kernel_is_the_tuple_kernel():
 
 
 def test_flat_kernel_declines_an_output_array_too_short():
-    # numba does not check bounds: an out with fewer than 3 m + _N_OUT entries would have the
+    # numba does not check bounds: an out with fewer than 3 m + N_OUT entries would have the
     # stats written past its end; the kernel declines it instead, before any work
     from socp_cd.solvers import nsgs
     p = _random(2, 3, 5, mu=0.4)
@@ -860,16 +867,17 @@ def test_auto_route_gives_its_stages_the_general_paths_shares(monkeypatch):
     # deadlines on the compiled clock; before session 24 the route read no clock)
     from socp_cd.solvers import auto
     budgets, trials = [], []
-    real_run, real_runs = nsgs_route.run_flat, newton.compiled_runs
+    real_runs = newton.compiled_runs
 
-    def run_spy(problem, tail, tol, max_iter, r0, time_limit, *a, **kw):
-        budgets.append(time_limit)
-        return real_run(problem, tail, tol, max_iter, r0, time_limit, *a, **kw)
+    def run_spy(*a):            # (auto.plain's NSGS kernel call: the stage's time limit)
+        budgets.append(a[11] if a[9] else None)
+        return nsgs_route.flat_entry(a[0], a[1])(*a)
 
     def runs_spy(*a, time_left=None, **kw):
         trials.append(time_left)
         return real_runs(*a, time_left=time_left, **kw)
-    monkeypatch.setattr(nsgs_route, "run_flat", run_spy)
+    monkeypatch.setattr(auto, "_FLAT_ENTRIES", {np.dtype(np.int32): run_spy,
+                                                np.dtype(np.int64): run_spy})
     monkeypatch.setattr(newton, "compiled_runs", runs_spy)
     p = manufactured(12, 3, mu=0.6, structure="redundant", mass_ratio=1e6, contact_scale=1e4,
                      seed=6)
@@ -1263,7 +1271,7 @@ def test_the_plain_calls_plan_reads_only_the_knobs_whose_setting_drops_it():
 
 @pytest.mark.parametrize("knob", sorted(["SMALL_NC", "SMALL_SWEEPS", "SMALL_STALL",
                                          "HANDOFF_SWEEPS", "HANDOFF_WORK", "HANDOFF_PREDICT",
-                                         "PREDICT_MAX_M"]))
+                                         "PREDICT_MAX_M", "STAGE_SHARE"]))
 def test_setting_or_deleting_a_knob_drops_the_plain_calls_plan(knob, monkeypatch):
     from socp_cd.solvers import auto
     p = manufactured(2, 3, mu=0.5, seed=1)

@@ -90,13 +90,19 @@ from .kernels.dense import csr_matvec_add
 from .kernels.scaling import GUARD_KEYS, balanced_guard, origin_error
 from .nsgs_route import (ERROR, GUARD_VALUE, INTERNAL_ERROR, MU_MAX, START_ERROR, SWEEPS,
                          ZERO_ERROR, guard_record, scaling_record)
-from .options import tightened_tolerance
+from .options import MAX_ITER, tightened_tolerance
 from .result import LazyInfo, SolverResult
 from .scaling import balanced, origin
 from .spec import SolverSpec
 
 #: the clock of the time budget (a module attribute so tests can drive it)
 _clock = time.perf_counter
+#: :func:`plain`'s names for its kernel call, bound once (a module attribute's look-up costs
+#: ~20 ns of a 5 µs call; ``_CLOCK`` is the compiled clock's module, read on each call)
+_empty, _INF, _CLOCK = np.empty, float("inf"), nsgs_route.clock
+_FLAT_ENTRIES, _N_OUT = nsgs_route.FLAT_ENTRIES, nsgs_route.N_OUT
+_NSGS_MAX_ITER, _TIME_CHECK_SWEEPS = nsgs.DEFAULT_MAX_ITER, nsgs_route.TIME_CHECK_SWEEPS
+_SWEEPS_OK = nsgs.DEFAULT_MAX_ITER <= MAX_ITER
 #: local problems with at most this many contacts start with NSGS
 SMALL_NC = 100
 #: friction coefficient from which the fixed point is tried before NSGS
@@ -639,31 +645,48 @@ def plain(problem, tol, time_limit, t0):
     if plan is None:
         plan = _small_plan(dim)
     nc = problem.mu.shape[0]
-    if plan is False or nc > plan[0]:
-        # a study's knobs (or a bad value, which route reports), or a larger problem
+    if plan is False or nc > plan[0] or nc == 0 or nc > nsgs_route.MAX_CONTACTS:
+        # a study's knobs (or a bad value, which route reports), a larger problem, or one
+        # beyond the compiled route's bounds (nsgs_route.run_prepared's, read on each call)
         return route(problem, tol=tol, max_iter=None, r0=None, time_limit=time_limit)
-    s0 = _clock()
-    # (nsgs.compiled_run's call, one layer less: NSGS's defaults, its sweep cap, the
-    # prediction window by _predict_window's rule)
-    # (the flat call: the kernel boxes the five numbers judged here, not its stats tuple)
-    got = nsgs_route.run_flat(problem, plan[3] if dim * nc <= plan[1] else plan[4], tol,
-                              nsgs.DEFAULT_MAX_ITER, None, _stage_limit("nsgs", time_limit))
-    if got is None:
+    # (nsgs.compiled_run's call, two layers less: NSGS's defaults, its sweep cap, the
+    # prediction window by _predict_window's rule; the stage's share of the budget by
+    # _stage_limit's rule, its factor in the plan; the stage starts at the call's t0: a clock
+    # read less, 0.06 µs)
+    if time_limit is not None:
+        if not _CLOCK.AVAILABLE:    # (nsgs_route.run_prepared's bounds for a timed call)
+            return route(problem, tol=tol, max_iter=None, r0=None, time_limit=time_limit)
+        time_limit = plan[5] * time_limit
+        if time_limit < 1e-6:
+            time_limit = 1e-6
+    # the flat kernel's call (run_prepared's, within its bounds: nc <= MAX_CONTACTS above,
+    # NSGS's sweep cap <= options.MAX_ITER, checked by _small_plan, the compiled clock above): the kernel boxes the five numbers judged here, not its stats
+    # tuple, and writes r~, r, u and the stats into one array (a row of it costs less than a
+    # slice). Called here, not through a function of nsgs_route: 0.3 µs of a 5 µs call
+    indptr, indices, data = problem.csr_parts
+    q = problem.q
+    m = q.shape[0]
+    out = _empty((3 - (-_N_OUT // m), m))          # (nsgs_route.flat_rows(m), without a call)
+    kernel = _FLAT_ENTRIES.get(indptr.dtype) if indices.dtype is indptr.dtype else None
+    got = (kernel or nsgs_route.flat_entry(indptr, indices))(
+        indptr, indices, data, q, problem.mu, dim, False, tol, _NSGS_MAX_ITER,
+        time_limit is not None, _TIME_CHECK_SWEEPS, _INF if time_limit is None else time_limit,
+        *(plan[3] if m <= plan[1] else plan[4]), out)
+    if got[0] < 0:          # (a declined problem, or an answer the checks cannot judge)
         return None
-    (code, sweeps, stage_error, error, guard_value, zero_error), out = got
+    code, sweeps, stage_error, error, guard_value, zero_error = got
     lo = tol * _JUDGE_LO
     # (_stage_outcome's first tests: START_ERROR is inf without r0, so a stage whose
     # measures pass is always an improvement; on such measures registry._routed's verdict is
     # "converged", keep the two in step)
     if stage_error <= lo and guard_value <= lo and error <= lo:
-        s = _clock()
+        s = _clock() - t0
         return SolverResult.of_local(out[1], out[2], "converged", error, sweeps,
-                                     LazyInfo((_flat_route_info, dim, nc, out, "nsgs", s - s0,
-                                               code)),
+                                     LazyInfo((_flat_route_info, dim, nc, out, "nsgs", s, code)),
                                      "nsgs met tol", zero_error <= tol, True, "auto",
-                                     "coulomb", tol, s - t0)
-    return _stage_outcome(problem, nsgs_route.flat_outcome(*got), "nsgs", plan[2], tol, None,
-                          time_limit, s0)
+                                     "coulomb", tol, s)
+    return _stage_outcome(problem, nsgs_route.flat_outcome(got, out), "nsgs", plan[2], tol, None,
+                          time_limit, t0)
 
 
 #: :func:`plain`'s small call in dimension ``d``, prepared once (:func:`_small_plan`); emptied
@@ -671,13 +694,13 @@ def plain(problem, tol, time_limit, t0):
 _PLANS = {}
 #: the knobs :func:`_small_plan` reads
 _PLAN_KNOBS = frozenset({"SMALL_NC", "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS",
-                         "HANDOFF_WORK", "HANDOFF_PREDICT", "PREDICT_MAX_M"})
+                         "HANDOFF_WORK", "HANDOFF_PREDICT", "PREDICT_MAX_M", "STAGE_SHARE"})
 
 
 def _small_plan(dim):
     """:func:`plain`'s small call in dimension ``dim`` from the knobs as they are, recorded in
     :data:`_PLANS`: ``(SMALL_NC, PREDICT_MAX_M, handoff, tail with the prediction window,
-    tail without)`` (the tails :func:`~socp_cd.solvers.nsgs_route.prepared`'s), or False when
+    tail without, the NSGS stage's share of the budget)`` (the tails :func:`~socp_cd.solvers.nsgs_route.prepared`'s), or False when
     a study's knob (or a bad value, which :func:`route` reports) sends every call through
     :func:`route`.  Making these per call cost ~0.7 µs of a ~6 µs one-contact call."""
     w = HANDOFF_PREDICT
@@ -686,14 +709,16 @@ def _small_plan(dim):
     except (TypeError, ValueError, OverflowError):
         work = None
     if (SMALL_SWEEPS is not None or SMALL_STALL is not None or type(HANDOFF_SWEEPS) is not int
-            or HANDOFF_SWEEPS < 1 or type(w) is not int or w < 0 or work is None):
+            or HANDOFF_SWEEPS < 1 or type(w) is not int or w < 0 or work is None
+            or not _SWEEPS_OK):
+        # (the last: plain's kernel call within nsgs_route.run_prepared's bounds)
         plan = False
     else:
         handoff = (HANDOFF_SWEEPS, work)
         settings = nsgs.route_settings(dim)
         plan = (SMALL_NC, PREDICT_MAX_M, handoff,
                 nsgs_route.prepared(settings, True, handoff, w),
-                nsgs_route.prepared(settings, True, handoff, 0))
+                nsgs_route.prepared(settings, True, handoff, 0), _SHARES.get("nsgs", STAGE_SHARE))
     _PLANS[dim] = plan
     return plan
 

@@ -88,7 +88,7 @@ TIME_CHECK_SWEEPS = 10
 #: kernel outcome codes besides the sweep statuses of :mod:`~socp_cd.solvers.nsgs_kernels`
 DECLINED_FRICTIONLESS = -2   # every mu = 0 and friction was required
 DECLINED_ILL_POSED = -3      # a contact with W_NN <= 0 (the general path reports it)
-DECLINED_SHORT_OUT = -5      # nsgs_checked_flat's out has fewer than 3 m + _N_OUT entries
+DECLINED_SHORT_OUT = -5      # nsgs_checked_flat's out has fewer than 3 m + N_OUT entries
 DECLINED_NOT_FINITE = -4     # r or u not finite, or the checks cannot judge them (the
                              # general path reports it: checked_answer)
 
@@ -117,7 +117,7 @@ STATS = ("sweeps", "internal_error", "n_full", "n_fail", "light", "error", "zero
  VELOCITY_SCALE, DIAG_MIN, DIAG_MAX, GUARD_FINITE) = range(len(STATS))
 _N_STATS = len(STATS)
 #: length of :func:`nsgs_checked`'s ``stats`` tuple (STATS, then the guard's entries)
-_N_OUT = _N_STATS + len(GUARD_KEYS)
+N_OUT = _N_STATS + len(GUARD_KEYS)
 #: index of the units guard's value (what ``converged`` needs ``<= tol``) in that tuple
 GUARD_VALUE = _N_STATS + GUARD_KEYS.index("value")
 _GUARD_VALUE_AT = GUARD_KEYS.index("value")     # (in the guard's own entries)
@@ -220,12 +220,12 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked
         :func:`~socp_cd.solvers.kernels.scaling.factor_summary`;
         ``guard_finite`` (1 or 0).
     """
-    stats = np.zeros(_N_OUT)
+    stats = np.zeros(N_OUT)
     code = checked_work(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked,
                         first_block, time_left, kind, loc_tol, newton_max_iter,
                         projection_max_iter, omega, error_every, stall_window, need_friction,
                         handoff_sweeps, handoff_work, predict_window, vectors, stats)
-    return code, to_fixed_tuple(stats, _N_OUT)
+    return code, to_fixed_tuple(stats, N_OUT)
 
 
 @njit(cache=True)
@@ -235,18 +235,19 @@ def nsgs_checked_flat(indptr, indices, data, q, mu, dim, warm, tol, max_iter, bl
                       handoff_sweeps, handoff_work, predict_window, out):
     """:func:`nsgs_checked` with its outputs in one array ``out`` of :func:`flat_rows`
     ``(m)`` rows of ``m``: the rows of ``vectors`` (the start ``r0`` in the first with
-    ``warm``), then ``stats`` (the first :data:`_N_OUT` entries of the rows after, in
+    ``warm``), then ``stats`` (the first :data:`N_OUT` entries of the rows after, in
     order).
 
     Returns ``(code, sweeps, internal_error, error, guard_value, zero_error)``: the
-    code and the entries of ``stats`` a caller judges a run by (:func:`run_flat`).  Boxing
+    code and the entries of ``stats`` a caller judges a run by
+    (:func:`socp_cd.solvers.auto.plain`; a row of ``out`` costs it less than a slice).  Boxing
     these five numbers, not the twenty of the tuple, saves 0.2 µs of a one-contact call.
     """
     m = q.shape[0]
-    if out.size < 3 * m + _N_OUT:     # (no bounds checks in compiled code: a short out declines)
+    if out.size < 3 * m + N_OUT:     # (no bounds checks in compiled code: a short out declines)
         return DECLINED_SHORT_OUT, 0, np.inf, np.inf, np.inf, np.inf
     entries = out.reshape(out.size)
-    stats = entries[3 * m:3 * m + _N_OUT]
+    stats = entries[3 * m:3 * m + N_OUT]
     stats[:] = 0.0
     code = checked_work(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked,
                         first_block, time_left, kind, loc_tol, newton_max_iter,
@@ -262,7 +263,7 @@ def checked_work(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked
                  time_left, kind, loc_tol, newton_max_iter, projection_max_iter, omega,
                  error_every, stall_window, need_friction, handoff_sweeps, handoff_work,
                  predict_window, vectors, stats):
-    """The work of :func:`nsgs_checked` (its arguments, and ``stats`` (:data:`_N_OUT`,
+    """The work of :func:`nsgs_checked` (its arguments, and ``stats`` (:data:`N_OUT`,
     zeros) for the tuple it returns, filled here): returns the code."""
     deadline = monotonic() + time_left if blocked else np.inf
     nc = mu.shape[0]
@@ -453,11 +454,11 @@ def _checked_balanced(indptr, indices, data, q, mu, dim, a, b, data_s, q_s, q_no
     :func:`~socp_cd.solvers.kernels.scaling.balance_csr` given: the same returns."""
     nc = mu.shape[0]
     m = q.shape[0]
-    stats = np.zeros(_N_OUT)
+    stats = np.zeros(N_OUT)
     r_s = vectors[0]
     if not checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_s,
                           vectors, stats):
-        return False, to_fixed_tuple(stats, _N_OUT), np.inf
+        return False, to_fixed_tuple(stats, N_OUT), np.inf
     u_s = csr_matvec_add(indptr, indices, data_s, r_s, q_s)     # (the judge's u~)
     stats[INTERNAL_ERROR] = siconos_error(r_s, u_s, mu, dim, norm_q)
     ones = np.ones(m)
@@ -474,7 +475,7 @@ def _checked_balanced(indptr, indices, data, q, mu, dim, a, b, data_s, q_s, q_no
     for i in range(nc):
         mu_max = max(mu_max, mu[i])
     stats[MU_MAX] = mu_max
-    return True, to_fixed_tuple(stats, _N_OUT), judge_guard
+    return True, to_fixed_tuple(stats, N_OUT), judge_guard
 
 
 @njit(cache=True)
@@ -568,13 +569,14 @@ def run_prepared(problem, tail, tol, max_iter, r0, time_limit, _new=tuple.__new_
     in ``tail`` (:func:`prepared`).  A plain ``solver="auto"`` call on a small problem is a
     few µs, a tenth of it the making of :func:`nsgs_checked`'s 24 arguments:
     :func:`socp_cd.solvers.auto.plain` keeps ``tail`` from one call to the next (and calls
-    :func:`run_flat`)."""
+    :func:`nsgs_checked_flat` itself, within these bounds)."""
     mu = problem.mu
     indptr, indices, data = problem.csr_parts
     nc = mu.shape[0]
     # the bounds (MAX_CONTACTS; a sweep cap the kernel's int64 holds, options.MAX_ITER;
     # with a time limit and no compiled clock, MIN_TIME_LIMIT and MAX_TIMED_WORK, compared
-    # in floats, where max_iter * nnz would wrap around in int64; run_flat's too)
+    # in floats, where max_iter * nnz would wrap around in int64; auto.plain's call keeps
+    # within them too: its plan's SMALL_NC and sweep cap, the compiled clock)
     if (nc > MAX_CONTACTS or nc == 0 or max_iter > MAX_ITER
             or time_limit is not None and not clock.AVAILABLE and not (
                 time_limit >= MIN_TIME_LIMIT
@@ -595,62 +597,31 @@ def run_prepared(problem, tail, tol, max_iter, r0, time_limit, _new=tuple.__new_
     return _new(RouteOutcome, (STATUS_NAMES[code], vectors, x))
 
 
-def run_flat(problem, tail, tol, max_iter, r0, time_limit):
-    """:func:`run_prepared` through :func:`nsgs_checked_flat`: ``(numbers, out)``, or None
-    where :func:`run_prepared` returns None.
-
-    ``numbers`` are the kernel's returns ``(code, sweeps, internal_error, error, guard_value,
-    zero_error)`` (``code`` one of :data:`~socp_cd.solvers.nsgs_kernels.STATUS_NAMES`), ``out``
-    its array: rows ``r~``, ``r``, ``u``, then the stats (:func:`flat_outcome` makes the
-    :data:`RouteOutcome` :func:`run_prepared` returns, :func:`flat_stats` its ``stats``).
-    For a caller that judges most runs by these numbers alone
-    (:func:`socp_cd.solvers.auto.plain`; a row of ``out`` costs it less than a slice)."""
-    mu = problem.mu
-    indptr, indices, data = problem.csr_parts
-    nc = mu.shape[0]
-    if (nc > MAX_CONTACTS or nc == 0 or max_iter > MAX_ITER      # (run_prepared's bounds)
-            or time_limit is not None and not clock.AVAILABLE and not (
-                time_limit >= MIN_TIME_LIMIT
-                and float(max_iter) * max(int(indptr[-1]), 1) <= MAX_TIMED_WORK)):
-        return None
-    q = problem.q
-    m = q.shape[0]
-    out = np.empty((3 - (-_N_OUT // m), m))      # (flat_rows(m), without a call)
-    if r0 is not None:
-        out[0] = problem.check_reaction(r0, "r0")
-    kernel = _FLAT.get(indptr.dtype) if indices.dtype is indptr.dtype else None
-    x = (kernel or _flat_entry(indptr, indices))(
-        indptr, indices, data, q, mu, problem.dim, r0 is not None, tol,
-        max_iter, time_limit is not None, TIME_CHECK_SWEEPS,
-        inf if time_limit is None else time_limit, *tail, out)
-    if x[0] < 0:            # (a declined problem, or an answer the checks cannot judge)
-        return None
-    return x, out
-
-
 def flat_rows(m) -> int:
     """Rows of :func:`nsgs_checked_flat`'s ``out`` for ``m`` unknowns: three, and those the
-    :data:`_N_OUT` stats fill."""
-    return 3 - (-_N_OUT // m)
+    :data:`N_OUT` stats fill."""
+    return 3 - (-N_OUT // m)
 
 
 def flat_stats(out) -> tuple:
-    """The ``stats`` tuple of :func:`run_flat`'s ``out`` (:func:`nsgs_checked`'s)."""
+    """The ``stats`` tuple of :func:`nsgs_checked_flat`'s ``out`` (:func:`nsgs_checked`'s)."""
     m = out.shape[1]
-    return tuple(out.reshape(-1)[3 * m:3 * m + _N_OUT].tolist())
+    return tuple(out.reshape(-1)[3 * m:3 * m + N_OUT].tolist())
 
 
 def flat_outcome(numbers, out):
-    """The :data:`RouteOutcome` of :func:`run_flat`'s returns (:func:`run_prepared`'s)."""
+    """The :data:`RouteOutcome` of :func:`nsgs_checked_flat`'s returns ``numbers`` and its
+    ``out`` (:func:`run_prepared`'s)."""
     return RouteOutcome(STATUS_NAMES[numbers[0]], out[:3], flat_stats(out))
 
 
 #: :func:`nsgs_checked`'s entry point (:mod:`~socp_cd.solvers.kernels.entry`) by the dtype of
 #: ``W``'s CSR index arrays: its other arguments' types are fixed (the problem classes keep
 #: ``data``, ``q`` and ``mu`` contiguous float64 vectors, :func:`run_prepared` makes the rest);
-#: :data:`_FLAT`: :func:`nsgs_checked_flat`'s
+#: :data:`FLAT_ENTRIES`: :func:`nsgs_checked_flat`'s (public: :func:`socp_cd.solvers.auto.plain`
+#: calls the kernel itself, a Python layer less: 0.1-0.3 µs of a one-contact call)
 _CHECKED = {}
-_FLAT = {}
+FLAT_ENTRIES = {}
 _INDEX_DTYPES = (np.dtype(np.int32), np.dtype(np.int64))
 
 
@@ -660,9 +631,10 @@ def _checked_entry(indptr, indices):
     return _entry(indptr, indices, nsgs_checked, _CHECKED)
 
 
-def _flat_entry(indptr, indices):
-    """:func:`nsgs_checked_flat`'s entry point, as :func:`_checked_entry` (in :data:`_FLAT`)."""
-    return _entry(indptr, indices, nsgs_checked_flat, _FLAT)
+def flat_entry(indptr, indices):
+    """:func:`nsgs_checked_flat`'s entry point, as :func:`_checked_entry` (recorded in
+    :data:`FLAT_ENTRIES`)."""
+    return _entry(indptr, indices, nsgs_checked_flat, FLAT_ENTRIES)
 
 
 def _entry(indptr, indices, kernel, table):
@@ -763,7 +735,8 @@ def trial_outcome(problem, norm_q, status, r_s):
     return RouteOutcome(status, vectors, x), judge_guard
 
 
-__all__ = ["nsgs_checked", "nsgs_checked_flat", "checked_work", "run", "run_prepared", "run_flat",
+__all__ = ["nsgs_checked", "nsgs_checked_flat", "checked_work", "run", "run_prepared", "flat_entry",
+           "FLAT_ENTRIES", "N_OUT",
            "flat_outcome", "flat_stats", "flat_rows", "prepared", "trial_run", "trial_checked", "newton_checked", "trial_runner", "run_record", "trial_outcome", "judge_norm", "judge_units",
            "checked_answer", "TRIAL_MAX_M", "TRIAL_CONSTANTS", "C_ALPHA0", "C_ALPHA_MIN", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
            "MIN_TIME_LIMIT", "MAX_TIMED_WORK", "SWEEPS", "INTERNAL_ERROR", "N_FULL", "N_FAIL",
