@@ -653,16 +653,19 @@ def plain(problem, tol, time_limit, t0):
     # prediction window by _predict_window's rule; the stage's share of the budget by
     # _stage_limit's rule, its factor in the plan; the stage starts at the call's t0: a clock
     # read less, 0.06 µs)
-    if time_limit is not None:
+    if time_limit is None:
+        left = _INF
+    else:
         if not _CLOCK.AVAILABLE:    # (nsgs_route.run_prepared's bounds for a timed call)
             return route(problem, tol=tol, max_iter=None, r0=None, time_limit=time_limit)
-        time_limit = plan[5] * time_limit
-        if time_limit < 1e-6:
-            time_limit = 1e-6
+        left = plan[5] * time_limit       # (the stage's limit; the chain after it has the rest)
+        if left < 1e-6:
+            left = 1e-6
     # the flat kernel's call (run_prepared's, within its bounds: nc <= MAX_CONTACTS above,
-    # NSGS's sweep cap <= options.MAX_ITER, checked by _small_plan, the compiled clock above): the kernel boxes the five numbers judged here, not its stats
-    # tuple, and writes r~, r, u and the stats into one array (a row of it costs less than a
-    # slice). Called here, not through a function of nsgs_route: 0.3 µs of a 5 µs call
+    # NSGS's sweep cap <= options.MAX_ITER, checked by _small_plan, the compiled clock
+    # above): the kernel boxes the five numbers judged here, not its stats tuple, and writes
+    # r~, r, u and the stats into one array (a row of it costs less than a slice). Called
+    # here, not through a function of nsgs_route: 0.3 µs of a 5 µs call
     indptr, indices, data = problem.csr_parts
     q = problem.q
     m = q.shape[0]
@@ -670,7 +673,7 @@ def plain(problem, tol, time_limit, t0):
     kernel = _FLAT_ENTRIES.get(indptr.dtype) if indices.dtype is indptr.dtype else None
     got = (kernel or nsgs_route.flat_entry(indptr, indices))(
         indptr, indices, data, q, problem.mu, dim, False, tol, _NSGS_MAX_ITER,
-        time_limit is not None, _TIME_CHECK_SWEEPS, _INF if time_limit is None else time_limit,
+        time_limit is not None, _TIME_CHECK_SWEEPS, left,
         *(plan[3] if m <= plan[1] else plan[4]), out)
     if got[0] < 0:          # (a declined problem, or an answer the checks cannot judge)
         return None
