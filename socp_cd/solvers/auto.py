@@ -98,7 +98,9 @@ from .spec import SolverSpec
 #: the clock of the time budget (a module attribute so tests can drive it)
 _clock = time.perf_counter
 #: :func:`plain`'s names for its kernel call, bound once (a module attribute's look-up costs
-#: ~20 ns of a 5 µs call; ``_CLOCK`` is the compiled clock's module, read on each call)
+#: ~20 ns of a 5 µs call; ``_CLOCK`` is the compiled clock's module, read on each call; the
+#: others are constants of their modules, which nothing sets: a study that did would have to
+#: set these too)
 _empty, _INF, _CLOCK = np.empty, float("inf"), nsgs_route.clock
 _FLAT_ENTRIES, _N_OUT = nsgs_route.FLAT_ENTRIES, nsgs_route.N_OUT
 _NSGS_MAX_ITER, _TIME_CHECK_SWEEPS = nsgs.DEFAULT_MAX_ITER, nsgs_route.TIME_CHECK_SWEEPS
@@ -293,10 +295,11 @@ _NEWTON_FAMILY = tuple(name for name, (spec, _) in _STAGES.items() if spec is ne
 _CAPPED = ("newton_plain", "newton_plain_cold", "newton_plain_cold_split")
 #: share of the remaining budget of the (cheap, trial) plain stages, instead of STAGE_SHARE
 PLAIN_SHARE = 0.25
-_SHARES = {"newton_plain": PLAIN_SHARE, "newton_plain_cold": PLAIN_SHARE,
-           "newton_plain_cold_split": PLAIN_SHARE,
-           "newton_trial": PLAIN_SHARE, "newton_trial_cold": PLAIN_SHARE,
-           "newton_trial_prox": PLAIN_SHARE}
+#: (read-only: :func:`plain`'s plan keeps the NSGS stage's entry, or STAGE_SHARE)
+_SHARES = types.MappingProxyType({"newton_plain": PLAIN_SHARE, "newton_plain_cold": PLAIN_SHARE,
+                                  "newton_plain_cold_split": PLAIN_SHARE,
+                                  "newton_trial": PLAIN_SHARE, "newton_trial_cold": PLAIN_SHARE,
+                                  "newton_trial_prox": PLAIN_SHARE})
 
 OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'newton_plain', 'newton_plain_cold', "
@@ -703,7 +706,8 @@ _PLAN_KNOBS = frozenset({"SMALL_NC", "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWE
 def _small_plan(dim):
     """:func:`plain`'s small call in dimension ``dim`` from the knobs as they are, recorded in
     :data:`_PLANS`: ``(SMALL_NC, PREDICT_MAX_M, handoff, tail with the prediction window,
-    tail without, the NSGS stage's share of the budget)`` (the tails :func:`~socp_cd.solvers.nsgs_route.prepared`'s), or False when
+    tail without, the NSGS stage's share of the budget)`` (the tails
+    :func:`~socp_cd.solvers.nsgs_route.prepared`'s), or False when
     a study's knob (or a bad value, which :func:`route` reports) sends every call through
     :func:`route`.  Making these per call cost ~0.7 µs of a ~6 µs one-contact call."""
     w = HANDOFF_PREDICT
@@ -888,7 +892,7 @@ def _route_info(dim, nc, x, method, seconds, status) -> dict:
 
 def _flat_route_info(dim, nc, out, method, seconds, code) -> dict:
     """:func:`_route_info` of :func:`plain`'s flat call (``out``, ``code``:
-    :func:`~socp_cd.solvers.nsgs_route.run_flat`'s)."""
+    :func:`~socp_cd.solvers.nsgs_route.nsgs_checked_flat`'s array and code)."""
     return _route_info(dim, nc, nsgs_route.flat_stats(out), method, seconds,
                        nsgs_route.STATUS_NAMES[code])
 
