@@ -109,6 +109,13 @@ Session 30's:
     ``newton_plain``); 200 adopted (``results/auto_chain_{tune,holdout}_s30cold{1,10}.md``,
     with ``--sets eval reframed``: the ``real-reframed`` copies beside the manufactured cases).
 
+Session 32's:
+
+``SMALL_NC``
+    local problems of at most this many contacts take the small chain (NSGS first, the
+    hand-off); larger ones the NSGS probe and Newton (100 since session 5, chosen when Newton
+    was Python's loop; 10 and 30 measured on 11-100 contacts: ``results/auto_chain_tune_s32smallnc.md``).
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``) or ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``.  Problems:
@@ -150,7 +157,7 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "TRIAL_STEPS", "TRIAL_STALL", "INNER_GATE", "INNER_DECREASE", "COLD_PROX_FIRST",
          "MIN_SLOW_START", "STAGE_SHARE", "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER",
          "HANDOFF_SWEEPS", "HANDOFF_WORK", "COLD_PLAIN_STALL_LARGE", "COLD_SPLIT",
-         "SEED_BY_GUARD", "TIGHTEN_FROM_SEED")
+         "SEED_BY_GUARD", "TIGHTEN_FROM_SEED", "SMALL_NC")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -164,11 +171,12 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "INNER_GATE": 0.1, "INNER_DECREASE": 1e-3, "COLD_PROX_FIRST": False,
         "MIN_SLOW_START": 0.0, "STAGE_SHARE": 0.5, "PLAIN_STALL": 50, "PLAIN_STALL_LARGE": None,
         "PLAIN_MAX_ITER": 200, "HANDOFF_SWEEPS": 200, "HANDOFF_WORK": 32000,
-        "COLD_PLAIN_STALL_LARGE": None, "COLD_SPLIT": False, "SEED_BY_GUARD": False, "TIGHTEN_FROM_SEED": False}
+        "COLD_PLAIN_STALL_LARGE": None, "COLD_SPLIT": False, "SEED_BY_GUARD": False, "TIGHTEN_FROM_SEED": False,
+        "SMALL_NC": 100}
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M", "HANDOFF_PREDICT",
         "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "HANDOFF_SWEEPS", "HANDOFF_WORK",
-        "COLD_PLAIN_STALL_LARGE")
+        "COLD_PLAIN_STALL_LARGE", "SMALL_NC")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 
