@@ -118,7 +118,9 @@ Session 32's:
 
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
-``now,NEWTON_STALL=20``) or ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``.  Problems:
+``now,NEWTON_STALL=20``), ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``, or
+``solver=NAME``: another solver of ``solve`` with its defaults (``auto``'s knobs as ``now``;
+session 32: ``solver=newton`` beside ``now``).  Problems:
 local exact-Coulomb problems (``--sets``: shared, eval, reframed) of at most ``--max-contacts``
 contacts (and more than
 ``--min-contacts``: session 28 ran the large manufactured cases alone at 10 s), ``--split tune
@@ -207,10 +209,11 @@ def run(its, configs, tol, time_limit, repeats_for):
     try:
         for fam, cid, p in its:
             for c in configs:
-                for k, v in settings(c).items():
+                solver = c[len("solver="):] if c.startswith("solver=") else "auto"
+                for k, v in settings("now" if solver != "auto" else c).items():
                     setattr(MODULE_OF.get(k, auto), k, v)
                 dt, res = min_wall_time(p, lambda t: socp_cd.solve(
-                    t, "auto", tol=tol, time_limit=time_limit), repeats_for(p))
+                    t, solver, tol=tol, time_limit=time_limit), repeats_for(p))
                 rows.append(record(fam, cid, p, tol, dt, res, config=c))
             print(cid[-50:], p.n_contacts, " ".join(
                 f"{r['config']}:{'ok' if r['solved'] else '--'}/{r['time'] * 1e3:.2f}ms"
