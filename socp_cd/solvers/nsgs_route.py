@@ -576,7 +576,8 @@ def run_prepared(problem, tail, tol, max_iter, r0, time_limit, _new=tuple.__new_
     # the bounds (MAX_CONTACTS; a sweep cap the kernel's int64 holds, options.MAX_ITER;
     # with a time limit and no compiled clock, MIN_TIME_LIMIT and MAX_TIMED_WORK, compared
     # in floats, where max_iter * nnz would wrap around in int64; auto.plain's call keeps
-    # within them too: its plan's SMALL_NC and sweep cap, the compiled clock)
+    # within them too: MAX_CONTACTS and nc > 0 read per call, its sweep cap checked with its
+    # plan, a timed call without the compiled clock sent to auto.route)
     if (nc > MAX_CONTACTS or nc == 0 or max_iter > MAX_ITER
             or time_limit is not None and not clock.AVAILABLE and not (
                 time_limit >= MIN_TIME_LIMIT
