@@ -264,6 +264,23 @@ class _ProblemBase:
     solution: Optional[Solution]
     guesses: list
 
+    #: the data fields: set once, by the constructor (compiled kernels read them with fixed
+    #: types, and per-problem caches are derived from them)
+    _DATA_FIELDS = frozenset({"dim", "q", "mu", "M", "H", "f", "w"})
+
+    def __setattr__(self, name, value):
+        """Refuse to assign a data field of a built problem (:data:`_DATA_FIELDS`).
+
+        A problem is immutable: another ``q`` or ``mu`` (of another dtype, say) would be
+        read by compiled code as the type it was built with, and the caches derived from the
+        old one would stay.  Only attribute *assignment* goes through here (reads, and the
+        caches ``functools.cached_property`` writes, do not): no cost per solve.
+        """
+        if name in self._DATA_FIELDS and name in self.__dict__:
+            raise InvalidProblemError(name, "a problem is immutable once built; make a new "
+                                      "one (problem.with_(...))", self.__dict__.get("source"))
+        object.__setattr__(self, name, value)
+
     def _init_meta(self, source, name, info, solution, guesses):
         self.source = None if source is None else str(source)
         self.name = name or (self.source.rsplit("/", 1)[-1] if self.source else "problem")
@@ -392,9 +409,10 @@ class FrictionContactProblem(_ProblemBase):
     from them (the error of ``r = 0``, ``||q||``, the dispatcher's unit
     factors and balanced copy, NSGS's block storage) are computed once per
     object.  Changing ``W``, ``q`` or ``mu`` in place afterwards leaves those
-    stale, and assigning other arrays to them breaks the types compiled code
-    relies on (contiguous float64 vectors, :mod:`socp_cd.solvers.kernels.entry`):
-    build a new problem instead (:meth:`with_`).
+    stale; assigning other arrays to ``q``, ``mu`` or ``dim`` is refused
+    (:class:`~socp_cd.errors.InvalidProblemError`: compiled code reads them as
+    contiguous float64 vectors, :mod:`socp_cd.solvers.kernels.entry`). Build a
+    new problem instead (:meth:`with_`).
     """
 
     is_global = False

@@ -640,3 +640,30 @@ def test_cli_info_states_rank_method_and_triviality(good_dat, capsys):
     assert code == 0
     assert "rank_method      dense SVD of" in out
     assert "trivial@1e-08    False" in out
+
+
+def test_a_built_problems_data_cannot_be_reassigned():
+    # compiled kernels read a problem's arrays with the types it was built with (entry points
+    # check nothing) and caches are derived from them: another q of float32, say, would be
+    # misread; assigning a data field is refused with the field named, metadata stays free,
+    # and copies and pickles (which do not assign) still work
+    import copy
+    import pickle
+
+    import socp_cd
+    p = FrictionContactProblem(2 * np.eye(3), np.array([-1.0, 0.1, 0.0]), 0.3, 3)
+    g = GlobalFrictionContactProblem(sp.eye(6), sp.csr_matrix(np.eye(6)[:, :3]), -np.ones(6),
+                                     np.zeros(3), 0.2, 3)
+    for prob, fields in ((p, ("q", "mu", "dim")), (g, ("M", "H", "f", "w", "mu", "dim"))):
+        for field in fields:
+            before = getattr(prob, field)
+            with pytest.raises(InvalidProblemError, match="immutable") as e:
+                setattr(prob, field, np.ones(3, dtype=np.float32))
+            assert e.value.field == field and getattr(prob, field) is before
+    p.name = "renamed"
+    assert p.name == "renamed"
+    ref = socp_cd.solve(p)
+    for other in (copy.copy(p), pickle.loads(pickle.dumps(p))):
+        res = socp_cd.solve(other)
+        assert res.converged and np.array_equal(res.r, ref.r)
+    assert socp_cd.solve(p.with_(q=np.array([-2.0, 0.0, 0.0]))).converged
