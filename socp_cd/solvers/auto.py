@@ -295,6 +295,9 @@ _NEWTON_FAMILY = tuple(name for name, (spec, _) in _STAGES.items() if spec is ne
 _CAPPED = ("newton_plain", "newton_plain_cold", "newton_plain_cold_split")
 #: share of the remaining budget of the (cheap, trial) plain stages, instead of STAGE_SHARE
 PLAIN_SHARE = 0.25
+#: the least time limit a stage is given (:func:`_stage_limit`'s rule, written out in
+#: :func:`plain`), seconds
+_MIN_STAGE_LIMIT = 1e-6
 #: (read-only: :func:`plain`'s plan keeps the NSGS stage's entry, or STAGE_SHARE)
 _SHARES = types.MappingProxyType({"newton_plain": PLAIN_SHARE, "newton_plain_cold": PLAIN_SHARE,
                                   "newton_plain_cold_split": PLAIN_SHARE,
@@ -624,7 +627,8 @@ def _stage_limit(method, left):
     if left is None:
         return None
     limit = _SHARES.get(method, STAGE_SHARE) * left
-    return 1e-6 if limit < 1e-6 else limit      # (max(limit, 1e-6) without max's call: 0.07 µs)
+    # (max(limit, _MIN_STAGE_LIMIT) without max's call: 0.07 µs)
+    return _MIN_STAGE_LIMIT if limit < _MIN_STAGE_LIMIT else limit
 
 
 def plain(problem, tol, time_limit, t0):
@@ -662,8 +666,8 @@ def plain(problem, tol, time_limit, t0):
         if not _CLOCK.AVAILABLE:    # (nsgs_route.run_prepared's bounds for a timed call)
             return route(problem, tol=tol, max_iter=None, r0=None, time_limit=time_limit)
         left = plan[5] * time_limit       # (the stage's limit; the chain after it has the rest)
-        if left < 1e-6:
-            left = 1e-6
+        if left < _MIN_STAGE_LIMIT:
+            left = _MIN_STAGE_LIMIT
     # the flat kernel's call (run_prepared's, within its bounds: nc <= MAX_CONTACTS above,
     # NSGS's sweep cap <= options.MAX_ITER, checked by _small_plan, the compiled clock
     # above): the kernel boxes the five numbers judged here, not its stats tuple, and writes
