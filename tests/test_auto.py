@@ -990,3 +990,35 @@ def test_a_stage_slow_to_stop_does_not_first_start_on_a_sliver_of_the_budget(mon
     clock[0], newton_cost[0] = 0.0, 0.99
     socp_cd.solve(p, tol=1e-30, time_limit=1.0, methods=("newton", "clarabel"))
     assert log == ["newton", "clarabel"]
+
+
+def test_newton_first_knob_routes_dense_small_problems_and_leaves_the_chain_after_it(
+        monkeypatch):
+    # the study knob of session 33 (off by default, formulations/auto.md "Newton first"): on
+    # local problems of NEWTON_FIRST_MIN_NC < nc <= SMALL_NC contacts whose W stores at least
+    # NEWTON_FIRST_BLOCKS blocks per contact, a capped proximal Newton stage runs first, and
+    # when it misses tol the small chain after it is the chain without it
+    def names(p):
+        return [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
+    dense = _local(12, 3, 4, mu=0.5)             # a dense W: 12 blocks per contact
+    assert auto.NEWTON_FIRST_BLOCKS is None and names(dense)[0] == "nsgs"
+    without = socp_cd.solve(dense, "auto", tol=1e-12)
+    monkeypatch.setattr(auto, "NEWTON_FIRST_BLOCKS", 12)
+    assert names(dense)[:2] == ["newton_first", "nsgs"]
+    for p in (_local(10, 3, 4), _local(auto.SMALL_NC + 1, 3, 4)):   # too few / too many contacts
+        assert "newton_first" not in names(p)
+    assert auto.route(dense, tol=1e-12, max_iter=None, r0=None, time_limit=None) is None
+    monkeypatch.setattr(auto, "NEWTON_FIRST_BLOCKS", 13)             # more blocks than stored
+    assert names(dense)[0] == "nsgs"
+    monkeypatch.setattr(auto, "NEWTON_FIRST_BLOCKS", 9)
+    monkeypatch.setattr(auto, "NEWTON_FIRST_STEPS", 1)               # a run that fails
+    res = socp_cd.solve(dense, "auto", tol=1e-12)
+    first, rest = res.info["path"][0], res.info["path"][1:]
+    assert first["method"] == "newton_first" and first["iterations"] <= 1
+    assert first["status"] != "converged" and first["error"] > 1e-12
+    # its iterate is not the seed: the stages after it are those of the chain without it
+    assert ([(s["method"], s["iterations"]) for s in rest]
+            == [(s["method"], s["iterations"]) for s in without.info["path"]])
+    assert res.converged == without.converged and np.array_equal(res.r, without.r)
+    # with the knob set, the plain call (auto.plain) goes through route, which declines
+    assert auto._small_plan(3) is False and auto.plain(dense, 1e-12, None, 0.0) is None

@@ -116,6 +116,15 @@ Session 32's:
     hand-off); larger ones the NSGS probe and Newton (100 since session 5, chosen when Newton
     was Python's loop; 10 and 30 measured on 11-100 contacts: ``results/auto_chain_tune_s32smallnc.md``).
 
+Session 33's:
+
+``NEWTON_FIRST_BLOCKS``, ``NEWTON_FIRST_MIN_NC``, ``NEWTON_FIRST_STEPS``, ``NEWTON_FIRST_STALL``
+    on local problems of more than that many and at most ``SMALL_NC`` contacts whose ``W``
+    stores at least that many blocks per contact, the proximal Newton method first, capped at
+    that many outer iterations and stopped after that many without a 10 % drop
+    (``"newton_first"``), then the small chain as without it (None: off;
+    ``results/auto_chain_{tune,holdout}_s33nfirst.md``).
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``), ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``, or
@@ -159,7 +168,8 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "TRIAL_STEPS", "TRIAL_STALL", "INNER_GATE", "INNER_DECREASE", "COLD_PROX_FIRST",
          "MIN_SLOW_START", "STAGE_SHARE", "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER",
          "HANDOFF_SWEEPS", "HANDOFF_WORK", "COLD_PLAIN_STALL_LARGE", "COLD_SPLIT",
-         "SEED_BY_GUARD", "TIGHTEN_FROM_SEED", "SMALL_NC")
+         "SEED_BY_GUARD", "TIGHTEN_FROM_SEED", "SMALL_NC", "NEWTON_FIRST_BLOCKS",
+         "NEWTON_FIRST_MIN_NC", "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -174,11 +184,13 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "MIN_SLOW_START": 0.0, "STAGE_SHARE": 0.5, "PLAIN_STALL": 50, "PLAIN_STALL_LARGE": None,
         "PLAIN_MAX_ITER": 200, "HANDOFF_SWEEPS": 200, "HANDOFF_WORK": 32000,
         "COLD_PLAIN_STALL_LARGE": None, "COLD_SPLIT": False, "SEED_BY_GUARD": False, "TIGHTEN_FROM_SEED": False,
-        "SMALL_NC": 100}
+        "SMALL_NC": 100, "NEWTON_FIRST_BLOCKS": None, "NEWTON_FIRST_MIN_NC": 10,
+        "NEWTON_FIRST_STEPS": 10, "NEWTON_FIRST_STALL": 2}
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M", "HANDOFF_PREDICT",
         "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "HANDOFF_SWEEPS", "HANDOFF_WORK",
-        "COLD_PLAIN_STALL_LARGE", "SMALL_NC")
+        "COLD_PLAIN_STALL_LARGE", "SMALL_NC", "NEWTON_FIRST_BLOCKS", "NEWTON_FIRST_MIN_NC",
+        "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 

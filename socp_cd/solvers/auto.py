@@ -107,6 +107,22 @@ _NSGS_MAX_ITER, _TIME_CHECK_SWEEPS = nsgs.DEFAULT_MAX_ITER, nsgs_route.TIME_CHEC
 _SWEEPS_OK = nsgs.DEFAULT_MAX_ITER <= MAX_ITER
 #: local problems with at most this many contacts start with NSGS
 SMALL_NC = 100
+#: (a study knob, session 33; None: off) local exact-Coulomb problems of more than
+#: NEWTON_FIRST_MIN_NC and at most SMALL_NC contacts whose ``W`` stores at least this many
+#: ``dim x dim`` blocks per contact (``nnz(W) / (n_contacts dim²)``, :func:`_newton_first`)
+#: start with the proximal Newton method capped at NEWTON_FIRST_STEPS outer iterations and
+#: stopped after NEWTON_FIRST_STALL without a 10 % drop of the error (``"newton_first"``);
+#: when it misses ``tol`` its iterate is kept as the best so far (the answer when nothing
+#: else does better) but is not the seed: the small chain (NSGS, the hand-off, ...) runs
+#: as without it.
+#: Session 32's feature study (validation/small_chain_features.py) estimated a gain on box
+#: stacks; measured in session 33 on the tune split, 3D 11-100 contacts, the 75 cases with
+#: >= 9 blocks: sgm 0.00330 -> 0.00355 s, 26 slower than x1.2, 15 faster than x0.8; not adopted
+#: (formulations/auto.md, "Newton first on box-stack-like problems")
+NEWTON_FIRST_BLOCKS = None
+NEWTON_FIRST_MIN_NC = 10
+NEWTON_FIRST_STEPS = 10
+NEWTON_FIRST_STALL = 2
 #: friction coefficient from which the fixed point is tried before NSGS
 HIGH_MU = 1.0
 #: share of the remaining time budget a stage receives (the last stage: all)
@@ -250,6 +266,7 @@ MAX_ROUNDS = 8
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
+    "newton_first": (newton.SPEC, {}),     # + NEWTON_FIRST_STEPS (first, small dense W)
     "nsgs_probe": (nsgs.SPEC, {}),
     "newton_plain": (newton.SPEC, {"policy": "plain"}),     # + PLAIN_STALL, PLAIN_MAX_ITER
     "newton_plain_cold": (newton.SPEC, {"policy": "plain"}),    # (read when the stage runs)
@@ -339,6 +356,19 @@ def _small_local(feats) -> bool:
     return feats["n_contacts"] <= SMALL_NC and not feats["global"]
 
 
+def _newton_first(problem) -> bool:
+    """Whether the small local chain of ``problem`` starts with ``"newton_first"``
+    (:data:`NEWTON_FIRST_BLOCKS`): more than :data:`NEWTON_FIRST_MIN_NC` and at most
+    :data:`SMALL_NC` contacts, and at least that many stored ``dim x dim`` blocks of ``W`` per
+    contact, counted as ``nnz(W) / (n_contacts dim²)`` (no pass over ``W``)."""
+    blocks = NEWTON_FIRST_BLOCKS
+    if blocks is None or problem.is_global:
+        return False
+    nc, d = problem.mu.shape[0], problem.dim
+    return (NEWTON_FIRST_MIN_NC < nc <= SMALL_NC
+            and int(problem.csr_parts[0][-1]) >= blocks * nc * d * d)
+
+
 def stage_order(problem, formulation, feats) -> tuple:
     """Stage names ``(method, formulation)`` for ``problem`` (rules: ``formulations/auto.md``)."""
     if feats["frictionless"] and formulation in ("coulomb", "frictionless"):
@@ -371,7 +401,8 @@ def stage_order(problem, formulation, feats) -> tuple:
                    + (("nsgs_mid", "coulomb"),
                     ("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
                    if HANDOFF_SWEEPS is not None and not last else ())
-        return ((("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),) + plain
+        first = (("newton_first", "coulomb"),) if _newton_first(problem) else ()
+        return (first + (("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),) + plain
                 + (("clarabel", "coulomb"), ("newton", "coulomb")) + last)
     if feats["mu_max"] >= HIGH_MU or feats["dim"] == 2:
         middle = (("clarabel", "coulomb"), ("nsgs", "coulomb"))
@@ -596,6 +627,8 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     nc = problem.mu.shape[0]
     stall, handoff, predict = None, (0, 0), 0
     if nc <= SMALL_NC:
+        if NEWTON_FIRST_BLOCKS is not None and _newton_first(problem):
+            return None     # the chain starts with Newton (auto_backend; off: no call)
         method, cap = "nsgs", max_iter
         if SMALL_SWEEPS is not None or SMALL_STALL is not None:    # a study's knobs
             cap, stall = _small_cap(max_iter), _small_knobs()[1]
@@ -704,7 +737,8 @@ def plain(problem, tol, time_limit, t0):
 _PLANS = {}
 #: the knobs :func:`_small_plan` reads
 _PLAN_KNOBS = frozenset({"SMALL_NC", "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS",
-                         "HANDOFF_WORK", "HANDOFF_PREDICT", "PREDICT_MAX_M", "STAGE_SHARE"})
+                         "HANDOFF_WORK", "HANDOFF_PREDICT", "PREDICT_MAX_M", "STAGE_SHARE",
+                         "NEWTON_FIRST_BLOCKS"})
 
 
 def _small_plan(dim):
@@ -721,8 +755,9 @@ def _small_plan(dim):
         work = None
     if (SMALL_SWEEPS is not None or SMALL_STALL is not None or type(HANDOFF_SWEEPS) is not int
             or HANDOFF_SWEEPS < 1 or type(w) is not int or w < 0 or work is None
-            or not _SWEEPS_OK):
-        # (the last: plain's kernel call within nsgs_route.run_prepared's bounds)
+            or not _SWEEPS_OK or NEWTON_FIRST_BLOCKS is not None):
+        # (_SWEEPS_OK: plain's kernel call within nsgs_route.run_prepared's bounds;
+        # NEWTON_FIRST_BLOCKS: route applies _newton_first's rule)
         plan = False
     else:
         handoff = (HANDOFF_SWEEPS, work)
@@ -990,6 +1025,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     short = ""                    # why a SLOW_TO_STOP stage was not run for lack of time
     # the hand-off's trials the compiled route ran after its NSGS stage (route)
     trials = list(resume.get("trials") or ()) if resume is not None else []
+    # the small chain's first NSGS stage: the order's first, or second after "newton_first"
+    nsgs_first = 1 if order and order[0][0] == "newton_first" else 0
     k = -1
     while True:     # (a refused stage may be inserted once: RETRY_REFUSED; rounds appended)
         if k + 1 >= len(order):
@@ -1006,8 +1043,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         # the first NSGS stage of a small local exact-Coulomb problem runs with the study
         # knobs' settings (SMALL_SWEEPS / SMALL_STALL): when one is set, a different run from
         # NSGS with its defaults (the chain's last stage then)
-        small_first = (k == 0 and method == "nsgs" and form == "coulomb" and methods is None
-                       and not feats["frictionless"] and _small_local(feats))
+        small_first = (k == nsgs_first and method == "nsgs" and form == "coulomb"
+                       and methods is None and not feats["frictionless"]
+                       and _small_local(feats))
         variant = "small_first" if small_first and knobs != (None, None) else ""
         if method == "newton_trial" and mid_ran:
             variant = "at_cap"      # the second trial starts from NSGS's iterate, not the best
@@ -1085,7 +1123,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             opts = dict(stage_opts)
             # a probe that missed by far hands nothing on: Newton from a far NSGS iterate with
             # the warm proximal parameter was 2-5x slower than from the start (auto_probe.md)
-            if method == "newton" and seed_r is not None and not after_far_probe:
+            if (method in ("newton", "newton_first") and seed_r is not None
+                    and not after_far_probe):
                 opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
             if method in ("newton", "newton_cold_alt") and NEWTON_STALL is not None:
                 opts["stall_window"] = NEWTON_STALL
@@ -1107,6 +1146,10 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 stage_max_iter = _small_cap(max_iter)
                 if knobs[1] is not None:
                     opts["stall_window"] = knobs[1]
+            elif method == "newton_first":
+                stage_max_iter = (NEWTON_FIRST_STEPS if max_iter is None
+                                  else min(max_iter, NEWTON_FIRST_STEPS))
+                opts["stall_window"] = NEWTON_FIRST_STALL
             elif method in ("nsgs_mid", "nsgs_rest"):
                 stage_max_iter = rest
                 if method == "nsgs_rest" and REST_PREDICT:
@@ -1162,7 +1205,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         if err < best_err:
             best_r, best_err, best_stage = r, err, k
             best_v = res.v if (res is not None and target is problem) else None
-        if err < seed_score:        # (the rank is at least the error: else no gain)
+        if err < seed_score and (method != "newton_first" or err <= tol):
+            # (the rank is at least the error: else no gain; a newton_first that missed tol
+            # is not the seed: the chain after it runs as without it)
             score = _seed_score(judge, r, err, tol)
             if score < seed_score:
                 seed_r, seed_err, seed_score, seed_stage = r, err, score, k
