@@ -663,3 +663,45 @@ def test_a_deadline_stops_the_sweeps_at_the_first_check(options):
     assert res.status == "time_limit" and res.iterations == every
     free = solve(p, "nsgs", tol=1e-300, max_iter=25, **options)    # no deadline: no stop
     assert free.status == "max_iter" and free.iterations == 25
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_relax_after_runs_its_first_sweeps_unrelaxed(dim):
+    """``relax_after`` (Sweeps' ``plain_sweeps``): the first sweeps with ``omega = 1``, the
+    rest with ``omega``: the same iterate, bit for bit, as two runs one after the other; and
+    through ``solve``, counted across the blocks of a time-limited run."""
+    from socp_cd.bench.generators import manufactured
+    from socp_cd.solvers.block_storage import block_csr
+    from socp_cd.solvers.kernels.cone import LAW_COULOMB
+    from socp_cd.solvers.local_solvers import KIND_AC_NEWTON, KIND_EXACT
+    from socp_cd.solvers.nsgs_kernels import (BlockW, Law, LocalSolver, Sweeps,
+                                              local_parameters, no_origin, nsgs_loop)
+    p = manufactured(12, dim, 0.6, structure="redundant", seed=dim)
+    S = block_csr(p.W, dim)
+    rhoN, rhoT, rhoP, _ = local_parameters(S.diag, S.blocks)
+    W, law = BlockW(S.indptr, S.indices, S.blocks, S.diag), Law(p.mu, np.zeros(p.n_contacts),
+                                                               LAW_COULOMB)
+    local = LocalSolver(KIND_EXACT if dim == 2 else KIND_AC_NEWTON, rhoN, rhoT, rhoP, 1e-13,
+                        10, 50)
+
+    def run(r, n, omega, plain):
+        sweeps = Sweeps(1e-300, n, omega, False, 0, 0, 0, False, 0, n, -1.0, np.inf, plain)
+        return nsgs_loop(dim, W, p.q, law, local, sweeps, r, np.full(1, np.nan), no_origin())
+    one, two, relaxed = np.zeros(p.m), np.zeros(p.m), np.zeros(p.m)
+    assert run(one, 9, 1.4, 4)[1] == 9
+    run(two, 4, 1.0, 0)
+    run(two, 5, 1.4, 0)
+    run(relaxed, 9, 1.4, 0)
+    assert np.array_equal(one, two)
+    assert not np.array_equal(one, relaxed)     # (the relaxation does act)
+    # through solve: relax_after counts across the time-limited blocks (10, 20, ... sweeps)
+    kw = dict(solver="nsgs", tol=1e-300, max_iter=25, omega=1.4)
+    a = socp_cd.solve(p, relax_after=15, **kw)
+    b = socp_cd.solve(p, relax_after=15, time_limit=1e3, **kw)
+    c = socp_cd.solve(p, relax_after=0, **kw)
+    assert a.iterations == b.iterations == c.iterations == 25
+    assert np.array_equal(a.r, b.r) and not np.array_equal(a.r, c.r)
+    assert a.info["relax_after"] == 15
+    for bad in (-1, 1.5, "3", 2 ** 63):
+        with pytest.raises(socp_cd.InvalidProblemError, match="relax_after"):
+            socp_cd.solve(p, solver="nsgs", relax_after=bad)
