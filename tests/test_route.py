@@ -19,7 +19,7 @@ import socp_cd
 from socp_cd import residuals
 from socp_cd.bench.generators import manufactured
 from socp_cd.problem import FrictionContactProblem
-from socp_cd.solvers import auto, newton, nsgs_route
+from socp_cd.solvers import newton, nsgs_route
 from socp_cd.solvers.result import STATUSES, LazyInfo
 from socp_cd.solvers.kernels.cone import LAW_COULOMB, error_parts, relative_error
 from socp_cd.solvers.kernels.scaling import GUARD_KEYS, balanced_guard
@@ -177,14 +177,9 @@ def test_nsgs_route_equals_general_path(monkeypatch, name, p, time_limit):
 
 
 @pytest.mark.parametrize("name,p", CASES, ids=[c[0] for c in CASES])
-@pytest.mark.parametrize("omega", [1.0, 1.3])
-def test_auto_route_equals_general_path_and_resumes(monkeypatch, name, p, omega):
+def test_auto_route_equals_general_path_and_resumes(monkeypatch, name, p):
     # max_iter=5 leaves most NSGS stages short of tol: the route hands them on (resume);
-    # on more than auto.SMALL_NC contacts the routed stage is the NSGS probe; with the study
-    # knob NSGS_OMEGA (session 33) the NSGS stages relax after NSGS_RELAX_AFTER sweeps, on
-    # both paths
-    monkeypatch.setattr(auto, "NSGS_OMEGA", omega)
-    monkeypatch.setattr(auto, "NSGS_RELAX_AFTER", 3)
+    # on more than auto.SMALL_NC contacts the routed stage is the NSGS probe
     for kw in (dict(), dict(max_iter=5), dict(time_limit=5.0, max_iter=5),
                dict(r0=np.random.default_rng(2).random(p.m))):
         a = socp_cd.solve(p, **kw)
@@ -969,7 +964,7 @@ def test_trial_runs_equal_newton_backend_on_the_balanced_copy():
                          contact_scale=scale, seed=seed)
         copy = balanced(p).problem
         settings = {"kind": 1, "loc_tol": 1e-13, "newton_maxit": 10, "proj_maxit": 100,
-                    "omega": 1.0, "relax_after": 0, "error_every": 10, "stall_window": 5000}
+                    "omega": 1.0, "error_every": 10, "stall_window": 5000}
         out = nsgs_route.run(p, tuple(settings[k] for k in nsgs_route.ROUTE_SETTINGS), 1e-10,
                              3, None, None, True)
         assert out is not None

@@ -124,9 +124,10 @@ Session 33's:
     that many outer iterations and stopped after that many without a 10 % drop
     (``"newton_first"``), then the small chain as without it (None: off;
     ``results/auto_chain_{tune,holdout}_s33nfirst.md``).
-``NSGS_OMEGA``, ``NSGS_RELAX_AFTER``
+``NSGS_OMEGA``, ``NSGS_RELAX_AFTER`` (commit f7562b4 only, reverted after it)
     the NSGS stages of the exact law over-relaxed (NSGS's ``omega``) after that many sweeps
-    without it (its ``relax_after``; 1.0: off; ``results/auto_chain_*_s33omega*.md``).
+    without it (its ``relax_after``; 1.0: off; ``results/auto_chain_tune_s33omega.md``;
+    ``formulations/auto.md``, "Over-relaxed NSGS stages").
 
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
@@ -172,13 +173,12 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "MIN_SLOW_START", "STAGE_SHARE", "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER",
          "HANDOFF_SWEEPS", "HANDOFF_WORK", "COLD_PLAIN_STALL_LARGE", "COLD_SPLIT",
          "SEED_BY_GUARD", "TIGHTEN_FROM_SEED", "SMALL_NC", "NEWTON_FIRST_BLOCKS",
-         "NEWTON_FIRST_MIN_NC", "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "NSGS_OMEGA",
-         "NSGS_RELAX_AFTER")
+         "NEWTON_FIRST_MIN_NC", "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
 FLOATS = ("COLD_ALPHA0", "ALT_ALPHA0", "COMPILED_LU_MAX_ENVELOPE", "INNER_GATE", "INNER_DECREASE",
-          "MIN_SLOW_START", "STAGE_SHARE", "NSGS_OMEGA")
+          "MIN_SLOW_START", "STAGE_SHARE")
 BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD_TRIAL_STEPS": 0,
         "COLD_TRIAL_STALL": 10, "NEWTON_STALL": None, "COLD_PROX_STEPS": 0,
         "COLD_MAX_M": 72, "PREDICT_MAX_M": 72, "MAX_ROUNDS": 0, "COLD_ALPHA0": 1.0,
@@ -189,13 +189,12 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "PLAIN_MAX_ITER": 200, "HANDOFF_SWEEPS": 200, "HANDOFF_WORK": 32000,
         "COLD_PLAIN_STALL_LARGE": None, "COLD_SPLIT": False, "SEED_BY_GUARD": False, "TIGHTEN_FROM_SEED": False,
         "SMALL_NC": 100, "NEWTON_FIRST_BLOCKS": None, "NEWTON_FIRST_MIN_NC": 10,
-        "NEWTON_FIRST_STEPS": 10, "NEWTON_FIRST_STALL": 2, "NSGS_OMEGA": 1.0,
-        "NSGS_RELAX_AFTER": 10}
+        "NEWTON_FIRST_STEPS": 10, "NEWTON_FIRST_STALL": 2}
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M", "HANDOFF_PREDICT",
         "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "HANDOFF_SWEEPS", "HANDOFF_WORK",
         "COLD_PLAIN_STALL_LARGE", "SMALL_NC", "NEWTON_FIRST_BLOCKS", "NEWTON_FIRST_MIN_NC",
-        "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "NSGS_RELAX_AFTER")
+        "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 

@@ -123,13 +123,6 @@ NEWTON_FIRST_BLOCKS = None
 NEWTON_FIRST_MIN_NC = 10
 NEWTON_FIRST_STEPS = 10
 NEWTON_FIRST_STALL = 2
-#: (a study knob, session 33; 1.0: off) the NSGS stages of the exact Coulomb law (the small
-#: chain's, the probe, ``nsgs_mid``, ``nsgs_rest``, the larger problems' and the rounds') run
-#: with this over-relaxation (NSGS's option ``omega``) after NSGS_RELAX_AFTER sweeps without
-#: it (its option ``relax_after``): Gauss-Seidel with successive over-relaxation, each run's
-#: first sweeps plain so that problems whose contacts barely couple keep their one sweep
-NSGS_OMEGA = 1.0
-NSGS_RELAX_AFTER = 10
 #: friction coefficient from which the fixed point is tried before NSGS
 HIGH_MU = 1.0
 #: share of the remaining time budget a stage receives (the last stage: all)
@@ -361,14 +354,6 @@ def _small_local(feats) -> bool:
     """Whether the problem of ``feats`` (:func:`features`) takes the small local chain: a
     local problem of at most :data:`SMALL_NC` contacts (NSGS first, the hand-off)."""
     return feats["n_contacts"] <= SMALL_NC and not feats["global"]
-
-
-def _nsgs_relax():
-    """``(omega, relax_after)`` of the NSGS stages (:data:`NSGS_OMEGA`,
-    :data:`NSGS_RELAX_AFTER`), or None when off."""
-    if NSGS_OMEGA == 1.0:
-        return None
-    return float(NSGS_OMEGA), int(NSGS_RELAX_AFTER)
 
 
 def _newton_first(problem) -> bool:
@@ -661,7 +646,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     t0 = _clock()
     # (the stage's share of the budget, as auto_backend gives it)
     out = nsgs.compiled_run(problem, tol, cap, r0, _stage_limit(method, time_limit), True,
-                            stall, handoff, predict, _nsgs_relax())
+                            stall, handoff, predict)
     if out is None:
         return None
     return _stage_outcome(problem, out, method, handoff, tol, max_iter, time_limit, t0)
@@ -753,7 +738,7 @@ _PLANS = {}
 #: the knobs :func:`_small_plan` reads
 _PLAN_KNOBS = frozenset({"SMALL_NC", "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS",
                          "HANDOFF_WORK", "HANDOFF_PREDICT", "PREDICT_MAX_M", "STAGE_SHARE",
-                         "NEWTON_FIRST_BLOCKS", "NSGS_OMEGA", "NSGS_RELAX_AFTER"})
+                         "NEWTON_FIRST_BLOCKS"})
 
 
 def _small_plan(dim):
@@ -776,9 +761,7 @@ def _small_plan(dim):
         plan = False
     else:
         handoff = (HANDOFF_SWEEPS, work)
-        settings, relax = nsgs.route_settings(dim), _nsgs_relax()
-        if relax is not None:
-            settings = nsgs.relaxed_settings(settings, relax)
+        settings = nsgs.route_settings(dim)
         plan = (SMALL_NC, PREDICT_MAX_M, handoff,
                 nsgs_route.prepared(settings, True, handoff, w),
                 nsgs_route.prepared(settings, True, handoff, 0), _SHARES.get("nsgs", STAGE_SHARE))
@@ -1178,8 +1161,6 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 steps = _cold_steps(method)
                 stage_max_iter = steps if max_iter is None else min(max_iter, steps)
                 opts["stall_window"] = COLD_TRIAL_STALL
-            if form == "coulomb" and spec is nsgs.SPEC and _nsgs_relax() is not None:
-                opts["omega"], opts["relax_after"] = _nsgs_relax()
             if form == "tresca":
                 opts["threshold"] = options["threshold"]
             t0 = _clock()

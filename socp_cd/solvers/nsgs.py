@@ -17,11 +17,6 @@ local_solver : {"exact", "ac_newton", "projection"}
     uses the projection fixed point; Tresca uses Newton for ``"exact"``.
 omega : float, default 1
     Relaxation ``r_i <- omega r_i^new + (1 - omega) r_i^old``, ``0 < omega < 2``.
-relax_after : int, default 0
-    The first that many sweeps run without the relaxation (``omega = 1``), the
-    later ones with ``omega`` (counted from the run's start, across the blocks
-    of a time-limited run).  Where the contacts do not couple one unrelaxed
-    sweep is the answer, and over-relaxation then slows it down.
 ordering : {"natural", "shuffled"}, default "natural"
     Contact order; ``"shuffled"`` draws a new permutation every sweep from ``seed``.
 seed : int, default 0
@@ -71,7 +66,7 @@ from .local_solvers import (KIND_AC_NEWTON, KIND_EXACT, KIND_PROJECTION, LAW_ASS
                             LAW_COULOMB, LAW_TRESCA)
 from .nsgs_kernels import (STATUS_NAMES, STATUS_TIME_LIMIT, BlockW, Law, LocalSolver, Origin,
                            Sweeps, no_origin, full_error, local_parameters, nsgs_loop, timed_next_block, whole_windows)
-from .options import MAX_ITER, check_choice, check_int, check_real, check_unknown
+from .options import check_choice, check_int, check_real, check_unknown
 from .result import SolverResult
 from .scaling import origin
 from .spec import SolverSpec
@@ -85,7 +80,6 @@ _LAWS = {"coulomb": LAW_COULOMB, "frictionless": LAW_COULOMB, "associated": LAW_
 OPTIONS = {
     "local_solver": "one-contact solver: 'exact' (2D default), 'ac_newton' (3D default), 'projection'",
     "omega": "relaxation in (0, 2) (default 1)",
-    "relax_after": "sweeps without the relaxation before omega applies (default 0)",
     "ordering": "'natural' (default) or 'shuffled'",
     "seed": "int seed of the shuffled ordering (default 0)",
     "error_every": "full error every that many sweeps (default 10; 0: light-error rule only)",
@@ -137,8 +131,6 @@ def _checked_settings(d, options):
     return dict(
         ls_name=ls_name, kind=int(_KINDS[ls_name]), omega=omega, ordering=ordering,
         seed=check_int("seed", _option(options, "seed", 0), minimum=0),
-        relax_after=check_int("relax_after", _option(options, "relax_after", 0), minimum=0,
-                              maximum=MAX_ITER),
         error_every=check_int("error_every", _option(options, "error_every", 10), minimum=0),
         stall_window=check_int("stall_window", _option(options, "stall_window", 5000), minimum=0),
         predict_window=check_int("predict_window", _option(options, "predict_window", 0),
@@ -184,8 +176,7 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     q = np.ascontiguousarray(problem.q, dtype=np.float64)
     r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=np.float64).reshape(-1)
     rhoN, rhoT, rhoP, bad = local_parameters(S.diag, S.blocks)
-    info = {"local_solver": st["ls_name"], "omega": st["omega"],
-            "relax_after": st["relax_after"], "ordering": st["ordering"],
+    info = {"local_solver": st["ls_name"], "omega": st["omega"], "ordering": st["ordering"],
             "error_every": st["error_every"]}
     if bad.any():
         # a contact whose W_NN is not positive has no well-posed one-contact problem
@@ -214,8 +205,7 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     while True:
         sweeps = Sweeps(float(tol), int(block), float(st["omega"]), st["ordering"] == "shuffled",
                         int(st["seed"] + done), int(st["error_every"]), int(st["stall_window"]),
-                        bool(history), window, int(max_iter - done), prev, deadline,
-                        max(0, int(st["relax_after"]) - done))
+                        bool(history), window, int(max_iter - done), prev, deadline)
         status, iters, err, n_full, n_fail, light, hist = nsgs_loop(d, W, q, law_t, local, sweeps,
                                                                     r, hist, units)
         if history:
@@ -256,21 +246,8 @@ def route_settings(dim):
     return settings
 
 
-def relaxed_settings(settings, relax) -> tuple:
-    """Route ``settings`` (:func:`route_settings`) with ``relax = (omega, relax_after)`` in
-    place of those two entries."""
-    out = list(settings)
-    out[_OMEGA_AT], out[_RELAX_AT] = float(relax[0]), int(relax[1])
-    return tuple(out)
-
-
-#: where ``omega`` and ``relax_after`` sit in the route's settings
-_OMEGA_AT = nsgs_route.ROUTE_SETTINGS.index("omega")
-_RELAX_AT = nsgs_route.ROUTE_SETTINGS.index("relax_after")
-
-
 def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False, stall_window=None,
-                 handoff=(0, 0), predict_window=0, relax=None):
+                 handoff=(0, 0), predict_window=0):
     """NSGS with its default settings through the compiled route (:mod:`~socp_cd.solvers.nsgs_route`).
 
     ``max_iter`` sweeps (None: :data:`DEFAULT_MAX_ITER`) from ``r0`` (caller's
@@ -279,8 +256,7 @@ def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False, st
     ``stall_window`` replaces the default one (the option of the same name)
     when given; ``handoff`` ``(sweeps, work)``: ``solver="auto"``'s hand-off
     cap (:func:`~socp_cd.solvers.nsgs_route.nsgs_checked`; ``(0, 0)``: none);
-    ``predict_window``: the option of the same name; ``relax``: ``(omega, relax_after)``,
-    the options of those names, in place of their defaults (None: the defaults).
+    ``predict_window``: the option of the same name.
 
     Returns
     -------
@@ -289,8 +265,6 @@ def compiled_run(problem, tol, max_iter, r0, time_limit, need_friction=False, st
         (:func:`~socp_cd.solvers.nsgs_route.run`).
     """
     settings = route_settings(problem.dim)
-    if relax is not None:
-        settings = relaxed_settings(settings, relax)
     if stall_window is not None:
         settings = settings[:-1] + (int(stall_window),)
     return nsgs_route.run(problem, settings, tol,
@@ -316,8 +290,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     st = _settings(problem, {}, {})
     x, R = out.stats, nsgs_route
     sweeps = int(x[R.SWEEPS])
-    info = {"local_solver": st["ls_name"], "omega": st["omega"],
-            "relax_after": st["relax_after"], "ordering": st["ordering"],
+    info = {"local_solver": st["ls_name"], "omega": st["omega"], "ordering": st["ordering"],
             "error_every": st["error_every"], "setup_time": 0.0,
             "loop_time": time.perf_counter() - t0, "cpu_time": time.process_time() - cpu0,
             "full_error_evaluations": int(x[R.N_FULL]), "local_failures": int(x[R.N_FAIL]),
@@ -352,5 +325,4 @@ def warmup() -> float:
     return time.perf_counter() - t0
 
 
-__all__ = ["SPEC", "OPTIONS", "nsgs_backend", "route", "compiled_run", "route_settings",
-           "relaxed_settings", "local_parameters", "warmup", "full_error", "DEFAULT_MAX_ITER"]
+__all__ = ["SPEC", "OPTIONS", "nsgs_backend", "route", "compiled_run", "route_settings", "local_parameters", "warmup", "full_error", "DEFAULT_MAX_ITER"]

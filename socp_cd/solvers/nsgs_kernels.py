@@ -184,12 +184,9 @@ Origin = namedtuple("Origin", "a b q_norm")
 #: end of the window before this call, -1 for none: a run in blocks of whole windows
 #: carries it from one block to the next), and the deadline on the compiled clock
 #: (:mod:`~socp_cd.solvers.kernels.clock`; ``inf``: none): past it the loop stops with
-#: ``STATUS_TIME_LIMIT``; ``plain_sweeps``: the first that many sweeps of this call run
-#: without the relaxation (``omega = 1``), the later ones with ``omega`` (default 0: all
-#: with ``omega``; the NSGS option ``relax_after``).
+#: ``STATUS_TIME_LIMIT``.
 Sweeps = namedtuple("Sweeps", "tol max_iter omega shuffle seed error_every stall_window record "
-                              "predict_window predict_budget predict_prev deadline plain_sweeps",
-                    defaults=(0,))
+                              "predict_window predict_budget predict_prev deadline")
 
 
 @njit(cache=True)
@@ -247,8 +244,7 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
     mu, g, law = law.mu, law.g, law.code
     kind, rhoN, rhoT, rhoP = local.kind, local.rhoN, local.rhoT, local.rhoP
     loc_tol, newton_maxit, proj_maxit = local.tol, local.newton_max_iter, local.projection_max_iter
-    tol, max_iter, relax, shuffle = sweeps.tol, sweeps.max_iter, sweeps.omega, sweeps.shuffle
-    plain_sweeps = sweeps.plain_sweeps
+    tol, max_iter, omega, shuffle = sweeps.tol, sweeps.max_iter, sweeps.omega, sweeps.shuffle
     seed, error_every, stall_window, record = (sweeps.seed, sweeps.error_every,
                                                sweeps.stall_window, sweeps.record)
     window, budget = sweeps.predict_window, sweeps.predict_budget
@@ -258,10 +254,9 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
     # W block diagonal (one stored block per contact; the callers decline a contact whose
     # diagonal block is missing or not positive before the sweeps, local_parameters' ``bad``,
     # so that block is its diagonal one): the contacts do not couple, each local solve is its
-    # whole problem, and without relaxation (omega = 1, or its first sweep unrelaxed) one sweep
-    # is the answer: checked at once, as one contact's always was (a 20-sphere pile on its
-    # floor: 1 sweep, not 2)
-    decoupled = nc == 1 or (indptr[nc] == nc and (relax == 1.0 or plain_sweeps > 0))
+    # whole problem, and without relaxation (omega = 1) one sweep is the answer: checked at
+    # once, as one contact's always was (a 20-sphere pile on its floor: 1 sweep, not 2)
+    decoupled = nc == 1 or (indptr[nc] == nc and omega == 1.0)
     order = np.arange(nc)
     if shuffle:
         np.random.seed(seed)
@@ -289,7 +284,6 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
     for it in range(1, max_iter + 1):
         if shuffle:
             np.random.shuffle(order)
-        omega = 1.0 if it <= plain_sweeps else relax
         dsum = 0.0
         kk = 0
         while kk < nc:

@@ -107,8 +107,8 @@ TRIAL_CONSTANTS = ("alpha0", "plain_regularization", "goldstein_m1", "max_backtr
 
 
 #: the NSGS settings :func:`run` takes, in order (the keys of the NSGS backend's settings)
-ROUTE_SETTINGS = ("kind", "loc_tol", "newton_maxit", "proj_maxit", "omega", "relax_after",
-                  "error_every", "stall_window")
+ROUTE_SETTINGS = ("kind", "loc_tol", "newton_maxit", "proj_maxit", "omega", "error_every",
+                  "stall_window")
 #: entries of :func:`nsgs_checked`'s ``stats`` tuple, in order (then the guard's,
 #: :data:`~socp_cd.solvers.kernels.scaling.GUARD_KEYS`)
 STATS = ("sweeps", "internal_error", "n_full", "n_fail", "light", "error", "zero_error",
@@ -159,8 +159,8 @@ def checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_
 @njit(cache=True)
 def nsgs_checked(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked, first_block,
                  time_left, kind, loc_tol, newton_max_iter, projection_max_iter, omega,
-                 relax_after, error_every, stall_window, need_friction, handoff_sweeps,
-                 handoff_work, predict_window, vectors):
+                 error_every, stall_window, need_friction, handoff_sweeps, handoff_work, predict_window,
+                 vectors):
     """Balance, NSGS sweeps from ``vectors[0]`` or 0, map back, and the dispatcher's checks, in
     one call (:func:`checked_work`; :func:`nsgs_checked_flat` is the same call with its
     outputs in one array).
@@ -171,10 +171,9 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked
         The local problem as written (``W`` in CSR form, duplicates summed).
     warm
         Start from ``vectors[0]`` (caller's units; else from 0).
-    tol, max_iter, omega, relax_after, error_every, stall_window
+    tol, max_iter, omega, error_every, stall_window
         NSGS's sweep settings (:data:`~socp_cd.solvers.nsgs_kernels.Sweeps`,
-        natural ordering; ``relax_after``: the NSGS option, the first that many sweeps
-        of the run without the relaxation).
+        natural ordering).
     blocked, first_block, time_left
         Run the sweeps in blocks of ``first_block``, twice that, ... sweeps, as
         the NSGS backend does when a time limit is given (each block restarts
@@ -224,17 +223,16 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked
     stats = np.zeros(N_OUT)
     code = checked_work(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked,
                         first_block, time_left, kind, loc_tol, newton_max_iter,
-                        projection_max_iter, omega, relax_after, error_every, stall_window,
-                        need_friction, handoff_sweeps, handoff_work, predict_window, vectors,
-                        stats)
+                        projection_max_iter, omega, error_every, stall_window, need_friction,
+                        handoff_sweeps, handoff_work, predict_window, vectors, stats)
     return code, to_fixed_tuple(stats, N_OUT)
 
 
 @njit(cache=True)
 def nsgs_checked_flat(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked,
                       first_block, time_left, kind, loc_tol, newton_max_iter,
-                      projection_max_iter, omega, relax_after, error_every, stall_window,
-                      need_friction, handoff_sweeps, handoff_work, predict_window, out):
+                      projection_max_iter, omega, error_every, stall_window, need_friction,
+                      handoff_sweeps, handoff_work, predict_window, out):
     """:func:`nsgs_checked` with its outputs in one array ``out`` of :func:`flat_rows`
     ``(m)`` rows of ``m``: the rows of ``vectors`` (the start ``r0`` in the first with
     ``warm``), then ``stats`` (the first :data:`N_OUT` entries of the rows after, in
@@ -253,8 +251,8 @@ def nsgs_checked_flat(indptr, indices, data, q, mu, dim, warm, tol, max_iter, bl
     stats[:] = 0.0
     code = checked_work(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked,
                         first_block, time_left, kind, loc_tol, newton_max_iter,
-                        projection_max_iter, omega, relax_after, error_every, stall_window,
-                        need_friction, handoff_sweeps, handoff_work, predict_window,
+                        projection_max_iter, omega, error_every, stall_window, need_friction,
+                        handoff_sweeps, handoff_work, predict_window,
                         entries[:3 * m].reshape((3, m)), stats)
     return (code, int(stats[SWEEPS]), stats[INTERNAL_ERROR], stats[ERROR], stats[GUARD_VALUE],
             stats[ZERO_ERROR])
@@ -263,8 +261,8 @@ def nsgs_checked_flat(indptr, indices, data, q, mu, dim, warm, tol, max_iter, bl
 @njit(cache=True)
 def checked_work(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked, first_block,
                  time_left, kind, loc_tol, newton_max_iter, projection_max_iter, omega,
-                 relax_after, error_every, stall_window, need_friction, handoff_sweeps,
-                 handoff_work, predict_window, vectors, stats):
+                 error_every, stall_window, need_friction, handoff_sweeps, handoff_work,
+                 predict_window, vectors, stats):
     """The work of :func:`nsgs_checked` (its arguments, and ``stats`` (:data:`N_OUT`,
     zeros) for the tuple it returns, filled here): returns the code."""
     deadline = monotonic() + time_left if blocked else np.inf
@@ -307,8 +305,7 @@ def checked_work(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked
     prev = -1.0             # the rate prediction's error at the end of the last block
     while True:
         sweeps = Sweeps(tol, block, omega, False, done, error_every, stall_window, False,
-                        predict_window, max_iter - done, prev, deadline,
-                        max(0, relax_after - done))
+                        predict_window, max_iter - done, prev, deadline)
         status, its, err, n_full, n_fail, light, hist = nsgs_loop(dim, W, q_s, law, local, sweeps,
                                                                   r_s, hist, origin)
         done += its
@@ -570,7 +567,7 @@ def prepared(settings, need_friction, handoff=(0, 0), predict_window=0) -> tuple
 def run_prepared(problem, tail, tol, max_iter, r0, time_limit, _new=tuple.__new__):
     """:func:`run` with ``settings``, ``need_friction``, ``handoff`` and ``predict_window``
     in ``tail`` (:func:`prepared`).  A plain ``solver="auto"`` call on a small problem is a
-    few µs, a tenth of it the making of :func:`nsgs_checked`'s 25 arguments:
+    few µs, a tenth of it the making of :func:`nsgs_checked`'s 24 arguments:
     :func:`socp_cd.solvers.auto.plain` keeps ``tail`` from one call to the next (and calls
     :func:`nsgs_checked_flat` itself, within these bounds)."""
     mu = problem.mu
@@ -653,7 +650,7 @@ def _entry(indptr, indices, kernel, table):
     ix = index_vector(dtype)
     b, i = types.boolean, types.int64
     sig = (ix, ix, F64_VECTOR, F64_VECTOR, F64_VECTOR, i, b, types.float64, i, b, i,
-           types.float64, i, types.float64, i, i, types.float64, i, i, i, b, i, i, i,
+           types.float64, i, types.float64, i, i, types.float64, i, i, b, i, i, i,
            types.Array(types.float64, 2, "C"))
     ep = table[dtype] = entry_point(kernel, sig)
     return ep
