@@ -25,6 +25,14 @@ def read_problem(path, **kwargs):
     return _read(path, **kwargs)
 
 
+def warmup(force: bool = False) -> float:
+    """Load (or compile) every compiled kernel a solve may reach, once per process; returns
+    seconds (see :func:`socp_cd.solvers.warm.warmup`).  Call it before timing solves or
+    before the first call whose ``time_limit`` matters."""
+    from .solvers.warm import warmup as _warmup
+    return _warmup(force)
+
+
 def write_fclib(problem, path, solution=None, **kwargs):
     """Write a problem to FCLib HDF5 (see :func:`socp_cd.io.write_fclib`)."""
     from .io import write_fclib as _write
@@ -33,7 +41,7 @@ def write_fclib(problem, path, solution=None, **kwargs):
 
 __all__ = [
     "FrictionContactProblem", "GlobalFrictionContactProblem", "Solution",
-    "read_problem", "write_fclib", "solve", "solvers", "SolverResult",
+    "read_problem", "write_fclib", "solve", "solvers", "SolverResult", "warmup",
     "error", "guard", "absolute_error", "contact_errors", "feasibility", "complementarity",
     "project_cone", "project_dual_cone", "desaxce_velocity", "natural_map",
     "fenchel_young_gap", "bipotential", "classify_contacts", "ContactStatus",

@@ -31,8 +31,7 @@ def _offline(script, monkeypatch, n):
     items = [dict(set="shared", id=f"p{k}", split="shared", kind="local3", nc=1,
                   problem=manufactured(1, 3, mu=0.5, seed=k)) for k in range(n)]
     monkeypatch.setattr(script, "problem_set", lambda args: items)
-    monkeypatch.setattr(script.newton, "warmup", lambda: None)
-    monkeypatch.setattr(script.nsgs, "warmup", lambda: None)
+    monkeypatch.setattr(script.socp_cd, "warmup", lambda: 0.0)
     monkeypatch.setattr(script.socp_cd, "solve", lambda *a, **k: None)
 
 

@@ -161,7 +161,7 @@ from socp_cd.bench.campaign import warm_up
 from socp_cd.bench.evalset import case_split
 from socp_cd.bench.reports import shifted_geometric_mean
 from socp_cd.bench.tasks import SolverChoice
-from socp_cd.solvers import auto, newton, nsgs
+from socp_cd.solvers import auto, newton
 
 from auto_probe import items, min_wall_time, record, write_csv
 
@@ -340,8 +340,7 @@ def main(argv=None) -> int:
         write_csv(rows, OUT / f"auto_chain_{args.split}{args.tag}.csv")
         write_report(rows, args)
         return 0
-    newton.warmup()
-    nsgs.warmup()
+    socp_cd.warmup()
     sims = [Path(__file__).resolve().parent / f for f in args.sim] if args.sim else None
     its = items(args.split, args.max_contacts, args.min_contacts,
                 sets=tuple(args.sets) + (("sim",) if sims else ()), sims=sims)

@@ -82,7 +82,10 @@ def items(split, max_contacts, min_contacts, sets=("shared", "eval", "sim"), sim
 def min_wall_time(p, solve, repeats):
     """``(min wall time, last result)`` of ``solve(target)`` over ``repeats`` runs, each on a
     new problem object (a shallow copy of ``p``, made outside the timer); one run when a
-    call takes over 0.5 s."""
+    call takes over 0.5 s.  Every compiled kernel is loaded first (:func:`socp_cd.warmup`,
+    once per process; since session 33: a call that reached a kernel first had its
+    compilation, or its cache load, timed)."""
+    socp_cd.warmup()
     best, res = math.inf, None
     for _ in range(repeats):
         target = copy.copy(p)

@@ -64,7 +64,7 @@ from socp_cd.bench.siconos_peer import SOLVERS as SICONOS_SOLVERS
 from socp_cd.bench.siconos_peer import (REPEAT_BUDGET, REPEAT_SECOND_BELOW, family_of,
                                        siconos_available, siconos_batch)
 from socp_cd.data import shared_problems_dir
-from socp_cd.solvers import newton, nsgs
+
 
 OUT = Path(__file__).resolve().parent / "results"
 SGM_SHIFT = 0.01
@@ -278,11 +278,10 @@ def main(argv=None) -> int:
     items = problem_set(args)
     print(f"{len(items)} problems; Siconos {'available' if have_sic else 'NOT available'}", flush=True)
 
-    # warm every JIT once on a small problem of each kind, and the compiled Newton loops and
-    # NSGS kernels on tiny problems (auto reaches the plain loop only when its first Newton
+    # warm every JIT once on a small problem of each kind, and every compiled kernel on tiny
+    # problems (socp_cd.warmup; auto reaches the plain loop only when its first Newton
     # stage misses tol: session 11's first run timed its compilation, 3.3 s, on CubeH8)
-    newton.warmup()
-    nsgs.warmup()
+    socp_cd.warmup()
     for kind in ("local3", "local2", "global3"):
         it = next((i for i in items if i["kind"] == kind), None)
         if it is not None:

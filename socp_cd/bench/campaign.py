@@ -11,11 +11,9 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
-
-from ..solvers import solve
 from ..solvers import solvers as registered_solvers
 from ..solvers.registry import solver_spec
+from ..solvers.warm import warmup
 from .generators import manufactured
 from .isolation import default_isolation, run_forked, run_subprocess, solve_payload
 from .problem_refs import ProblemRef, file_problems, shared_problems
@@ -46,36 +44,11 @@ _WARM: set = set()
 
 
 def _warm_kernels() -> None:
-    """Load every compiled kernel a solve may reach, once per process: the Newton loops,
-    NSGS and projection kernels (their ``warmup``), every stage of ``solver="auto"`` (forced by its
-    ``methods`` option and a tolerance no stage meets) on local 2D and 3D problems, and a
-    global one, and a Newton system large enough for the one-BLAS-thread limit.  A forked
-    child would load what the parent has not on its first call: the first calls of a
-    campaign timed it (75 ms instead of 4 ms on a 23-contact problem, 135 instead of 24 ms
-    on a 60-contact one)."""
-    if "kernels" in _WARM:
-        return
-    _WARM.add("kernels")
-    from ..problem import GlobalFrictionContactProblem
-    from ..solvers import newton, nsgs, projection
-    newton.warmup()
-    nsgs.warmup()
-    projection.warmup()
-    stages = ("nsgs", "newton_trial", "newton_trial_cold", "newton", "newton_plain", "newton_plain_cold",
-              "nsgs_probe", "clarabel", "clarabel_qp")
-    rng = np.random.default_rng(12345)
-    for dim in (2, 3):
-        p = manufactured(3, dim, 0.3, seed=12345)
-        for tol in (1e-6, 1e-30):
-            solve(p, "auto", tol=tol, max_iter=3, time_limit=5.0, methods=stages)
-        # a Newton system of over 60 unknowns factorizes with one BLAS thread: the thread
-        # controller is built on first use (~0.1 s of scanning the loaded libraries)
-        solve(manufactured(25, dim, 0.3, seed=12345), "newton", tol=1e-30, max_iter=1)
-        H = rng.standard_normal((6, 2 * dim))
-        g = GlobalFrictionContactProblem(np.eye(6), H, rng.standard_normal(6),
-                                         rng.standard_normal(2 * dim), 0.3, dim)
-        for name in ("auto", "newton", "clarabel", "nsgs"):
-            solve(g, name, tol=1e-6, max_iter=3)
+    """Load every compiled kernel a solve may reach, once per process
+    (:func:`socp_cd.warmup`).  A forked child would load what the parent has not on its first
+    call: the first calls of a campaign timed it (75 ms instead of 4 ms on a 23-contact
+    problem, 135 instead of 24 ms on a 60-contact one)."""
+    warmup()
 
 
 def warm_up(solver: SolverChoice, dim: int) -> None:

@@ -1,0 +1,103 @@
+"""Load every compiled kernel a solve may reach, before a timed or time-limited call.
+
+The kernels are compiled by numba on their first call and cached on disk
+(``__pycache__`` beside the sources): the first call in a process *loads* them
+(0.3–1 s in all), the first call after an install or a cache clear *compiles* them
+(tens of seconds in all).  Either happens inside whichever call first reaches a kernel,
+where no ``time_limit`` check can stop it: in session 33 one ``solver="auto"`` call under
+a 1 s budget took 8.4 s right after the cache was cleared, a 38-contact problem that takes
+4 ms warm.  :func:`warmup` makes those first calls on tiny problems, once per process, so
+that later calls keep their budgets and their timings are the solvers' own.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
+from . import newton, nsgs, projection
+from .registry import solve
+
+#: the stages of ``solver="auto"`` run one by one (its ``methods`` option): the general path
+#: of each, on top of the plain calls' compiled routes
+AUTO_STAGES = ("nsgs", "newton_trial", "newton_trial_cold", "newton_trial_prox", "newton",
+               "newton_plain", "newton_plain_cold", "newton_plain_cold_split", "newton_cold_alt",
+               "nsgs_probe", "clarabel", "clarabel_qp")
+
+_DONE: list = []
+
+
+def _local(nc, dim, seed, index_dtype=np.int32):
+    """A small local problem with approaching contacts and coupled, well-posed ``W``; its CSR
+    indices of ``index_dtype`` (the compiled route keeps one entry point per index dtype)."""
+    rng = np.random.default_rng(seed)
+    m = nc * dim
+    A = rng.standard_normal((m, m))
+    W = sp.csr_matrix(A @ A.T / m + np.eye(m))
+    W.indices = W.indices.astype(index_dtype)
+    W.indptr = W.indptr.astype(index_dtype)
+    q = rng.standard_normal(m)
+    q[::dim] -= 1.0
+    return FrictionContactProblem(W, q, 0.3, dim)
+
+
+def _sparse(dim, seed):
+    """A local problem of more than ``newton.DENSE_MAX_M`` unknowns whose ``W`` couples each
+    contact to its neighbours only: the Newton backend's sparse path (SuperLU, the
+    Jacobian's block kernels)."""
+    nc = newton.DENSE_MAX_M // dim + 10
+    m = nc * dim
+    rng = np.random.default_rng(seed)
+    band = sp.diags([np.full(m - dim, -0.1), np.full(m, 2.0), np.full(m - dim, -0.1)],
+                    [-dim, 0, dim], format="csr")
+    q = rng.standard_normal(m)
+    q[::dim] -= 1.0
+    return FrictionContactProblem(band, q, 0.3, dim)
+
+
+def warmup(force: bool = False) -> float:
+    """Load (or compile) every compiled kernel that :func:`~socp_cd.solve` may reach; returns
+    the seconds this call took (0 after the first call in a process, unless ``force``).
+
+    On tiny local problems in 2D and 3D, with both CSR index dtypes: the plain calls of
+    ``auto``, ``nsgs`` and ``newton`` (their compiled routes), each of ``auto``'s stages
+    (:data:`AUTO_STAGES`, at a tolerance no stage meets, with and without a time limit), the
+    backends' own warm-ups (:func:`socp_cd.solvers.newton.warmup`, ``nsgs``'s,
+    ``projection``'s), a Newton system of more than 60 unknowns (it factorizes with one BLAS
+    thread, whose controller is built on first use), a sparse one (SuperLU and the
+    Jacobian's block kernels), and a global problem through ``auto``,
+    ``newton``, ``clarabel`` and ``nsgs``.  Call it once before timing solves, or before
+    the first call whose ``time_limit`` matters.
+    """
+    if _DONE and not force:
+        return 0.0
+    t0 = time.perf_counter()
+    newton.warmup()
+    nsgs.warmup()
+    projection.warmup()
+    rng = np.random.default_rng(12345)
+    for dim in (2, 3):
+        for dtype in (np.int32, np.int64):
+            p = _local(3, dim, 12345, dtype)
+            for name in ("auto", "nsgs", "newton"):
+                solve(p, name)
+                solve(p, name, time_limit=5.0)
+            solve(_local(1, dim, 1, dtype))             # one contact: the flat kernel's call
+        p = _local(3, dim, 12346)
+        for tol in (1e-6, 1e-30):
+            solve(p, "auto", tol=tol, max_iter=3, time_limit=5.0, methods=AUTO_STAGES)
+            solve(p, "auto", tol=tol, max_iter=3, methods=AUTO_STAGES)
+        solve(_local(25, dim, 12347), "newton", tol=1e-30, max_iter=1)
+        solve(_sparse(dim, 12348), "newton", tol=1e-30, max_iter=2)
+        H = rng.standard_normal((6, 2 * dim))
+        g = GlobalFrictionContactProblem(np.eye(6), H, rng.standard_normal(6),
+                                         rng.standard_normal(2 * dim), 0.3, dim)
+        for name in ("auto", "newton", "clarabel", "nsgs"):
+            solve(g, name, tol=1e-6, max_iter=3)
+    _DONE.append(True)
+    return time.perf_counter() - t0
+
+
+__all__ = ["warmup", "AUTO_STAGES"]
