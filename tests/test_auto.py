@@ -1022,3 +1022,27 @@ def test_newton_first_knob_routes_dense_small_problems_and_leaves_the_chain_afte
     assert res.converged == without.converged and np.array_equal(res.r, without.r)
     # with the knob set, the plain call (auto.plain) goes through route, which declines
     assert auto._small_plan(3) is False and auto.plain(dense, 1e-12, None, 0.0) is None
+
+
+def test_newton_first_knob_keeps_the_hand_off_after_a_refused_retry(monkeypatch):
+    # a newton_first answer within tol that the units guard refuses is retried (RETRY_REFUSED:
+    # "newton" inserted after it); the NSGS stage after both is still the small chain's first
+    # NSGS stage: capped at the hand-off's sweeps, the trials after it
+    import dataclasses
+    dense = _local(12, 3, 4, mu=0.5)
+    monkeypatch.setattr(auto, "NEWTON_FIRST_BLOCKS", 9)
+    monkeypatch.setattr(auto._Judge, "guard_value", lambda self, r: 1.0)   # refuses every answer
+    spec, opts = auto._STAGES["nsgs"]
+    calls = []
+
+    def spy(*args, **kw):
+        calls.append((kw["max_iter"], kw.get("predict_window")))
+        return spec.func(*args, **kw)
+    monkeypatch.setitem(auto._STAGES, "nsgs", (dataclasses.replace(spec, func=spy), opts))
+    res = socp_cd.solve(dense, "auto", tol=1e-8, time_limit=30.0)
+    names = [s["method"] for s in res.info["path"]]
+    assert names[:3] == ["newton_first", "newton", "nsgs"], names
+    assert res.info["path"][0]["error"] <= 1e-8             # (met tol, refused by the guard)
+    # the first NSGS stage with the hand-off's cap and rate prediction
+    assert calls[0] == (auto._handoff_cap(dense, None), auto._predict_window(dense))
+    assert calls[0][0] is not None and calls[0][1] > 0

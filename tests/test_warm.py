@@ -44,11 +44,28 @@ CHECK = textwrap.dedent('''
                 socp_cd.solve(p, solver, time_limit=tl)
             socp_cd.solve(p, tol=1e-14, time_limit=tl)
         socp_cd.solve(p, r0=np.ones(p.m))
+        socp_cd.solve(p, "projection", max_iter=50)
         if n <= 12:
             for form in ("associated", "frictionless"):
                 socp_cd.solve(p, formulation=form)
             socp_cd.solve(p, formulation="tresca", threshold=np.full(n, 0.1))
             socp_cd.solve(p, "nsgs", history=True)
+            socp_cd.solve(p, "newton", history=True)
+            # CSR indices in int64, and read-only data (a user's buffers)
+            W = p.W.tocsr() if hasattr(p.W, "tocsr") else __import__("scipy.sparse").sparse.csr_matrix(p.W)
+            W.indices, W.indptr = W.indices.astype(np.int64), W.indptr.astype(np.int64)
+            wide = socp_cd.FrictionContactProblem(W, p.q, p.mu, d)
+            ro = socp_cd.FrictionContactProblem(p.W, p.q.copy(), p.mu, d)
+            for a in (ro.csr_parts[2], ro.q):
+                a.flags.writeable = False
+            for x in (wide, ro):
+                for solver in ("auto", "nsgs", "newton", "projection"):
+                    socp_cd.solve(x, solver)
+                    socp_cd.solve(x, solver, r0=np.ones(x.m), max_iter=5)
+                socp_cd.solve(x, tol=1e-14, time_limit=1.0)
+    # Clarabel's Newton polish above the compiled loop's size (a 2D deposit-sized problem)
+    big = manufactured(330, 2, 0.3, structure="tree", seed=9)
+    socp_cd.solve(big, "clarabel", max_iter=3)
     rng = np.random.default_rng(0)
     for d in (2, 3):
         H = rng.standard_normal((8, 3 * d))

@@ -123,7 +123,7 @@ Session 33's:
     stores at least that many blocks per contact, the proximal Newton method first, capped at
     that many outer iterations and stopped after that many without a 10 % drop
     (``"newton_first"``), then the small chain as without it (None: off;
-    ``results/auto_chain_{tune,holdout}_s33nfirst.md``).
+    ``results/auto_chain_tune_s33nfirst.md``; the held-out cases were not run).
 ``NSGS_OMEGA``, ``NSGS_RELAX_AFTER`` (commit f7562b4 only, reverted after it)
     the NSGS stages of the exact law over-relaxed (NSGS's ``omega``) after that many sweeps
     without it (its ``relax_after``; 1.0: off; ``results/auto_chain_tune_s33omega.md``;

@@ -113,11 +113,13 @@ SMALL_NC = 100
 #: start with the proximal Newton method capped at NEWTON_FIRST_STEPS outer iterations and
 #: stopped after NEWTON_FIRST_STALL without a 10 % drop of the error (``"newton_first"``);
 #: when it misses ``tol`` its iterate is kept as the best so far (the answer when nothing
-#: else does better) but is not the seed: the small chain (NSGS, the hand-off, ...) runs
-#: as without it.
+#: else does better) but is not the seed: the small chain (NSGS, the hand-off, ...) starts
+#: as without it (with half the time budget left, and the rounds' gain test reading a best
+#: error that may be this stage's).
 #: Session 32's feature study (validation/small_chain_features.py) estimated a gain on box
-#: stacks; measured in session 33 on the tune split, 3D 11-100 contacts, the 75 cases with
-#: >= 9 blocks: sgm 0.00330 -> 0.00355 s, 26 slower than x1.2, 15 faster than x0.8; not adopted
+#: stacks; measured in session 33 on the tune split, 3D 11-100 contacts (151 cases, the 76 the
+#: rule does not take at their times without it, unsolved as 2 s): sgm 0.00329 -> 0.00354 s;
+#: of the 75 it takes, 27 slower than x1.2, 15 faster than x0.8; not adopted
 #: (formulations/auto.md, "Newton first on box-stack-like problems")
 NEWTON_FIRST_BLOCKS = None
 NEWTON_FIRST_MIN_NC = 10
@@ -514,7 +516,8 @@ def check(problem, options, inner_settings) -> None:
         if isinstance(methods, str) or not hasattr(methods, "__iter__"):
             raise InvalidProblemError("methods", f"must be a sequence of stage names, got {methods!r}")
         methods = tuple(methods)
-        valid = sorted(set(_STAGES) - {"nsgs_mid", "nsgs_rest"})   # (the hand-off's stages)
+        # (the hand-off's stages, and the study knob's first stage: not a user's stage)
+        valid = sorted(set(_STAGES) - {"nsgs_mid", "nsgs_rest", "newton_first"})
         bad = [m for m in methods if m not in valid]
         if bad or not methods:
             raise InvalidProblemError("methods", f"stage names must be among {valid}, "
@@ -1025,8 +1028,10 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     short = ""                    # why a SLOW_TO_STOP stage was not run for lack of time
     # the hand-off's trials the compiled route ran after its NSGS stage (route)
     trials = list(resume.get("trials") or ()) if resume is not None else []
-    # the small chain's first NSGS stage: the order's first, or second after "newton_first"
-    nsgs_first = 1 if order and order[0][0] == "newton_first" else 0
+    # whether no NSGS stage has been reached yet: the small chain's first NSGS stage is the
+    # order's first, or the one after "newton_first" (and a refused stage's retry inserted
+    # before it)
+    nsgs_pending = True
     k = -1
     while True:     # (a refused stage may be inserted once: RETRY_REFUSED; rounds appended)
         if k + 1 >= len(order):
@@ -1043,9 +1048,11 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         # the first NSGS stage of a small local exact-Coulomb problem runs with the study
         # knobs' settings (SMALL_SWEEPS / SMALL_STALL): when one is set, a different run from
         # NSGS with its defaults (the chain's last stage then)
-        small_first = (k == nsgs_first and method == "nsgs" and form == "coulomb"
+        small_first = (nsgs_pending and method == "nsgs" and form == "coulomb"
                        and methods is None and not feats["frictionless"]
                        and _small_local(feats))
+        if method == "nsgs":
+            nsgs_pending = False
         variant = "small_first" if small_first and knobs != (None, None) else ""
         if method == "newton_trial" and mid_ran:
             variant = "at_cap"      # the second trial starts from NSGS's iterate, not the best

@@ -11,6 +11,7 @@ that later calls keep their budgets and their timings are the solvers' own.
 """
 from __future__ import annotations
 
+import itertools
 import time
 
 import numpy as np
@@ -29,9 +30,11 @@ AUTO_STAGES = ("nsgs", "newton_trial", "newton_trial_cold", "newton_trial_prox",
 _DONE: list = []
 
 
-def _local(nc, dim, seed, index_dtype=np.int32):
+def _local(nc, dim, seed, index_dtype=np.int32, readonly=False):
     """A small local problem with approaching contacts and coupled, well-posed ``W``; its CSR
-    indices of ``index_dtype`` (the compiled route keeps one entry point per index dtype)."""
+    indices of ``index_dtype`` (the kernels are compiled once per index dtype), its ``W``
+    data and ``q`` read-only arrays when ``readonly`` (numba compiles read-only arrays
+    apart: a user's ``np.frombuffer`` or a memory map)."""
     rng = np.random.default_rng(seed)
     m = nc * dim
     A = rng.standard_normal((m, m))
@@ -40,7 +43,11 @@ def _local(nc, dim, seed, index_dtype=np.int32):
     W.indptr = W.indptr.astype(index_dtype)
     q = rng.standard_normal(m)
     q[::dim] -= 1.0
-    return FrictionContactProblem(W, q, 0.3, dim)
+    p = FrictionContactProblem(W, q, 0.3, dim)
+    if readonly:
+        for a in (p.csr_parts[2], p.q):
+            a.flags.writeable = False
+    return p
 
 
 def _sparse(dim, seed):
@@ -61,15 +68,20 @@ def warmup(force: bool = False) -> float:
     """Load (or compile) every compiled kernel that :func:`~socp_cd.solve` may reach; returns
     the seconds this call took (0 after the first call in a process, unless ``force``).
 
-    On tiny local problems in 2D and 3D, with both CSR index dtypes: the plain calls of
-    ``auto``, ``nsgs`` and ``newton`` (their compiled routes), each of ``auto``'s stages
-    (:data:`AUTO_STAGES`, at a tolerance no stage meets, with and without a time limit), the
-    backends' own warm-ups (:func:`socp_cd.solvers.newton.warmup`, ``nsgs``'s,
-    ``projection``'s), a Newton system of more than 60 unknowns (it factorizes with one BLAS
-    thread, whose controller is built on first use), a sparse one (SuperLU and the
-    Jacobian's block kernels), and a global problem through ``auto``,
-    ``newton``, ``clarabel`` and ``nsgs``.  Call it once before timing solves, or before
-    the first call whose ``time_limit`` matters.
+    On tiny local problems in 2D and 3D, with both CSR index dtypes and with read-only data:
+    the plain calls of ``auto``, ``nsgs``, ``newton`` and ``projection`` (the compiled
+    routes), with a time limit, with ``r0`` and ``max_iter``, Newton's ``history``, each of
+    ``auto``'s stages (:data:`AUTO_STAGES`, at a tolerance no stage meets, with and without a
+    time limit); the backends' own warm-ups (:func:`socp_cd.solvers.newton.warmup`,
+    ``nsgs``'s, ``projection``'s); a Newton system of more than 60 unknowns (it factorizes
+    with one BLAS thread, whose controller is built on first use); a sparse one of more than
+    ``newton.DENSE_MAX_M`` unknowns through ``newton`` and ``clarabel`` (SuperLU, the
+    Jacobian's block kernels, the Newton polish outside the compiled loop); a global problem
+    through ``auto``, ``newton``, ``clarabel``, ``nsgs`` and ``projection``.  What a spread
+    of solves reaches after it is checked by ``tests/test_warm.py``; a path outside both
+    (another solver's kernels, an option's) may still load or compile on its first call.
+    Call it once before timing solves, or before the first call whose ``time_limit``
+    matters.
     """
     if _DONE and not force:
         return 0.0
@@ -79,22 +91,26 @@ def warmup(force: bool = False) -> float:
     projection.warmup()
     rng = np.random.default_rng(12345)
     for dim in (2, 3):
-        for dtype in (np.int32, np.int64):
-            p = _local(3, dim, 12345, dtype)
-            for name in ("auto", "nsgs", "newton"):
+        for dtype, readonly in itertools.product((np.int32, np.int64), (False, True)):
+            p = _local(3, dim, 12345, dtype, readonly)
+            for name in ("auto", "nsgs", "newton", "projection"):
                 solve(p, name)
                 solve(p, name, time_limit=5.0)
-            solve(_local(1, dim, 1, dtype))             # one contact: the flat kernel's call
-        p = _local(3, dim, 12346)
-        for tol in (1e-6, 1e-30):
-            solve(p, "auto", tol=tol, max_iter=3, time_limit=5.0, methods=AUTO_STAGES)
-            solve(p, "auto", tol=tol, max_iter=3, methods=AUTO_STAGES)
+                solve(p, name, r0=np.ones(p.m), max_iter=3)
+            solve(p, "newton", history=True, max_iter=3)
+            solve(_local(1, dim, 1, dtype, readonly))   # one contact: the flat kernel's call
+            for tol in (1e-6, 1e-30):
+                solve(p, "auto", tol=tol, max_iter=3, time_limit=5.0, methods=AUTO_STAGES)
+                solve(p, "auto", tol=tol, max_iter=3, methods=AUTO_STAGES)
         solve(_local(25, dim, 12347), "newton", tol=1e-30, max_iter=1)
-        solve(_sparse(dim, 12348), "newton", tol=1e-30, max_iter=2)
+        big = _sparse(dim, 12348)
+        solve(big, "newton", tol=1e-30, max_iter=2)
+        # (Clarabel's Newton polish of a system the compiled loop does not take)
+        solve(big, "clarabel", tol=1e-30, max_iter=2)
         H = rng.standard_normal((6, 2 * dim))
         g = GlobalFrictionContactProblem(np.eye(6), H, rng.standard_normal(6),
                                          rng.standard_normal(2 * dim), 0.3, dim)
-        for name in ("auto", "newton", "clarabel", "nsgs"):
+        for name in ("auto", "newton", "clarabel", "nsgs", "projection"):
             solve(g, name, tol=1e-6, max_iter=3)
     _DONE.append(True)
     return time.perf_counter() - t0
