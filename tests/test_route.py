@@ -409,10 +409,11 @@ def test_flat_kernel_is_the_tuple_kernel():
                 flat = np.empty((nsgs_route.flat_rows(p.m), p.m))
                 if r0_ is not None:
                     flat[0] = r0_
+                flat_settings = nsgs_route.flat_settings(dim, 50, nsgs_route.TIME_CHECK_SWEEPS,
+                                                         tail)
                 got = (nsgs_route.flat_entry(indptr, indices)(
-                    indptr, indices, data, p.q, p.mu, dim, r0_ is not None, tol, 50,
-                    limit is not None, nsgs_route.TIME_CHECK_SWEEPS,
-                    np.inf if limit is None else limit, *tail, flat), flat)
+                    indptr, indices, data, p.q, p.mu, flat_settings, r0_ is not None, tol,
+                    limit is not None, np.inf if limit is None else limit, flat), flat)
                 out = nsgs_route.flat_outcome(*got)
                 assert out.status == ref.status and out.stats == ref.stats
                 assert np.array_equal(out.vectors, ref.vectors) and out.vectors.shape == (3, p.m)
@@ -429,14 +430,24 @@ def test_flat_kernel_declines_an_output_array_too_short():
     from socp_cd.solvers import nsgs
     p = _random(2, 3, 5, mu=0.4)
     tail = nsgs_route.prepared(nsgs.route_settings(3), True, (0, 0), 0)
+    settings = nsgs_route.flat_settings(3, 50, nsgs_route.TIME_CHECK_SWEEPS, tail)
     indptr, indices, data = p.csr_parts
     for rows in (3, nsgs_route.flat_rows(p.m)):
         out = np.zeros((rows, p.m))
-        x = nsgs_route.nsgs_checked_flat(indptr, indices, data, p.q, p.mu, 3, False, 1e-8, 50,
-                                         False, nsgs_route.TIME_CHECK_SWEEPS, np.inf, *tail,
-                                         out)
+        x = nsgs_route.nsgs_checked_flat(indptr, indices, data, p.q, p.mu, settings, False,
+                                         1e-8, False, np.inf, out)
         assert (x[0] == nsgs_route.DECLINED_SHORT_OUT) is (rows == 3)
         assert (rows == 3) is not out.any()         # (declined: nothing written)
+    # a settings vector too short declines too, before any work
+    out = np.zeros((nsgs_route.flat_rows(p.m), p.m))
+    x = nsgs_route.nsgs_checked_flat(indptr, indices, data, p.q, p.mu, settings[:-1], False,
+                                     1e-8, False, np.inf, out)
+    assert x[0] == nsgs_route.DECLINED_SHORT_OUT and not out.any()
+    # flat_settings takes the names' count of values, each exact in float64
+    with pytest.raises(ValueError):
+        nsgs_route.flat_settings(3, 50, 10, tail[:-1])
+    with pytest.raises(ValueError):
+        nsgs_route.flat_settings(3, 2 ** 53 + 1, 10, tail)
 
 
 def test_of_local_fills_the_fields_it_names():
@@ -871,7 +882,7 @@ def test_auto_route_gives_its_stages_the_general_paths_shares(monkeypatch):
     real_runs = newton.compiled_runs
 
     def run_spy(*a):            # (auto.plain's NSGS kernel call: the stage's time limit)
-        budgets.append(a[11] if a[9] else None)
+        budgets.append(a[9] if a[8] else None)
         return nsgs_route.flat_entry(a[0], a[1])(*a)
 
     def runs_spy(*a, time_left=None, **kw):

@@ -13,8 +13,9 @@ nested layers of a plain ``solve`` (min over loops of many calls, garbage collec
 * inside the kernel, compiled loops over all its work (``nsgs_route.checked_work``: the
   balancing, the block storage, the sweeps and the checks) and over the set-up pieces that
   allocate their outputs (the balancing, the block storage, the one-contact steps);
-* the unboxing of the kernel's 24 arguments against a 10-argument form that would pack
-  its 18 settings into one array (two trivial compiled functions with the same types).
+* the unboxing of the 24 arguments the flat kernel took until session 33 against a
+  10-argument form with its settings packed into one array (two trivial compiled functions
+  with those types; the flat kernel takes 11 since session 33).
 
 Prints a Markdown table (``--out`` writes it too)::
 
@@ -33,7 +34,7 @@ from numba import njit, types
 
 import socp_cd
 from socp_cd.data import shared_problems_dir
-from socp_cd.solvers import auto, nsgs_route
+from socp_cd.solvers import auto, nsgs, nsgs_route
 from socp_cd.solvers.block_storage import csr_to_bsr
 from socp_cd.solvers.kernels.scaling import balance_csr
 from socp_cd.solvers.nsgs_kernels import local_parameters
@@ -138,9 +139,11 @@ def main(argv=None) -> int:
     def plain_kernel(p):
         ip, ix, dt = p.csr_parts
         out = np.empty((rows, m))
-        return kernel(ip, ix, dt, p.q, p.mu, 3, False, 1e-8, 1000, True, 10, 0.5, *plan[3], out)
+        return kernel(ip, ix, dt, p.q, p.mu, plan[3], False, 1e-8, True, 0.5, out)
     out = np.empty((rows, m))
-    tail = plan[3]
+    # (the tuple form's 11 trailing settings: the compiled loop's call and the 24-argument
+    # comparison)
+    tail = nsgs_route.prepared(nsgs.route_settings(3), True, plan[2], auto.HANDOFF_PREDICT)
     b, i, f = types.boolean, types.int64, types.float64
     iv, fv = types.Array(types.int32, 1, "C"), types.Array(types.float64, 1, "C")
     many = _many.compile((iv, iv, fv, fv, fv, i, b, f, i, b, i, f, i, f, i, i, f, i, i, b, i, i,
@@ -155,12 +158,12 @@ def main(argv=None) -> int:
             lambda p: auto.plain(p, 1e-8, 1.0, time.perf_counter()), fresh, n, lp)),
         ("the flat kernel's call as `auto.plain` makes it", per_call(plain_kernel, fresh, n, lp)),
         ("the same kernel call, fixed arguments", per_call(
-            lambda _: kernel(indptr, indices, data, q, mu, 3, False, 1e-8, 1000, True, 10, 0.5,
-                             *tail, out), lambda: None, n, lp)),
+            lambda _: kernel(indptr, indices, data, q, mu, plan[3], False, 1e-8, True, 0.5, out),
+            lambda: None, n, lp)),
         ("unboxing 24 arguments (a trivial kernel of the same types)", per_call(
             lambda _: many(ia, ia, fa, fa, fa, 3, False, 1e-8, 1000, True, 10, 0.5, *tail, o2),
             lambda: None, n, lp)),
-        ("unboxing 10 arguments (18 settings in one array)", per_call(
+        ("unboxing 10 arguments (the settings in one array)", per_call(
             lambda _: few(ia, ia, fa, fa, fa, params, 1e-8, True, 0.5, o2), lambda: None, n, lp)),
         ("in the kernel: all its work (`nsgs_route.checked_work`, compiled loop)",
          in_loop_ns(_work, (indptr, indices, data, q, mu, tail, np.empty((3, m)),

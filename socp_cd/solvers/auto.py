@@ -715,9 +715,8 @@ def plain(problem, tol, time_limit, t0):
     out = _empty((3 - (-_N_OUT // m), m))          # (nsgs_route.flat_rows(m), without a call)
     kernel = _FLAT_ENTRIES.get(indptr.dtype) if indices.dtype is indptr.dtype else None
     got = (kernel or nsgs_route.flat_entry(indptr, indices))(
-        indptr, indices, data, q, problem.mu, dim, False, tol, _NSGS_MAX_ITER,
-        time_limit is not None, _TIME_CHECK_SWEEPS, left,
-        *(plan[3] if m <= plan[1] else plan[4]), out)
+        indptr, indices, data, q, problem.mu, plan[3] if m <= plan[1] else plan[4], False, tol,
+        time_limit is not None, left, out)
     if got[0] < 0:          # (a declined problem, or an answer the checks cannot judge)
         return None
     code, sweeps, stage_error, error, guard_value, zero_error = got
@@ -746,10 +745,11 @@ _PLAN_KNOBS = frozenset({"SMALL_NC", "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWE
 
 def _small_plan(dim):
     """:func:`plain`'s small call in dimension ``dim`` from the knobs as they are, recorded in
-    :data:`_PLANS`: ``(SMALL_NC, PREDICT_MAX_M, handoff, tail with the prediction window,
-    tail without, the NSGS stage's share of the budget)`` (the tails
-    :func:`~socp_cd.solvers.nsgs_route.prepared`'s), or False when
-    a study's knob (or a bad value, which :func:`route` reports) sends every call through
+    :data:`_PLANS`: ``(SMALL_NC, PREDICT_MAX_M, handoff, settings with the prediction window,
+    settings without, the NSGS stage's share of the budget)`` (the settings
+    :func:`~socp_cd.solvers.nsgs_route.flat_settings`' vectors of NSGS's sweep cap, the first
+    block of a timed run and :func:`~socp_cd.solvers.nsgs_route.prepared`'s tail), or False
+    when a study's knob (or a bad value, which :func:`route` reports) sends every call through
     :func:`route`.  Making these per call cost ~0.7 µs of a ~6 µs one-contact call."""
     w = HANDOFF_PREDICT
     try:
@@ -765,9 +765,15 @@ def _small_plan(dim):
     else:
         handoff = (HANDOFF_SWEEPS, work)
         settings = nsgs.route_settings(dim)
-        plan = (SMALL_NC, PREDICT_MAX_M, handoff,
-                nsgs_route.prepared(settings, True, handoff, w),
-                nsgs_route.prepared(settings, True, handoff, 0), _SHARES.get("nsgs", STAGE_SHARE))
+        try:
+            flat = [nsgs_route.flat_settings(dim, _NSGS_MAX_ITER, _TIME_CHECK_SWEEPS,
+                                             nsgs_route.prepared(settings, True, handoff, win))
+                    for win in (w, 0)]
+        except ValueError:      # (a study's knob beyond float64's exact integers)
+            flat = None
+        plan = (False if flat is None else
+                (SMALL_NC, PREDICT_MAX_M, handoff, flat[0], flat[1],
+                 _SHARES.get("nsgs", STAGE_SHARE)))
     _PLANS[dim] = plan
     return plan
 

@@ -88,7 +88,7 @@ TIME_CHECK_SWEEPS = 10
 #: kernel outcome codes besides the sweep statuses of :mod:`~socp_cd.solvers.nsgs_kernels`
 DECLINED_FRICTIONLESS = -2   # every mu = 0 and friction was required
 DECLINED_ILL_POSED = -3      # a contact with W_NN <= 0 (the general path reports it)
-DECLINED_SHORT_OUT = -5      # nsgs_checked_flat's out has fewer than 3 m + N_OUT entries
+DECLINED_SHORT_OUT = -5      # nsgs_checked_flat's out or settings too short
 DECLINED_NOT_FINITE = -4     # r or u not finite, or the checks cannot judge them (the
                              # general path reports it: checked_answer)
 
@@ -109,6 +109,10 @@ TRIAL_CONSTANTS = ("alpha0", "plain_regularization", "goldstein_m1", "max_backtr
 #: the NSGS settings :func:`run` takes, in order (the keys of the NSGS backend's settings)
 ROUTE_SETTINGS = ("kind", "loc_tol", "newton_maxit", "proj_maxit", "omega", "error_every",
                   "stall_window")
+#: the values of :func:`nsgs_checked_flat`'s ``settings`` vector, in order (:func:`flat_settings`)
+FLAT_SETTINGS = (("dim", "max_iter", "first_block") + ROUTE_SETTINGS
+                 + ("need_friction", "handoff_sweeps", "handoff_work", "predict_window"))
+N_FLAT_SETTINGS = len(FLAT_SETTINGS)
 #: entries of :func:`nsgs_checked`'s ``stats`` tuple, in order (then the guard's,
 #: :data:`~socp_cd.solvers.kernels.scaling.GUARD_KEYS`)
 STATS = ("sweeps", "internal_error", "n_full", "n_fail", "light", "error", "zero_error",
@@ -229,11 +233,16 @@ def nsgs_checked(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked
 
 
 @njit(cache=True)
-def nsgs_checked_flat(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked,
-                      first_block, time_left, kind, loc_tol, newton_max_iter,
-                      projection_max_iter, omega, error_every, stall_window, need_friction,
-                      handoff_sweeps, handoff_work, predict_window, out):
-    """:func:`nsgs_checked` with its outputs in one array ``out`` of :func:`flat_rows`
+def nsgs_checked_flat(indptr, indices, data, q, mu, settings, warm, tol, blocked, time_left,
+                      out):
+    """:func:`nsgs_checked` with its settings in one array and its outputs in another.
+
+    ``settings``: the float64 vector :func:`flat_settings` makes, the values
+    :data:`FLAT_SETTINGS` names (``dim``, ``max_iter``, ``first_block``, the
+    :data:`ROUTE_SETTINGS`, ``need_friction``, the hand-off's two and
+    ``predict_window``), made once by a caller that runs the same settings on many
+    problems: unboxing one array instead of 14 numbers saves ~0.17 µs of a one-contact
+    call (``validation/results/per_call_parts_s33.md``).  ``out``: :func:`flat_rows`
     ``(m)`` rows of ``m``: the rows of ``vectors`` (the start ``r0`` in the first with
     ``warm``), then ``stats`` (the first :data:`N_OUT` entries of the rows after, in
     order).
@@ -242,17 +251,19 @@ def nsgs_checked_flat(indptr, indices, data, q, mu, dim, warm, tol, max_iter, bl
     code and the entries of ``stats`` a caller judges a run by
     (:func:`socp_cd.solvers.auto.plain`; a row of ``out`` costs it less than a slice).  Boxing
     these five numbers, not the twenty of the tuple, saves 0.2 µs of a one-contact call.
+    A ``settings`` or ``out`` too short declines (:data:`DECLINED_SHORT_OUT`).
     """
     m = q.shape[0]
-    if out.size < 3 * m + N_OUT:     # (no bounds checks in compiled code: a short out declines)
+    # (no bounds checks in compiled code: a short out or settings declines)
+    if out.size < 3 * m + N_OUT or settings.size < N_FLAT_SETTINGS:
         return DECLINED_SHORT_OUT, 0, np.inf, np.inf, np.inf, np.inf
     entries = out.reshape(out.size)
     stats = entries[3 * m:3 * m + N_OUT]
     stats[:] = 0.0
-    code = checked_work(indptr, indices, data, q, mu, dim, warm, tol, max_iter, blocked,
-                        first_block, time_left, kind, loc_tol, newton_max_iter,
-                        projection_max_iter, omega, error_every, stall_window, need_friction,
-                        handoff_sweeps, handoff_work, predict_window,
+    s = settings
+    code = checked_work(indptr, indices, data, q, mu, int(s[0]), warm, tol, int(s[1]), blocked,
+                        int(s[2]), time_left, int(s[3]), s[4], int(s[5]), int(s[6]), s[7],
+                        int(s[8]), int(s[9]), s[10] != 0.0, int(s[11]), int(s[12]), int(s[13]),
                         entries[:3 * m].reshape((3, m)), stats)
     return (code, int(stats[SWEEPS]), stats[INTERNAL_ERROR], stats[ERROR], stats[GUARD_VALUE],
             stats[ZERO_ERROR])
@@ -598,6 +609,21 @@ def run_prepared(problem, tail, tol, max_iter, r0, time_limit, _new=tuple.__new_
     return _new(RouteOutcome, (STATUS_NAMES[code], vectors, x))
 
 
+def flat_settings(dim, max_iter, first_block, tail) -> np.ndarray:
+    """:func:`nsgs_checked_flat`'s ``settings``: ``dim``, the sweep cap ``max_iter``, the
+    first block of a timed run ``first_block`` and ``tail`` (:func:`prepared`'s) as one float64
+    vector (:data:`FLAT_SETTINGS`).  Its integers must be exact in float64 (at most 2**53, or a
+    power of two): checked here."""
+    values = (dim, max_iter, first_block) + tuple(tail)
+    if len(values) != N_FLAT_SETTINGS:
+        raise ValueError(f"flat_settings: {N_FLAT_SETTINGS} values expected, got {len(values)}")
+    out = np.array(values, dtype=np.float64)
+    for v, x in zip(values, out):
+        if (isinstance(v, (int, np.integer)) and not isinstance(v, bool)) and int(x) != v:
+            raise ValueError(f"flat_settings: {v} is not exact in float64")
+    return out
+
+
 def flat_rows(m) -> int:
     """Rows of :func:`nsgs_checked_flat`'s ``out`` for ``m`` unknowns: three, and those the
     :data:`N_OUT` stats fill."""
@@ -639,8 +665,8 @@ def flat_entry(indptr, indices):
 
 
 def _entry(indptr, indices, kernel, table):
-    """The entry point of ``kernel`` (:func:`nsgs_checked` or :func:`nsgs_checked_flat`: the
-    same argument types) for these index arrays, recorded in ``table`` by dtype."""
+    """The entry point of ``kernel`` (:func:`nsgs_checked` or :func:`nsgs_checked_flat`) for
+    these index arrays, recorded in ``table`` by dtype."""
     dtype = indptr.dtype
     if indices.dtype != dtype or dtype not in _INDEX_DTYPES:
         return kernel
@@ -648,10 +674,13 @@ def _entry(indptr, indices, kernel, table):
     if ep is not None:
         return ep
     ix = index_vector(dtype)
-    b, i = types.boolean, types.int64
-    sig = (ix, ix, F64_VECTOR, F64_VECTOR, F64_VECTOR, i, b, types.float64, i, b, i,
-           types.float64, i, types.float64, i, i, types.float64, i, i, b, i, i, i,
-           types.Array(types.float64, 2, "C"))
+    b, i, f = types.boolean, types.int64, types.float64
+    out = types.Array(types.float64, 2, "C")
+    if kernel is nsgs_checked_flat:
+        sig = (ix, ix, F64_VECTOR, F64_VECTOR, F64_VECTOR, F64_VECTOR, b, f, b, f, out)
+    else:
+        sig = (ix, ix, F64_VECTOR, F64_VECTOR, F64_VECTOR, i, b, f, i, b, i, f, i, f, i, i, f,
+               i, i, b, i, i, i, out)
     ep = table[dtype] = entry_point(kernel, sig)
     return ep
 
@@ -737,6 +766,7 @@ def trial_outcome(problem, norm_q, status, r_s):
 
 
 __all__ = ["nsgs_checked", "nsgs_checked_flat", "checked_work", "run", "run_prepared", "flat_entry",
+           "flat_settings", "FLAT_SETTINGS", "N_FLAT_SETTINGS",
            "FLAT_ENTRIES", "N_OUT",
            "flat_outcome", "flat_stats", "flat_rows", "prepared", "trial_run", "trial_checked", "newton_checked", "trial_runner", "run_record", "trial_outcome", "judge_norm", "judge_units",
            "checked_answer", "TRIAL_MAX_M", "TRIAL_CONSTANTS", "C_ALPHA0", "C_ALPHA_MIN", "RouteOutcome", "guard_record", "scaling_record", "STATS", "ROUTE_SETTINGS", "MAX_CONTACTS",
