@@ -1220,7 +1220,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             best_v = res.v if (res is not None and target is problem) else None
         if err < seed_score and (method != "newton_first" or err <= tol):
             # (the rank is at least the error: else no gain; a newton_first that missed tol
-            # is not the seed: the chain after it runs as without it)
+            # is not the seed: the chain after it starts as without it)
             score = _seed_score(judge, r, err, tol)
             if score < seed_score:
                 seed_r, seed_err, seed_score, seed_stage = r, err, score, k

@@ -241,8 +241,8 @@ def nsgs_checked_flat(indptr, indices, data, q, mu, settings, warm, tol, blocked
     :data:`FLAT_SETTINGS` names (``dim``, ``max_iter``, ``first_block``, the
     :data:`ROUTE_SETTINGS`, ``need_friction``, the hand-off's two and
     ``predict_window``), made once by a caller that runs the same settings on many
-    problems: unboxing one array instead of 14 numbers saves ~0.17 µs of a one-contact
-    call (``validation/results/per_call_parts_s33.md``).  ``out``: :func:`flat_rows`
+    problems: unboxing one array instead of 14 numbers took 0.07-0.13 µs off a one-contact
+    call (``validation/results/per_call_ab_s33.md``).  ``out``: :func:`flat_rows`
     ``(m)`` rows of ``m``: the rows of ``vectors`` (the start ``r0`` in the first with
     ``warm``), then ``stats`` (the first :data:`N_OUT` entries of the rows after, in
     order).
@@ -612,8 +612,8 @@ def run_prepared(problem, tail, tol, max_iter, r0, time_limit, _new=tuple.__new_
 def flat_settings(dim, max_iter, first_block, tail) -> np.ndarray:
     """:func:`nsgs_checked_flat`'s ``settings``: ``dim``, the sweep cap ``max_iter``, the
     first block of a timed run ``first_block`` and ``tail`` (:func:`prepared`'s) as one float64
-    vector (:data:`FLAT_SETTINGS`).  Its integers must be exact in float64 (at most 2**53, or a
-    power of two): checked here."""
+    vector (:data:`FLAT_SETTINGS`).  Its integers must be exact in float64 (every integer up
+    to 2**53 is): checked here (``ValueError``)."""
     values = (dim, max_iter, first_block) + tuple(tail)
     if len(values) != N_FLAT_SETTINGS:
         raise ValueError(f"flat_settings: {N_FLAT_SETTINGS} values expected, got {len(values)}")
