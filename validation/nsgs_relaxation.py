@@ -22,6 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from auto_probe import items  # noqa: E402
 
 import socp_cd  # noqa: E402
+from socp_cd.bench.reports import emit  # noqa: E402
 
 VAL = Path(__file__).resolve().parent
 OMEGAS = (1.0, 1.2, 1.3, 1.4, 1.5)
@@ -68,10 +69,7 @@ def main(argv=None) -> int:
                          f"{sum(math.isfinite(r[j]) for r in sel)} | {won} / {lost} | "
                          f"{statistics.median(both):.2f} | {geo:.2f} | "
                          f"{sum(x < 0.8 for x in both)} / {sum(x > 1.2 for x in both)} |")
-    text = "\n".join(lines) + "\n"
-    print(text)
-    if args.out:
-        args.out.write_text(text)
+    emit(lines, args.out)
     return 0
 
 

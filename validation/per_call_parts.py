@@ -34,6 +34,7 @@ from numba import njit, types
 
 import socp_cd
 from socp_cd.data import shared_problems_dir
+from socp_cd.bench.reports import emit
 from socp_cd.solvers import auto, nsgs, nsgs_route
 from socp_cd.solvers.block_storage import csr_to_bsr
 from socp_cd.solvers.kernels.scaling import balance_csr
@@ -180,10 +181,7 @@ def main(argv=None) -> int:
              "calls (the compiled pieces: per iteration of a compiled loop).", "",
              "| layer | µs |", "|---|---|"]
     lines += [f"| {name} | {us:.2f} |" for name, us in rows_out]
-    text = "\n".join(lines) + "\n"
-    print(text)
-    if args.out:
-        args.out.write_text(text)
+    emit(lines, args.out)
     return 0
 
 

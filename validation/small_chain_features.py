@@ -32,7 +32,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from auto_probe import items  # noqa: E402
 
-from socp_cd.bench.reports import shifted_geometric_mean  # noqa: E402
+from socp_cd.bench.reports import emit, shifted_geometric_mean  # noqa: E402
 from socp_cd.solvers.block_storage import csr_to_bsr  # noqa: E402
 
 VAL = Path(__file__).resolve().parent
@@ -95,10 +95,7 @@ def main(argv=None) -> int:
                      f"{shifted_geometric_mean(rule, 1e-4):.6f} | "
                      f"{sum(r < 0.8 * b for r, b in zip(rule, base))} | "
                      f"{sum(r > 1.2 * b for r, b in zip(rule, base))} |")
-    text = "\n".join(lines) + "\n"
-    print(text)
-    if args.out:
-        args.out.write_text(text)
+    emit(lines, args.out)
     return 0
 
 
