@@ -43,17 +43,12 @@ def unsupported_reason(task: RunTask, problem) -> str | None:
 _WARM: set = set()
 
 
-def _warm_kernels() -> None:
-    """Load every compiled kernel a solve may reach, once per process
-    (:func:`socp_cd.warmup`).  A forked child would load what the parent has not on its first
-    call: the first calls of a campaign timed it (75 ms instead of 4 ms on a 23-contact
-    problem, 135 instead of 24 ms on a 60-contact one)."""
-    warmup()
-
-
 def warm_up(solver: SolverChoice, dim: int) -> None:
     """Solve a 2-contact problem once in this process (JIT compilation, imports), after
-    loading every compiled kernel (:func:`_warm_kernels`).
+    loading every compiled kernel (:func:`socp_cd.warmup`, once per process: a forked child
+    would load what the parent has not on its first call; the first calls of a campaign
+    timed it, 75 ms instead of 4 ms on a 23-contact problem, 135 instead of 24 ms on a
+    60-contact one).
 
     Forked children inherit the compiled code, so the timings of the runs do
     not include numba compilation or cache loading.
@@ -61,7 +56,7 @@ def warm_up(solver: SolverChoice, dim: int) -> None:
     key = (solver.name, solver.formulation, dim)
     if key in _WARM or solver.is_siconos:
         return
-    _warm_kernels()
+    warmup()
     _WARM.add(key)
     spec = solver_spec(solver.name)
     if spec is None or not spec.func.__module__.startswith("socp_cd.solvers."):

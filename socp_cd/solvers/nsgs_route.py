@@ -655,18 +655,27 @@ _INDEX_DTYPES = (np.dtype(np.int32), np.dtype(np.int64))
 def _checked_entry(indptr, indices):
     """:func:`nsgs_checked`'s entry point for these index arrays (recorded in :data:`_CHECKED`
     when both have the same dtype; else the dispatcher, which checks every argument)."""
-    return _entry(indptr, indices, nsgs_checked, _CHECKED)
+    return _entry(indptr, indices, nsgs_checked, _CHECKED, _CHECKED_ARGS)
 
 
 def flat_entry(indptr, indices):
     """:func:`nsgs_checked_flat`'s entry point, as :func:`_checked_entry` (recorded in
     :data:`FLAT_ENTRIES`)."""
-    return _entry(indptr, indices, nsgs_checked_flat, FLAT_ENTRIES)
+    return _entry(indptr, indices, nsgs_checked_flat, FLAT_ENTRIES, _FLAT_ARGS)
 
 
-def _entry(indptr, indices, kernel, table):
-    """The entry point of ``kernel`` (:func:`nsgs_checked` or :func:`nsgs_checked_flat`) for
-    these index arrays, recorded in ``table`` by dtype."""
+_B, _I, _F = types.boolean, types.int64, types.float64
+_OUT = types.Array(types.float64, 2, "C")
+#: the argument types of :func:`nsgs_checked` and :func:`nsgs_checked_flat` after the two
+#: CSR index arrays (whose dtype picks the entry point)
+_CHECKED_ARGS = (F64_VECTOR, F64_VECTOR, F64_VECTOR, _I, _B, _F, _I, _B, _I, _F, _I, _F, _I, _I,
+                 _F, _I, _I, _B, _I, _I, _I, _OUT)
+_FLAT_ARGS = (F64_VECTOR, F64_VECTOR, F64_VECTOR, F64_VECTOR, _B, _F, _B, _F, _OUT)
+
+
+def _entry(indptr, indices, kernel, table, args):
+    """The entry point of ``kernel`` for these index arrays and its other arguments' types
+    ``args``, recorded in ``table`` by dtype."""
     dtype = indptr.dtype
     if indices.dtype != dtype or dtype not in _INDEX_DTYPES:
         return kernel
@@ -674,14 +683,7 @@ def _entry(indptr, indices, kernel, table):
     if ep is not None:
         return ep
     ix = index_vector(dtype)
-    b, i, f = types.boolean, types.int64, types.float64
-    out = types.Array(types.float64, 2, "C")
-    if kernel is nsgs_checked_flat:
-        sig = (ix, ix, F64_VECTOR, F64_VECTOR, F64_VECTOR, F64_VECTOR, b, f, b, f, out)
-    else:
-        sig = (ix, ix, F64_VECTOR, F64_VECTOR, F64_VECTOR, i, b, f, i, b, i, f, i, f, i, i, f,
-               i, i, b, i, i, i, out)
-    ep = table[dtype] = entry_point(kernel, sig)
+    ep = table[dtype] = entry_point(kernel, (ix, ix) + args)
     return ep
 
 
