@@ -102,3 +102,61 @@ def test_plain_iterates_running_off_along_the_null_space_are_not_reported():
     nq = float(np.linalg.norm(p.q))
     e = siconos_error(r, u, np.asarray(p.mu, float), 3, nq)
     assert velocity_relative_error(e, r, u, nq) > 1e3 * e
+
+
+# --------------------------------------------------------------- policy "prox_error" (PROX)
+def test_shifted_system_is_the_proximal_subproblem():
+    """The subproblem of ``policy="prox_error"``: ``u_s = W r + q + s (r - rk)``, Newton matrix
+    ``Dr + Du (W + diag(s))``, diagonal blocks ``W_ii + diag(s_i)`` (a per-unknown shift)."""
+    from socp_cd.solvers.newton import _LocalSystem, _ShiftedSystem     # noqa: PLC2701
+    rng = np.random.default_rng(3)
+    nc, d = 4, 3
+    m = nc * d
+    A = rng.standard_normal((m, m))
+    W = A @ A.T + np.eye(m)
+    p = FrictionContactProblem(W, rng.standard_normal(m), 0.5, d)
+    base = _LocalSystem(p, "dense")
+    s, rk, r = rng.uniform(0.1, 2.0, m), rng.standard_normal(m), rng.standard_normal(m)
+    sub = _ShiftedSystem(base, s, rk, 1.0)
+    assert np.allclose(sub.start(r), W @ r + p.q + s * (r - rk))
+    blocks = sub.diag_blocks()
+    for i in range(nc):
+        k = slice(i * d, (i + 1) * d)
+        assert np.allclose(blocks[i], W[k, k] + np.diag(s[k]))
+    Dr, Du = rng.standard_normal((nc, d, d)), rng.standard_normal((nc, d, d))
+    F = rng.standard_normal(m)
+    dr, wdr = sub.direction(r, Dr, Du, 0.0, F)
+    J = sp.block_diag(list(Dr)).toarray() + sp.block_diag(list(Du)).toarray() @ (W + np.diag(s))
+    assert np.allclose(J @ dr, -F) and np.allclose(wdr, (W + np.diag(s)) @ dr)
+
+
+def test_prox_error_solves_the_rank_deficient_block():
+    p = _capsule_block()
+    res = socp_cd.solve(p, "newton", tol=TOL, policy="prox_error", history=True)
+    assert res.converged and _solved(p, res)
+    assert res.info["policy"] == "prox_error"
+    assert len(res.history) == res.iterations + 1 and res.history[-1] <= TOL
+    # the proximal parameter follows the error: at the end it is far below its start
+    assert res.info["alpha_relative"] < 1e-3 * res.info["alpha_max_relative"]
+
+
+def test_prox_error_runs_in_the_units_of_the_problem_as_written():
+    """``solve`` hands the backend its balanced copy; PROX's loop runs there in the units of
+    the problem as written (its proximal term on the written velocity, alpha from the written
+    error and diagonal), so its first iterates are those of the same loop run directly on the
+    problem as written (no balancing), and differ from a loop in the balanced units."""
+    from socp_cd.solvers.newton import newton_backend
+    from socp_cd.solvers.scaling import balanced
+    p = _capsule_block(mu=0.5, mix="mixed", seed=3)
+    # contacts in other units, one factor each: balancing undoes them, PROX's metric does not
+    rng = np.random.default_rng(0)
+    f = np.repeat(10.0 ** rng.uniform(-2, 2, p.n_contacts), p.dim)
+    p = p.with_(W=sp.diags(f) @ p.W @ sp.diags(f), q=f * p.q)
+    for its in (1, 2):
+        via_solve = socp_cd.solve(p, "newton", tol=1e-14, policy="prox_error", max_iter=its).r
+        direct = newton_backend(p, "coulomb", tol=1e-14, max_iter=its, policy="prox_error").r
+        assert np.allclose(via_solve, direct, rtol=1e-7, atol=1e-9 * np.abs(direct).max())
+    copy = balanced(p).problem
+    own = newton_backend(copy.with_(), "coulomb", tol=1e-14, max_iter=2, policy="prox_error").r
+    a = balanced(p).a
+    assert not np.allclose(a * own, direct, rtol=1e-3)

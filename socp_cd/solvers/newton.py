@@ -53,7 +53,7 @@ rho : {"block", "split"}, default "block"
     (the normal diagonal entry of ``W_ii``) and ``rho_T = 1/||W_TT||_2`` (the
     tangential sub-block's spectral norm).  Measured in
     ``validation/results/newton_rho.md``.
-policy : {"prox", "hybrid", "plain"}, default "prox"
+policy : {"prox", "hybrid", "plain", "prox_error"}, default "prox"
     Outer policy: the proximal loop alone, or plain Newton steps on the
     Alart–Curnier equation first with the proximal loop as fallback
     (``"hybrid"``, ``formulations/newton.md`` §7; measured in
@@ -62,7 +62,11 @@ policy : {"prox", "hybrid", "plain"}, default "prox"
     Newton step per outer iteration with a sufficient-decrease line search
     that takes the full step when it fails, the best iterate kept, its error
     measured relative to ``max(||q||, ||u||)`` (``formulations/newton.md`` §8;
-    used by ``solver="auto"`` after the proximal stage).
+    used by ``solver="auto"`` after the proximal stage), or ``"prox_error"``:
+    Siconos PROX with its defaults (:func:`error_prox`, ``formulations/newton.md``
+    §12), a proximal parameter proportional to the error, each subproblem solved by
+    plain steps, in the units of the problem as written (``alpha0`` and
+    ``inner_max_iter`` do not apply; ``solver="auto"``'s last resort).
 
 The common options (``tol``, ``max_iter`` = outer proximal iterations,
 default 200, ``time_limit``, ``verbose``, ``r0``) follow
@@ -167,7 +171,8 @@ OPTIONS = {
     "rho": "Alart–Curnier parameters: 'block' (default, one per contact) or 'split' "
            "(rho_N = 1/W_NN, rho_T = 1/||W_TT||_2)",
     "policy": "outer policy: 'prox' (default), 'plain' (nonmonotone semismooth Newton, no proximal term, Siconos NSN_AC style) or 'hybrid' (plain Newton steps while they "
-              "cut ||F|| and the error, the proximal loop otherwise; formulations/newton.md §4)",
+              "cut ||F|| and the error, the proximal loop otherwise; formulations/newton.md §4) or "
+              "'prox_error' (Siconos PROX: alpha = 5 x the error, subproblems by plain steps; §12)",
 }
 #: strategies of the Alart–Curnier parameters (see :func:`_rho`)
 RHO_STRATEGIES = ("block", "split")
@@ -193,8 +198,8 @@ NONMONOTONE = 10.0
 #: 336, so it was not adopted
 INNER_GATE = 0.1
 INNER_DECREASE = 1e-3
-#: outer policies of :func:`prox_newton`
-POLICIES = ("prox", "hybrid", "plain")
+#: outer policies of :func:`prox_newton`, and ``"prox_error"`` (:func:`error_prox`)
+POLICIES = ("prox", "hybrid", "plain", "prox_error")
 DEFAULT_POLICY = "prox"
 #: ``policy="hybrid"``: a plain Newton step is accepted when ``||F||`` falls to at most
 #: this factor of its value within ``_PLAIN_BACKTRACK`` halvings
@@ -209,6 +214,16 @@ GOLDSTEIN_M1 = 1e-2
 #: ``policy="plain"``: relative proximal shift of the Newton matrix retried once when
 #: ``Dr + Du W`` is singular (rank-deficient ``W`` with sticking rows)
 PLAIN_REGULARIZATION = 1e-10
+#: ``policy="prox_error"`` (:func:`error_prox`: Siconos PROX, ``fc3d_proximal``, with its
+#: defaults and its default inner solver NSN_AC): after a subproblem that met its tolerance
+#: the proximal parameter is ``PROX_SIGMA e_k`` (relative to the mean diagonal entry of
+#: ``W``; ``e_k`` Siconos' error of the outer iterate), after one that did not it grows by
+#: ``PROX_FAIL_GROWTH``; each subproblem is solved by plain steps (``policy="plain"``) to
+#: ``e_k / PROX_INNER_RATIO``, at most ``PROX_INNER_MAX_ITER`` of them (NSN_AC's default cap)
+PROX_SIGMA = 5.0
+PROX_FAIL_GROWTH = 10.0
+PROX_INNER_RATIO = 10.0
+PROX_INNER_MAX_ITER = 200
 
 
 #: above this size the factorizations run with one BLAS thread: on a loaded
@@ -471,6 +486,49 @@ class _GlobalSystem:
 
     def result_extra(self):
         return {"v": self.v}
+
+
+class _ShiftedSystem:
+    """The proximal subproblem of ``base`` (a local or global system) at ``rk``: the same
+    law with ``u_s = W r + q + s * (r - rk)``, i.e. ``W + diag(s)`` and ``q - s * rk``
+    (:func:`error_prox`'s inner problem; ``shift`` the vector ``s``, one entry per unknown).
+    Its Newton matrix ``Dr + Du (W + diag(s))`` is ``base``'s with ``Dr + Du diag(s)`` for
+    ``Dr``; its error is normalized by ``q_norm``.  Never compiled: :func:`prox_newton`
+    runs its Python loop on it."""
+
+    compiled = False
+
+    def __init__(self, base, shift, rk, q_norm):
+        self.base, self.shift, self.rk = base, shift, rk
+        self.d, self.m = base.d, base.m
+        self.kind = base.kind + "+shift"     # (not "dense": _system_rho reads diag_blocks)
+        self.norm_q = q_norm
+        self.rho_cache = {}
+        self._columns = shift.reshape(-1, 1, base.d)     # (Du diag(s): Du's columns scaled)
+
+    @property
+    def factorizations(self):
+        return self.base.factorizations
+
+    def diag_blocks(self):
+        out = np.array(self.base.diag_blocks(), dtype=np.float64)
+        s = self.shift.reshape(-1, self.d)
+        for a in range(self.d):
+            out[:, a, a] += s[:, a]
+        return out
+
+    def start(self, r):
+        return self.base.start(r) + self.shift * (r - self.rk)
+
+    def direction(self, r, Dr, Du, alpha, F, strict=False):
+        dr, wdr = self.base.direction(r, Dr + Du * self._columns, Du, alpha, F, strict)
+        return dr, wdr + self.shift * dr
+
+    def accept(self, t):
+        self.base.accept(t)
+
+    def result_extra(self):
+        return self.base.result_extra()
 
 
 # --------------------------------------------------------------------------- the method
@@ -777,12 +835,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
             system.start(r)
             status = "numerical_error"
             break
-        if history:
-            hist.append(err)
-        if err < best_err:
-            if err < 0.9 * best_err:
-                best_it = it
-            best_err, best_r = err, r.copy()
+        best_err, best_r, best_it = _best_so_far(err, r, it, best_err, best_r, best_it, hist)
         if err <= tol:
             status = "converged"
             break
@@ -826,6 +879,141 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         info["trace"] = trace
     return status, r, it, hist, info
 
+
+
+def _best_so_far(err, r, it, best_err, best_r, best_it, hist):
+    """The end of outer iteration ``it`` of :func:`prox_newton` and :func:`error_prox`: ``err``
+    appended to ``hist`` (None: no history), and the best error, its iterate (a copy) and the
+    iteration of its last 10 % drop (the stall window's clock) updated; returns those three."""
+    if hist is not None:
+        hist.append(err)
+    if err < best_err:
+        if err < 0.9 * best_err:
+            best_it = it
+        best_err, best_r = err, r.copy()
+    return best_err, best_r, best_it
+
+
+def error_prox(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_limit, history,
+               rho=DEFAULT_RHO, written=None):
+    """Siconos PROX's proximal-point loop (``policy="prox_error"``, ``formulations/newton.md``
+    §12).
+
+    Outer iterate ``r_k`` with Siconos' error ``e_k``; the subproblem is the law with a
+    proximal term ``alpha (r - r_k)`` added to ``u`` (:class:`_ShiftedSystem`), solved from
+    ``r_k`` by plain semismooth Newton steps (:func:`prox_newton` with ``policy="plain"``:
+    Siconos NSN_AC's globalization, PROX's default inner solver) to
+    ``e_k / PROX_INNER_RATIO``, at most :data:`PROX_INNER_MAX_ITER` steps; its answer is the
+    next iterate whether or not it met that tolerance, and it *met* it when Siconos' error
+    of the subproblem (normalized by the subproblem's own ``||q||``) is within it, whatever
+    the steps' own, stricter, velocity-relative stop said.  ``alpha = PROX_SIGMA e_k s̄``
+    (``s̄`` the mean diagonal entry of ``W``) at the start and after a subproblem that met
+    its tolerance; ``alpha × PROX_FAIL_GROWTH`` after one that did not (``alpha_min``: its
+    floor relative to ``s̄``).  So it falls with the error: near a solution the subproblems
+    tend to the law itself, far from one they are strongly regularized.
+
+    ``written``: ``(a, b, ||q||)`` (:func:`~socp_cd.solvers.scaling.origin`) when ``system``
+    is the dispatcher's balanced copy of a problem: the loop then runs in the units of the
+    problem as written, as Siconos does, on the balanced arithmetic — ``e_k`` is Siconos'
+    error as written, ``s̄`` the written ``W``'s, and the proximal term ``alpha (r - r_k)``
+    on the written velocity is ``alpha a / b`` per unknown on the balanced one (on the 11
+    capsule-pile cases of ``validation/prox_error_units.py``: 8 solved against 6 in the
+    balanced units, faster on 4 of the 6 both solve).  None: the system's own units.
+
+    The stop measure is the error relative to ``max(||q||, ||u||)`` of the system, the units
+    guard's (:func:`velocity_relative_error`, as ``policy="plain"``); ``max_iter`` counts
+    outer iterations, ``stall_window`` outer iterations without a 10 % drop of the best
+    error; the best iterate is returned.  Returns what :func:`prox_newton` returns
+    (``history``: the outer errors).
+    """
+    d = system.d
+    diag = np.einsum("iaa->ia", system.diag_blocks()).reshape(-1)
+    if written is None:
+        unit = np.ones(system.m)            # (the shift per unknown, per unit of alpha)
+        q_written = getattr(system, "q", None)
+        qa = None
+    else:
+        a, b, q_norm = written
+        unit = a / b
+        q_written = b * system.q
+        qa = (a, b, q_norm)
+    sbar = float(np.mean(diag / unit)) if diag.size else 1.0
+    if not (math.isfinite(sbar) and sbar > 0.0):
+        sbar = 1.0
+    a_min, a_max = alpha_min * sbar, _ALPHA_MAX * sbar
+
+    def measure(r, u, q_norm):
+        """Siconos' error of the pair ``(r, u)`` (as written with ``written``)."""
+        if qa is None:
+            return siconos_error(r, u, mu, d, q_norm)
+        return origin_error(r, u, qa[0], qa[1], mu, d, q_norm)
+
+    def errors(r):
+        u = system.start(r)
+        return (measure(r, u, system.norm_q if qa is None else qa[2]),
+                velocity_relative_error(siconos_error(r, u, mu, d, system.norm_q), r, u,
+                                        system.norm_q))
+
+    e, err = errors(r)
+    hist = [err] if history else None
+    best_err, best_r, best_it = err, r.copy(), 0
+    counts = dict.fromkeys(_COUNTERS, 0)
+    n_inner_failed = 0
+    t0 = time.perf_counter()
+    deadline = None if time_limit is None else t0 + time_limit
+    status, it = ("converged" if err <= tol else "max_iter"), 0
+    alpha = min(a_max, max(a_min, PROX_SIGMA * e * sbar))
+    alpha_max_used = alpha
+    while status == "max_iter" and it < max_iter:
+        left = None if deadline is None else deadline - time.perf_counter()
+        if left is not None and left <= 0.0:
+            status = "time_limit"
+            break
+        it += 1
+        alpha_max_used = max(alpha_max_used, alpha)
+        shift = alpha * unit
+        rk = r.copy()
+        if q_written is None:       # (a global system keeps no q: its ||q||)
+            sub_norm, inner_norm = system.norm_q, system.norm_q
+        else:
+            sub_norm = float(np.linalg.norm(q_written - alpha * (rk if qa is None
+                                                                 else qa[0] * rk)))
+            inner_norm = (sub_norm if qa is None
+                          else float(np.linalg.norm(system.q - shift * rk)))
+        sub = _ShiftedSystem(system, shift, rk, inner_norm)
+        st, r, _, _, info = prox_newton(sub, mu, r.copy(), tol=e / PROX_INNER_RATIO,
+                                        max_iter=PROX_INNER_MAX_ITER, alpha0=1.0,
+                                        alpha_min=alpha_min, inner_max_iter=1,
+                                        stall_window=DEFAULT_STALL_WINDOW, time_limit=left,
+                                        history=False, rho=rho, policy="plain")
+        for key in _COUNTERS:
+            counts[key] += info[key]
+        met = measure(r, sub.start(r), sub_norm) <= e / PROX_INNER_RATIO
+        e, err = errors(r)
+        if not math.isfinite(err):
+            status = "numerical_error"
+            break
+        best_err, best_r, best_it = _best_so_far(err, r, it, best_err, best_r, best_it, hist)
+        if err <= tol:
+            status = "converged"
+            break
+        n_inner_failed += 0 if met else 1
+        alpha = min(a_max, max(a_min, PROX_SIGMA * e * sbar if met else
+                               PROX_FAIL_GROWTH * alpha))
+        if st == "time_limit" or deadline is not None and time.perf_counter() > deadline:
+            status = "time_limit"
+            break
+        if stall_window and it - best_it >= stall_window:
+            status = "stalled"
+            break
+    if status != "converged" and not err <= best_err:
+        r, err = best_r, best_err
+        system.start(r)
+    info = dict(counts, alpha=alpha, alpha_relative=alpha / sbar,
+                alpha_max_relative=alpha_max_used / sbar, policy="prox_error",
+                factorizations=system.factorizations, linear_solver=system.kind,
+                internal_error=min(err, best_err), rho=rho, inner_failures=n_inner_failed)
+    return status, r, it, hist, info
 
 
 def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
@@ -973,6 +1161,11 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
             return origin_error(r, system.start(r), units[0], units[1], mu, problem.dim, units[2])
 
     def run(r, run_tol, run_max_iter, alpha0, left):
+        if st["policy"] == "prox_error":      # (alpha0 unused: alpha follows the error)
+            return error_prox(system, mu, r, tol=run_tol, max_iter=run_max_iter,
+                              alpha_min=st["alpha_min"], stall_window=st["stall_window"],
+                              time_limit=left, history=history, rho=st["rho"],
+                              written=units)
         return prox_newton(system, mu, r, tol=run_tol, max_iter=run_max_iter, alpha0=alpha0,
                            alpha_min=st["alpha_min"], inner_max_iter=st["inner_max_iter"],
                            stall_window=st["stall_window"], time_limit=left, history=history,
