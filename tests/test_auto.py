@@ -816,6 +816,7 @@ def _rounds_setup(monkeypatch, factor, clock=None, cost=0.0):
     monkeypatch.setattr(auto, "stage_order", lambda problem, formulation, feats:
                         (("nsgs", "coulomb"), ("newton", "coulomb")) * 2)
     monkeypatch.setattr(auto, "ROUND", ("nsgs", "newton"))
+    monkeypatch.setattr(auto, "LAST_RESORT", False)     # (a real Newton stage after the rounds)
     monkeypatch.setattr(auto._Judge, "__call__",
                         lambda self, r: np.inf if r is None else float(r[0]))
     monkeypatch.setattr(auto._Judge, "guard_value", lambda self, r: float(r[0]))
@@ -1046,3 +1047,56 @@ def test_newton_first_knob_keeps_the_hand_off_after_a_refused_retry(monkeypatch)
     # the first NSGS stage with the hand-off's cap and rate prediction
     assert calls[0] == (auto._handoff_cap(dense, None), auto._predict_window(dense))
     assert calls[0][0] is not None and calls[0][1] > 0
+
+
+def _failing_order(monkeypatch):
+    """An order of one fake stage that leaves ``r = 0`` (nothing solved), no rounds."""
+    monkeypatch.setattr(auto, "MAX_ROUNDS", 0)
+    monkeypatch.setattr(auto, "SMALL_NC", 0)
+    monkeypatch.setattr(auto, "PROBE_SWEEPS", 0)
+    monkeypatch.setattr(auto, "stage_order", lambda problem, formulation, feats:
+                        (("nsgs", "coulomb"),))
+
+    def stuck(problem, formulation, *, tol, max_iter, r0, history, time_limit, verbose,
+              inner_settings, **options):
+        return SolverResult(r=np.zeros(problem.m), status="stalled", iterations=1)
+    monkeypatch.setitem(auto._STAGES, "nsgs", (SolverSpec("stuck", stuck, ("coulomb",)), {}))
+
+
+@pytest.mark.parametrize("last", [True, False])
+def test_the_last_resort_runs_prox_from_zero_when_the_order_fails(monkeypatch, last):
+    _failing_order(monkeypatch)
+    monkeypatch.setattr(auto, "LAST_RESORT", last)
+    p = _local(6, 3, 2, rank_deficient=True)
+    res = socp_cd.solve(p, tol=1e-10)
+    methods = [s["method"] for s in res.info["path"]]
+    if not last:
+        assert methods == ["nsgs"] and not res.converged
+        return
+    assert methods == ["nsgs", "newton_prox_error"] and res.converged
+    alone = socp_cd.solve(p, "newton", tol=1e-10, policy="prox_error",
+                          max_iter=auto.PROX_ERROR_MAX_ITER, stall_window=auto.PROX_ERROR_STALL)
+    assert res.info["path"][1]["iterations"] == alone.iterations
+
+
+def test_the_last_resort_leaves_solved_problems_and_spent_budgets_alone(monkeypatch):
+    probs = [_local(5, 3, s, mu=mu, rank_deficient=rd) for s, mu, rd in
+             ((0, 0.5, False), (1, 2.0, False), (2, 0.3, True))]
+    paths = {}
+    for last in (False, True):
+        monkeypatch.setattr(auto, "LAST_RESORT", last)
+        paths[last] = [[(s["method"], s["iterations"]) for s in
+                        socp_cd.solve(p, tol=1e-10).info["path"]] for p in probs]
+    assert paths[False] == paths[True]
+    # the budget spent when the order ends: time_limit, the last resort never starts
+    _failing_order(monkeypatch)
+    clock = [0.0]
+    monkeypatch.setattr(auto, "_clock", lambda: clock[0])
+    real = auto._STAGES["nsgs"][0].func
+
+    def slow(problem, formulation, **kw):
+        clock[0] += 2.0
+        return real(problem, formulation, **kw)
+    monkeypatch.setitem(auto._STAGES, "nsgs", (SolverSpec("slow", slow, ("coulomb",)), {}))
+    res = socp_cd.solve(_local(6, 3, 2, rank_deficient=True), tol=1e-10, time_limit=1.0)
+    assert res.status == "time_limit" and len(res.info["path"]) == 1

@@ -321,6 +321,7 @@ def test_last_nsgs_stage_runs_after_a_first_stage_that_did_not_improve_r0(monkey
     # (without the cold alternative, which meets 1e-18 by the stages' measure here and ends
     # the chain: the order's last stage would not be reached)
     monkeypatch.setattr(auto, "ALT_ALPHA0", None)
+    monkeypatch.setattr(auto, "LAST_RESORT", False)     # (the order's own last stage)
     methods = [s["method"] for s in socp_cd.solve(p, tol=1e-18, r0=r0).info["path"]]
     assert methods[0] == "nsgs" and methods[-1] == "nsgs"
 

@@ -35,6 +35,9 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   meeting ``tol`` on the exact law, *rounds* of :data:`ROUND` follow from the best iterate
   (a stage that starts from ``r = 0`` runs once) while each cuts the best error by
   :data:`ROUND_GAIN` (at most :data:`MAX_ROUNDS`, within the time budget; ``info["rounds"]``).
+  When the rounds end too, a local exact-Coulomb problem gets a *last resort* with the time
+  left (:data:`LAST_RESORT`): Siconos PROX's proximal point from ``r = 0``
+  (``"newton_prox_error"``, newton's ``policy="prox_error"``).
 
 The chain stops at the first stage whose error, recomputed from its ``r``
 (compiled kernel :func:`~socp_cd.solvers.kernels.cone.siconos_error` for the
@@ -58,7 +61,8 @@ Options
 methods : sequence of str, optional
     Explicit stage order (names among ``"newton"``, ``"newton_plain"``,
     ``"newton_plain_cold"``, ``"newton_plain_cold_split"``, ``"newton_trial"``,
-    ``"newton_trial_cold"``, ``"newton_trial_prox"``, ``"newton_cold_alt"``, ``"nsgs"``,
+    ``"newton_trial_cold"``, ``"newton_trial_prox"``, ``"newton_cold_alt"``,
+    ``"newton_prox_error"``, ``"nsgs"``,
     ``"nsgs_probe"``, ``"clarabel"``
     and ``"clarabel_qp"`` (Clarabel on the frictionless QP))
     instead of the feature-based one (no hand-off then).
@@ -265,6 +269,17 @@ ROUND = ("nsgs", "newton", "clarabel", "newton")
 ALT_ALPHA0 = 1.0
 ROUND_GAIN = 1.1
 MAX_ROUNDS = 8
+#: the last resort of a local exact-Coulomb problem that the order and its rounds leave
+#: unsolved with time left: Siconos PROX's proximal point (``"newton_prox_error"``, newton's
+#: ``policy="prox_error"``) from ``r = 0``, with the rest of the budget, at most
+#: PROX_ERROR_MAX_ITER outer iterations (PROX's default cap) and a stall window of
+#: PROX_ERROR_STALL (False: off).  A problem the order solves never reaches it (same path
+#: and time); on the capsule piles the chain ended after 1-4 s of a 10 s budget, stalled
+#: at 1e-8 ... 1e-6 or at answers the units guard refused, where Siconos PROX solved them
+#: (formulations/auto.md, "The last resort")
+LAST_RESORT = True
+PROX_ERROR_MAX_ITER = 1000
+PROX_ERROR_STALL = 100
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
@@ -278,6 +293,7 @@ _STAGES = {
     "newton_trial_cold": (newton.SPEC, {"policy": "plain"}),   # + COLD_TRIAL_* (from r = 0)
     "newton_trial_prox": (newton.SPEC, {}),     # + COLD_PROX_STEPS, COLD_TRIAL_STALL (r = 0)
     "newton_cold_alt": (newton.SPEC, {}),       # + alpha0 = ALT_ALPHA0 (r = 0)
+    "newton_prox_error": (newton.SPEC, {"policy": "prox_error"}),   # + PROX_ERROR_* (r = 0)
     "nsgs_mid": (nsgs.SPEC, {}),
     "nsgs_rest": (nsgs.SPEC, {}),
     "clarabel": (clarabel_backend.SPEC, {}),
@@ -304,7 +320,7 @@ SLOW_TO_STOP = ("clarabel", "clarabel_qp")
 MIN_SLOW_START = 0.1
 #: stages always started from ``r = 0`` (or the caller's ``r0`` when first)
 ALWAYS_COLD = ("newton_plain_cold", "newton_plain_cold_split", "newton_trial_cold",
-               "newton_trial_prox", "newton_cold_alt")
+               "newton_trial_prox", "newton_cold_alt", "newton_prox_error")
 #: the hand-off's cold trials (run only after a failed first trial, on m <= COLD_MAX_M)
 _COLD_TRIALS = ("newton_trial_cold", "newton_trial_prox")
 #: stages of the Newton method: a refused answer of one is retried as ``"newton"`` (warm)
@@ -325,7 +341,7 @@ _SHARES = types.MappingProxyType({"newton_plain": PLAIN_SHARE, "newton_plain_col
 
 OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'newton_plain', 'newton_plain_cold', "
-               "'newton_plain_cold_split', 'newton_trial', 'newton_trial_cold', 'newton_trial_prox', 'newton_cold_alt', "
+               "'newton_plain_cold_split', 'newton_trial', 'newton_trial_cold', 'newton_trial_prox', 'newton_cold_alt', 'newton_prox_error', "
                "'nsgs', 'nsgs_probe', "
                "'clarabel', 'clarabel_qp' (default: chosen from the problem's features)",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
@@ -1041,14 +1057,20 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     k = -1
     while True:     # (a refused stage may be inserted once: RETRY_REFUSED; rounds appended)
         if k + 1 >= len(order):
-            if not (methods is None and formulation == "coulomb" and not feats["frictionless"]
-                    and rounds < MAX_ROUNDS and _round_gain(bests, since)):
+            exact = methods is None and formulation == "coulomb" and not feats["frictionless"]
+            more = exact and rounds < MAX_ROUNDS and _round_gain(bests, since)
+            last = (not more and exact and LAST_RESORT and not feats["global"]
+                    and ("newton_prox_error", "coulomb") not in order)
+            if not (more or last):
                 break
             if time_limit is not None and _clock() - t_start >= time_limit:
                 status, message = "time_limit", f"time budget {time_limit:g} s spent"
-                break       # (a round would follow: the budget, not the methods, ran out)
-            order = order + tuple((m, "coulomb") for m in ROUND)
-            rounds, since = rounds + 1, len(bests)
+                break       # (a stage would follow: the budget, not the methods, ran out)
+            if last:
+                order = order + (("newton_prox_error", "coulomb"),)
+            else:
+                order = order + tuple((m, "coulomb") for m in ROUND)
+                rounds, since = rounds + 1, len(bests)
         k += 1
         method, form = order[k]
         # the first NSGS stage of a small local exact-Coulomb problem runs with the study
@@ -1170,6 +1192,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             elif method == "newton_trial":
                 stage_max_iter = TRIAL_STEPS if max_iter is None else min(max_iter, TRIAL_STEPS)
                 opts["stall_window"] = TRIAL_STALL
+            elif method == "newton_prox_error":
+                stage_max_iter = PROX_ERROR_MAX_ITER if max_iter is None else max_iter
+                opts["stall_window"] = int(PROX_ERROR_STALL)
             elif method in _COLD_TRIALS:
                 steps = _cold_steps(method)
                 stage_max_iter = steps if max_iter is None else min(max_iter, steps)

@@ -25,7 +25,7 @@ from .registry import solve
 #: of each, on top of the plain calls' compiled routes
 AUTO_STAGES = ("nsgs", "newton_trial", "newton_trial_cold", "newton_trial_prox", "newton",
                "newton_plain", "newton_plain_cold", "newton_plain_cold_split", "newton_cold_alt",
-               "nsgs_probe", "clarabel", "clarabel_qp")
+               "newton_prox_error", "nsgs_probe", "clarabel", "clarabel_qp")
 
 _DONE: list = []
 
@@ -103,8 +103,11 @@ def warmup(force: bool = False) -> float:
                 solve(p, "auto", tol=tol, max_iter=3, time_limit=5.0, methods=AUTO_STAGES)
                 solve(p, "auto", tol=tol, max_iter=3, methods=AUTO_STAGES)
         solve(_local(25, dim, 12347), "newton", tol=1e-30, max_iter=1)
+        # (the Python loop's dense steps, the LU either written out or LAPACK's)
+        solve(_local(25, dim, 12347), "newton", policy="prox_error", tol=1e-30, max_iter=1)
         big = _sparse(dim, 12348)
         solve(big, "newton", tol=1e-30, max_iter=2)
+        solve(big, "newton", policy="prox_error", tol=1e-30, max_iter=1)   # (auto's last resort)
         # (Clarabel's Newton polish of a system the compiled loop does not take)
         solve(big, "clarabel", tol=1e-30, max_iter=2)
         H = rng.standard_normal((6, 2 * dim))
