@@ -160,3 +160,22 @@ def test_prox_error_runs_in_the_units_of_the_problem_as_written():
     own = newton_backend(copy.with_(), "coulomb", tol=1e-14, max_iter=2, policy="prox_error").r
     a = balanced(p).a
     assert not np.allclose(a * own, direct, rtol=1e-3)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_prox_error_on_2d_and_global_problems(dim):
+    """The policy on a 2D local problem and on a global problem solved natively (saddle-point
+    steps, its shift through the local unknowns) and condensed: converged, the same answer."""
+    from socp_cd.bench.generators import manufactured
+    p = manufactured(12, dim, 0.8, structure="redundant", seed=3)
+    res = socp_cd.solve(p, "newton", policy="prox_error", tol=1e-10)
+    assert res.converged and res.info["policy"] == "prox_error"
+    rng = np.random.default_rng(dim)
+    g = socp_cd.GlobalFrictionContactProblem(np.eye(8), rng.standard_normal((8, 3 * dim)),
+                                             rng.standard_normal(8),
+                                             -np.abs(rng.standard_normal(3 * dim)), 0.4, dim)
+    runs = [socp_cd.solve(g, "newton", policy="prox_error", tol=1e-10, global_mode=mode)
+            for mode in ("native", "condense")]
+    assert all(r.converged and r.info["policy"] == "prox_error" for r in runs)
+    assert runs[0].info["global_mode"] == "native" and runs[1].info["global_mode"] == "condense"
+    assert np.allclose(runs[0].r, runs[1].r, atol=1e-7 * np.abs(runs[1].r).max())
