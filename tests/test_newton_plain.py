@@ -179,3 +179,15 @@ def test_prox_error_on_2d_and_global_problems(dim):
     assert all(r.converged and r.info["policy"] == "prox_error" for r in runs)
     assert runs[0].info["global_mode"] == "native" and runs[1].info["global_mode"] == "condense"
     assert np.allclose(runs[0].r, runs[1].r, atol=1e-7 * np.abs(runs[1].r).max())
+
+
+def test_prox_error_alpha_min_is_not_bounded_by_alpha0():
+    """``alpha0`` does not apply to ``policy="prox_error"`` (alpha follows the error), so it
+    does not bound ``alpha_min`` there as it does for the other policies."""
+    from socp_cd.bench.generators import manufactured
+    from socp_cd.errors import InvalidProblemError
+    p = manufactured(4, 3, 0.5, structure="tree", seed=1)
+    res = socp_cd.solve(p, "newton", policy="prox_error", alpha_min=0.5, max_iter=2)
+    assert res.info["alpha_relative"] >= 0.5 * (1 - 1e-12)
+    with pytest.raises(InvalidProblemError, match="alpha_min"):
+        socp_cd.solve(p, "newton", policy="prox", alpha_min=0.5)

@@ -4,8 +4,8 @@
 proximal term ``alpha (r - r_k)`` is added to the velocity, so its metric depends on the
 units: Siconos runs it on the problem as written.  ``newton.error_prox`` runs it in the
 units as written (``written=``, the default through ``solve``); this script compares that
-with the same loop in the balanced units (the backend called on the balanced copy stripped
-of its record of the units as written), from ``r = 0``, on the capsule-pile cases that
+with the same loop in the balanced units (the backend called on the balanced copy, with and
+without its record of the units as written), from ``r = 0``, on the capsule-pile cases that
 ``solver="auto"``'s order leaves unsolved (the manufactured evaluation set's, seeds 0-3,
 and the fresh draw's, seeds 30-33, of ``validation/fresh_draw.py``), and with the stall
 window off and on::
@@ -45,18 +45,16 @@ CASES = (
 
 def run(p, units, stall, limit, tol):
     """``(solved, error, guard, outer iterations, seconds)`` of one run from ``r = 0``."""
+    rec = balanced(p)
+    # the balanced copy as the dispatcher hands it (its record of the units as written), or
+    # a new object with the same data (no record: the loop in the balanced units); the same
+    # backend call either way
+    copy = rec.problem if units == "written" else rec.problem.with_()
     t0 = time.perf_counter()
-    if units == "written":
-        res = socp_cd.solve(p, "newton", policy="prox_error", tol=tol, max_iter=1000,
-                            stall_window=stall, time_limit=limit)
-        r = res.r
-    else:
-        rec = balanced(p)
-        copy = rec.problem.with_()      # (a new object: no record of the units as written)
-        res = newton_backend(copy, "coulomb", tol=tol, max_iter=1000, policy="prox_error",
-                             stall_window=stall, time_limit=limit)
-        r = rec.a * res.r
+    res = newton_backend(copy, "coulomb", tol=tol, max_iter=1000, policy="prox_error",
+                         stall_window=stall, time_limit=limit)
     dt = time.perf_counter() - t0
+    r = rec.a * res.r
     err = float(socp_cd.error(p, r))
     guard = float(socp_cd.guard(p, r)["value"])
     return max(err, guard) <= tol, err, guard, res.iterations, dt

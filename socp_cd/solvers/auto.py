@@ -273,10 +273,11 @@ MAX_ROUNDS = 8
 #: unsolved with time left: Siconos PROX's proximal point (``"newton_prox_error"``, newton's
 #: ``policy="prox_error"``) from ``r = 0``, with the rest of the budget, at most
 #: PROX_ERROR_MAX_ITER outer iterations (PROX's default cap) and a stall window of
-#: PROX_ERROR_STALL (False: off).  A problem the order solves never reaches it (same path
-#: and time); on the capsule piles the chain ended after 1-4 s of a 10 s budget, stalled
-#: at 1e-8 ... 1e-6 or at answers the units guard refused, where Siconos PROX solved them
-#: (formulations/auto.md, "The last resort")
+#: PROX_ERROR_STALL (False: off), once per call (when it cuts the best error without meeting
+#: tol, a round may follow it, by the rounds' own rule).  A problem the order solves never
+#: reaches it (same path and time); on the capsule piles the chain ended after 1-4 s of a
+#: 10 s budget, stalled at 1e-8 ... 1e-6 or at answers the units guard refused, where
+#: Siconos PROX solved them (formulations/auto.md, "The last resort")
 LAST_RESORT = True
 PROX_ERROR_MAX_ITER = 1000
 PROX_ERROR_STALL = 100
@@ -1193,7 +1194,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 stage_max_iter = TRIAL_STEPS if max_iter is None else min(max_iter, TRIAL_STEPS)
                 opts["stall_window"] = TRIAL_STALL
             elif method == "newton_prox_error":
-                stage_max_iter = PROX_ERROR_MAX_ITER if max_iter is None else max_iter
+                stage_max_iter = (PROX_ERROR_MAX_ITER if max_iter is None
+                                  else min(max_iter, PROX_ERROR_MAX_ITER))
                 opts["stall_window"] = int(PROX_ERROR_STALL)
             elif method in _COLD_TRIALS:
                 steps = _cold_steps(method)

@@ -906,17 +906,25 @@ def error_prox(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_li
     ``e_k / PROX_INNER_RATIO``, at most :data:`PROX_INNER_MAX_ITER` steps; its answer is the
     next iterate whether or not it met that tolerance, and it *met* it when Siconos' error
     of the subproblem (normalized by the subproblem's own ``||q||``) is within it, whatever
-    the steps' own, stricter, velocity-relative stop said.  ``alpha = PROX_SIGMA e_k s̄``
-    (``s̄`` the mean diagonal entry of ``W``) at the start and after a subproblem that met
-    its tolerance; ``alpha × PROX_FAIL_GROWTH`` after one that did not (``alpha_min``: its
-    floor relative to ``s̄``).  So it falls with the error: near a solution the subproblems
-    tend to the law itself, far from one they are strongly regularized.
+    the plain steps' own stop said (they stop on the velocity-relative error of the
+    subproblem, in the system's units, and after ``DEFAULT_STALL_WINDOW`` steps without a
+    10 % drop, which NSN_AC does not).  ``alpha = PROX_SIGMA e_k s̄`` (``s̄`` the mean diagonal
+    entry of ``W``; Siconos' rule is ``PROX_SIGMA e_k`` in absolute units: the factor ``s̄``
+    is ours, it makes the loop independent of the unit of ``W``) at the start and after a
+    subproblem that met its tolerance; ``alpha × PROX_FAIL_GROWTH`` after one that did not,
+    within ``[alpha_min s̄, 1e8 s̄]``.  So it falls with the error: near a solution the
+    subproblems tend to the law itself, far from one they are strongly regularized.  On a
+    global system ``s̄`` is the estimate of :meth:`_GlobalSystem.diag_blocks`
+    (``Hᵀ diag(M)⁻¹ H``).
 
     ``written``: ``(a, b, ||q||)`` (:func:`~socp_cd.solvers.scaling.origin`) when ``system``
-    is the dispatcher's balanced copy of a problem: the loop then runs in the units of the
-    problem as written, as Siconos does, on the balanced arithmetic — ``e_k`` is Siconos'
-    error as written, ``s̄`` the written ``W``'s, and the proximal term ``alpha (r - r_k)``
-    on the written velocity is ``alpha a / b`` per unknown on the balanced one (on the 11
+    is the dispatcher's balanced copy of a problem: the outer loop then runs in the units of
+    the problem as written, as Siconos does, on the balanced arithmetic — ``e_k`` is Siconos'
+    error as written, ``s̄`` the written ``W``'s, the proximal term ``alpha (r - r_k)`` on the
+    written velocity is ``alpha a / b`` per unknown on the balanced one, and a subproblem's
+    tolerance is judged as written — while the plain steps inside a subproblem keep the
+    balanced units' line search and stop (so a run is the one on the problem as written only
+    for its first outer iterations: ``tests/test_newton_plain.py``; on the 11
     capsule-pile cases of ``validation/prox_error_units.py``: 8 solved against 6 in the
     balanced units, faster on 4 of the 6 both solve).  None: the system's own units.
 
@@ -1124,8 +1132,10 @@ def _settings(problem, options, inner_settings=None) -> dict:
         v = options.get(name)
         return default if v is None else v
     alpha0 = check_real("alpha0", get("alpha0", COLD_ALPHA0), positive=True)
+    policy = check_choice("policy", get("policy", DEFAULT_POLICY), POLICIES)
+    # (policy "prox_error" sets alpha from the error: alpha0 does not bound its floor)
     alpha_min = check_real("alpha_min", get("alpha_min", _DEFAULT_ALPHA_MIN), minimum=0.0,
-                           maximum=alpha0)
+                           maximum=None if policy == "prox_error" else alpha0)
     return dict(alpha0=alpha0, alpha_min=alpha_min,
                 inner_max_iter=check_int("inner_max_iter",
                                          get("inner_max_iter", _DEFAULT_INNER_MAX_ITER), minimum=1),
@@ -1136,7 +1146,7 @@ def _settings(problem, options, inner_settings=None) -> dict:
                 global_mode=check_choice("global_mode", get("global_mode", "auto"),
                                          ("auto", "native", "condense")),
                 rho=check_choice("rho", get("rho", DEFAULT_RHO), RHO_STRATEGIES),
-                policy=check_choice("policy", get("policy", DEFAULT_POLICY), POLICIES))
+                policy=policy)
 
 
 def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
