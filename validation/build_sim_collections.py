@@ -29,6 +29,10 @@ incline, ``examples/box_stack_incline_below.toml``) and ``pile3d-20`` (20 sphere
 ``--small --tune`` other scenes of the same kinds into ``validation/evalset_sim_small_tune/``
 (see :func:`small_runs`).
 
+``--fresh`` builds scenes of the same kinds that no session had run (session 34) into
+``validation/evalset_sim_fresh/`` (see :func:`fresh_runs`): a check of ``auto`` on simulation
+dumps after its rules were chosen (``validation/fresh_draw.py --collections``).
+
 ``--tune`` builds *other* scenes of the same kinds into
 ``validation/evalset_sim_tune/`` (1 500 disks with packing seed 11, 250
 spheres with seed 2): the simulation problems ``auto``'s rules may be chosen
@@ -113,8 +117,12 @@ def main(argv=None) -> int:
     mode.add_argument("--quick", action="store_true")
     ap.add_argument("--tune", action="store_true", help="the tuning scenes (see above)")
     mode.add_argument("--small", action="store_true", help="small 3D collections (see above)")
+    mode.add_argument("--fresh", action="store_true",
+                      help="scenes no session had run, for a check after the fact (see above)")
     ap.add_argument("--only", nargs="*", default=None)
     args = ap.parse_args(argv)
+    if args.out is None and args.fresh:
+        args.out = HERE / "evalset_sim_fresh"
     if args.out is None:
         args.out = HERE / ("evalset_sim_small_tune" if args.small and args.tune
                            else "evalset_sim_tune" if args.tune
@@ -124,6 +132,8 @@ def main(argv=None) -> int:
     if args.small:
         runs = small_runs(args.out, args.tune)
         return build(runs, args)
+    if args.fresh:
+        return build(fresh_runs(args.out), args)
     table = QUICK if args.quick else TUNE if args.tune else FULL
     for name, (n, steps, every) in table.items():
         scene = args.out / f"{name}.toml"
@@ -179,6 +189,29 @@ def small_runs(out: Path, tune: bool = False) -> list:
     scene.write_text((EXAMPLES / "sphere_pile.toml").read_text().replace("count = 300",
                                                                           "count = 20"))
     runs.append(("pile3d-20", scene, None, 100))
+    return runs
+
+
+def fresh_runs(out: Path) -> list:
+    """The ``--fresh`` collections (session 34, after every rule of ``auto`` was chosen): stacks
+    of 7 and 9 boxes sliding down the incline, 5 boxes at rest on it, piles of 40 and 120
+    spheres and a deposit of 600 disks, with counts and seeds no other collection uses."""
+    above = (EXAMPLES / "box_stack_incline_above.toml").read_text()
+    below = (EXAMPLES / "box_stack_incline_below.toml").read_text()
+    pile = (EXAMPLES / "sphere_pile.toml").read_text()
+    runs = []
+    for name, text in (("boxes3d-fresh-7", above.replace("count = 4", "count = 7")),
+                       ("boxes3d-fresh-9", above.replace("count = 4", "count = 9")),
+                       ("boxes3d-fresh-below-5", below.replace("count = 4", "count = 5")),
+                       ("pile3d-fresh-40", pile.replace("count = 300", "count = 40")
+                        .replace("seed = 1", "seed = 9")),
+                       ("pile3d-fresh-120", pile.replace("count = 300", "count = 120")
+                        .replace("seed = 1", "seed = 13")),
+                       ("deposit2d-fresh-600", deposit_scene(600, 1500, seed=23))):
+        scene = out / f"{name}.toml"
+        scene.write_text(text)
+        every = 100 if name.startswith(("pile", "deposit")) else 50
+        runs.append((name, scene, 1000 if name.startswith("boxes") else None, every))
     return runs
 
 

@@ -17,13 +17,16 @@ operator of ``shared/``, every ``mu`` of ``evalset.MUS``, no rescaled copies, an
   (NSN_AC, NSN_FB, NSN_NM, PROX, ADMM) only.
 
 ``--evalset`` runs the evaluation set's own manufactured cases instead (seeds 0-3 and the
-rescaled copies: the 620 cases of the README's count, with their tune / held-out split).
+rescaled copies: the 620 cases of the README's count, with their tune / held-out split);
+``--collections DIR ...`` the step problems of FCLib collections, e.g. the simulation scenes
+no session had run (``build_sim_collections.py --fresh``).
 
 Writes ``<out>.csv`` (one row per ``auto`` call), ``<out>_siconos.csv`` and ``<out>.md``
 (``--from-csv`` writes the report again from the CSVs)::
 
     python validation/fresh_draw.py --siconos --strong-large --out results/fresh_draw_s34
     python validation/fresh_draw.py --evalset --siconos --strong-large --out results/manufactured_s34
+    python validation/fresh_draw.py --collections evalset_sim_fresh --siconos --out results/sim_fresh_s34
 """
 from __future__ import annotations
 
@@ -105,6 +108,20 @@ def run_siconos(cases, misses, tol, small_limit, large_limit, large, strong_larg
     return rows
 
 
+def sim_cases(folders, max_contacts=None) -> list:
+    """The cases of the FCLib collections in ``folders`` (a collection, or a folder of them;
+    paths relative to this script's folder), at most ``max_contacts`` contacts."""
+    cases = []
+    for folder in folders:
+        root = folder if folder.is_absolute() else HERE / folder
+        for sub in sorted({f.parent for f in root.rglob("*.hdf5")}):
+            cases += [c for c in evalset.collection_cases(sub)
+                      if max_contacts is None or c.n_contacts <= max_contacts]
+    if not cases:
+        raise SystemExit(f"no FCLib collection under {[str(f) for f in folders]}")
+    return cases
+
+
 def read_rows(out):
     """The rows of a run's CSVs (``<out>.csv``, ``<out>_siconos.csv`` when present), typed."""
     def typed(row):
@@ -131,21 +148,26 @@ def report(rows, sic_rows, args, command) -> list[str]:
     """The Markdown report: solved counts by kind and size, the misses, Siconos on them."""
     n = len(rows)
     solved = sum(r["solved"] for r in rows)
-    what = ("the evaluation set's manufactured cases (seeds 0-3 and the rescaled copies)"
+    what = ("simulation dumps (" + ", ".join(str(f) for f in args.collections) + ")"
+            if args.collections else
+            "the evaluation set's manufactured cases (seeds 0-3 and the rescaled copies)"
             if args.evalset else
             f"a fresh manufactured draw (seeds {' '.join(map(str, args.seeds))})")
+    how = ("step problems of the scenes' runs (NSGS at 1e-6 inside the simulation; each "
+           "problem exact)" if args.collections else
+           f"every real operator of shared/, μ ∈ {{{', '.join(f'{m:g}' for m in evalset.MUS)}}}, "
+           "the mix of seed k = MIXES[k mod 4]")
     by_split = defaultdict(lambda: [0, 0])
     for r in rows:
         by_split[r["split"]][0] += r["solved"]
         by_split[r["split"]][1] += 1
     splits = ", ".join(f"{k} {v[0]} / {v[1]}" for k, v in sorted(by_split.items()))
     lines = [f"# `auto` on {what}, tol {args.tol:g}", "", f"`{command}`", "",
-             f"{n} cases (every real operator of shared/, μ ∈ {{{', '.join(f'{m:g}' for m in evalset.MUS)}}}, "
-             f"the mix of seed k = MIXES[k mod 4]); budget {args.time_limit:g} s, "
+             f"{n} cases ({how}); budget {args.time_limit:g} s, "
              f"{args.large_time_limit:g} s above {args.large} contacts; one call each.", "",
              f"**Solved: {solved} of {n} ({100.0 * solved / max(n, 1):.1f} %)**"
              + (f"; tune / held out by the evaluation set's split: {splits}." if args.evalset
-                else "; no parameter of `auto` was chosen on these seeds."), "",
+                else "; no parameter of `auto` was chosen on these problems."), "",
              "| kind | contacts | cases | solved | median time [s] |", "|---|---|---|---|---|"]
     groups = defaultdict(list)
     for r in rows:
@@ -185,6 +207,9 @@ def report(rows, sic_rows, args, command) -> list[str]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", nargs="+", type=int, default=[30, 31, 32, 33])
+    ap.add_argument("--collections", nargs="+", type=Path, default=None,
+                    help="FCLib collection folders (or folders of them) instead: simulation "
+                         "dumps, e.g. evalset_sim_fresh (build_sim_collections.py --fresh)")
     ap.add_argument("--evalset", action="store_true",
                     help="the evaluation set's own manufactured cases instead (seeds 0-3 and "
                          "the rescaled copies: the 620 cases of the README's count)")
@@ -212,7 +237,9 @@ def main(argv=None) -> int:
         return 0
     if args.siconos and not siconos_available():
         raise SystemExit("Siconos is not available (apt-get install -y python3-siconos)")
-    if args.evalset:
+    if args.collections:
+        cases = sim_cases(args.collections, args.max_contacts)
+    elif args.evalset:
         cases = evalset.manufactured_cases(shared_problems_dir(), max_contacts=args.max_contacts)
     else:
         cases = evalset.manufactured_cases(shared_problems_dir(), seeds=args.seeds, scales=(),
