@@ -1100,3 +1100,19 @@ def test_the_last_resort_leaves_solved_problems_and_spent_budgets_alone(monkeypa
     monkeypatch.setitem(auto._STAGES, "nsgs", (SolverSpec("slow", slow, ("coulomb",)), {}))
     res = socp_cd.solve(_local(6, 3, 2, rank_deficient=True), tol=1e-10, time_limit=1.0)
     assert res.status == "time_limit" and len(res.info["path"]) == 1
+
+
+def test_prox_early_knob_puts_the_prox_stage_after_the_first_newton_stage(monkeypatch):
+    """The study knob PROX_EARLY (off): on local problems above SMALL_NC contacts the PROX
+    stage follows the first Newton stage; the last resort is then not appended again."""
+    p = _local(6, 3, 2, rank_deficient=True)
+    feats = auto.features(p, "coulomb")
+    monkeypatch.setattr(auto, "SMALL_NC", 0)
+    names = [m for m, _ in auto.stage_order(p, "coulomb", feats)]
+    assert "newton_prox_error" not in names
+    monkeypatch.setattr(auto, "PROX_EARLY", True)
+    names = [m for m, _ in auto.stage_order(p, "coulomb", feats)]
+    first = names.index("newton")
+    assert names[first + 1] == "newton_prox_error" and names.count("newton_prox_error") == 1
+    res = socp_cd.solve(p, tol=1e-30, time_limit=0.5)
+    assert [s["method"] for s in res.info["path"]].count("newton_prox_error") <= 1

@@ -281,6 +281,10 @@ MAX_ROUNDS = 8
 LAST_RESORT = True
 PROX_ERROR_MAX_ITER = 1000
 PROX_ERROR_STALL = 100
+#: study knob (False: off): on local problems of more than SMALL_NC contacts (3D, or 2D up to
+#: LARGE_2D_NC), ``"newton_prox_error"`` right after the first Newton stage instead of only
+#: as the last resort (formulations/auto.md, "The last resort")
+PROX_EARLY = False
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
@@ -434,7 +438,10 @@ def stage_order(problem, formulation, feats) -> tuple:
         # at 5 s, sgm 2.7 -> 0.74 s)
         return (probe + (("clarabel", "coulomb"), ("newton", "coulomb")) + plain
                 + (("nsgs", "coulomb"), ("newton", "coulomb")))
-    return probe + (("newton", "coulomb"),) + plain + middle + (("newton", "coulomb"),)
+    early = ((("newton_prox_error", "coulomb"),) if PROX_EARLY and not feats["global"]
+             else ())
+    return (probe + (("newton", "coulomb"),) + early + plain + middle
+            + (("newton", "coulomb"),))
 
 
 _GUARD_VALUE = GUARD_KEYS.index("value")
