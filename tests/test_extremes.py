@@ -178,3 +178,21 @@ def test_cone_projection_of_a_nan_side_block():
         out = np.empty(dim)
         project_cone_stacked(x, np.zeros(1), dim, out)
         np.testing.assert_array_equal(out, project_cone(x, 0.0, dim))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_prox_error_policy_on_every_extreme_case(dim):
+    """newton's ``policy="prox_error"`` (auto's last resort) on each extreme case: a status of
+    STATUSES, a finite answer, and ``converged`` only with the recomputed error and guard
+    within tol; the cases with a unique easy solution are solved."""
+    for case in CASES:
+        if case in ("zero_contacts", "large"):
+            continue
+        p = build(case, 6, dim)
+        res = socp_cd.solve(p, "newton", policy="prox_error", tol=1e-6, time_limit=30.0)
+        assert res.status in STATUSES, case
+        assert np.all(np.isfinite(res.r)), case
+        guard = socp_cd.guard(p, res.r)["value"]
+        assert res.converged == (res.error <= 1e-6 and guard <= 1e-6), case
+        if case in ("mu=0", "default"):
+            assert res.converged, case
