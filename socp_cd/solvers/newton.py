@@ -65,8 +65,9 @@ policy : {"prox", "hybrid", "plain", "prox_error"}, default "prox"
     used by ``solver="auto"`` after the proximal stage), or ``"prox_error"``:
     Siconos PROX with its defaults (:func:`error_prox`, ``formulations/newton.md``
     §12), a proximal parameter proportional to the error, each subproblem solved by
-    plain steps, in the units of the problem as written (``alpha0`` and
-    ``inner_max_iter`` do not apply; ``solver="auto"``'s last resort).
+    plain steps, in the units of the problem as written, then, when that fails, in the
+    balanced units (``alpha0`` and ``inner_max_iter`` do not apply; ``solver="auto"``'s
+    last resort).
 
 The common options (``tol``, ``max_iter`` = outer proximal iterations,
 default 200, ``time_limit``, ``verbose``, ``r0``) follow
@@ -222,6 +223,11 @@ PLAIN_REGULARIZATION = 1e-10
 #: ``e_k / PROX_INNER_RATIO``, at most ``PROX_INNER_MAX_ITER`` of them (NSN_AC's default cap)
 PROX_SIGMA = 5.0
 PROX_FAIL_GROWTH = 10.0
+#: ``policy="prox_error"`` on a balanced copy: after a run in the units as written that
+#: misses ``tol`` with time and iterations left, a second run in the balanced units
+#: (:func:`prox_error_runs`; False: the written run alone, as ``validation/prox_error_units.py``
+#: measures it)
+PROX_BALANCED_FALLBACK = True
 PROX_INNER_RATIO = 10.0
 PROX_INNER_MAX_ITER = 200
 
@@ -1024,6 +1030,42 @@ def error_prox(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_li
     return status, r, it, hist, info
 
 
+def prox_error_runs(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_limit,
+                    history, rho=DEFAULT_RHO, written=None):
+    """``policy="prox_error"``: :func:`error_prox` in the units as written (``written``), and
+    when that run ends without meeting ``tol`` with outer iterations and time left, a second
+    run from the same start in the system's own (balanced) units; the better of the two by
+    the stop measure, ``info["units"]`` saying which (``info["runs"]``: both runs'
+    ``(units, status, iterations, error)``).  Siconos' metric, the written units, solves
+    capsule piles the balanced one does not, and stalls on badly scaled problems (contact
+    scales spanning 1e-6 … 1e6, mass ratios 1e6) that the balanced one solves
+    (``formulations/newton.md`` §12).  Without ``written`` one run, in the system's units."""
+    t0 = time.perf_counter()
+    first = error_prox(system, mu, r.copy(), tol=tol, max_iter=max_iter, alpha_min=alpha_min,
+                       stall_window=stall_window, time_limit=time_limit, history=history,
+                       rho=rho, written=written)
+    first[4]["units"] = "written" if written is not None else "own"
+    left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
+    if (written is None or not PROX_BALANCED_FALLBACK
+            or first[0] in ("converged", "numerical_error")
+            or first[2] >= max_iter or (left is not None and left <= 0.0)):
+        return first
+    second = error_prox(system, mu, r.copy(), tol=tol, max_iter=max_iter - first[2],
+                        alpha_min=alpha_min, stall_window=stall_window, time_limit=left,
+                        history=history, rho=rho, written=None)
+    second[4]["units"] = "balanced"
+    runs = [(run[4]["units"], run[0], run[2], run[4]["internal_error"]) for run in (first, second)]
+    best = second if (second[0] == "converged"
+                      or second[4]["internal_error"] < first[4]["internal_error"]) else first
+    status, r_best, _, _, info = best
+    for key in _COUNTERS:       # (the counters of both runs)
+        info[key] = first[4][key] + second[4][key]
+    info["runs"] = runs
+    system.start(r_best)
+    hist = (first[3] + second[3][1:]) if history else None
+    return status, r_best, first[2] + second[2], hist, info
+
+
 def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
                      stall_window, time_limit, rho, plain=False):
     """:func:`prox_newton` (policy "prox", or "plain" when ``plain``; no history) through its
@@ -1172,10 +1214,10 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
 
     def run(r, run_tol, run_max_iter, alpha0, left):
         if st["policy"] == "prox_error":      # (alpha0 unused: alpha follows the error)
-            return error_prox(system, mu, r, tol=run_tol, max_iter=run_max_iter,
-                              alpha_min=st["alpha_min"], stall_window=st["stall_window"],
-                              time_limit=left, history=history, rho=st["rho"],
-                              written=units)
+            return prox_error_runs(system, mu, r, tol=run_tol, max_iter=run_max_iter,
+                                   alpha_min=st["alpha_min"], stall_window=st["stall_window"],
+                                   time_limit=left, history=history, rho=st["rho"],
+                                   written=units)
         return prox_newton(system, mu, r, tol=run_tol, max_iter=run_max_iter, alpha0=alpha0,
                            alpha_min=st["alpha_min"], inner_max_iter=st["inner_max_iter"],
                            stall_window=st["stall_window"], time_limit=left, history=history,
