@@ -117,7 +117,7 @@ def test_shifted_system_is_the_proximal_subproblem():
     p = FrictionContactProblem(W, rng.standard_normal(m), 0.5, d)
     base = _LocalSystem(p, "dense")
     s, rk, r = rng.uniform(0.1, 2.0, m), rng.standard_normal(m), rng.standard_normal(m)
-    sub = _ShiftedSystem(base, s, rk, 1.0)
+    sub = _ShiftedSystem(base, s, rk, 1.0, base.diag_blocks())
     assert np.allclose(sub.start(r), W @ r + p.q + s * (r - rk))
     blocks = sub.diag_blocks()
     for i in range(nc):

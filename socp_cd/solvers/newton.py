@@ -199,7 +199,7 @@ NONMONOTONE = 10.0
 #: 336, so it was not adopted
 INNER_GATE = 0.1
 INNER_DECREASE = 1e-3
-#: outer policies of :func:`prox_newton`, and ``"prox_error"`` (:func:`error_prox`)
+#: outer policies of :func:`prox_newton`, and ``"prox_error"`` (:func:`prox_error_runs`)
 POLICIES = ("prox", "hybrid", "plain", "prox_error")
 DEFAULT_POLICY = "prox"
 #: ``policy="hybrid"``: a plain Newton step is accepted when ``||F||`` falls to at most
@@ -223,13 +223,13 @@ PLAIN_REGULARIZATION = 1e-10
 #: ``e_k / PROX_INNER_RATIO``, at most ``PROX_INNER_MAX_ITER`` of them (NSN_AC's default cap)
 PROX_SIGMA = 5.0
 PROX_FAIL_GROWTH = 10.0
+PROX_INNER_RATIO = 10.0
+PROX_INNER_MAX_ITER = 200
 #: ``policy="prox_error"`` on a balanced copy: after a run in the units as written that
 #: misses ``tol`` with time and iterations left, a second run in the balanced units
 #: (:func:`prox_error_runs`; False: the written run alone, as ``validation/prox_error_units.py``
 #: measures it)
 PROX_BALANCED_FALLBACK = True
-PROX_INNER_RATIO = 10.0
-PROX_INNER_MAX_ITER = 200
 
 
 #: above this size the factorizations run with one BLAS thread: on a loaded
@@ -499,13 +499,15 @@ class _ShiftedSystem:
     law with ``u_s = W r + q + s * (r - rk)``, i.e. ``W + diag(s)`` and ``q - s * rk``
     (:func:`error_prox`'s inner problem; ``shift`` the vector ``s``, one entry per unknown).
     Its Newton matrix ``Dr + Du (W + diag(s))`` is ``base``'s with ``Dr + Du diag(s)`` for
-    ``Dr``; its error is normalized by ``q_norm``.  Never compiled: :func:`prox_newton`
-    runs its Python loop on it."""
+    ``Dr``; its error is normalized by ``q_norm``; ``base_blocks``: ``base``'s
+    ``diag_blocks()``, computed once by the caller for all its subproblems.  Never compiled:
+    :func:`prox_newton` runs its Python loop on it."""
 
     compiled = False
 
-    def __init__(self, base, shift, rk, q_norm):
+    def __init__(self, base, shift, rk, q_norm, base_blocks):
         self.base, self.shift, self.rk = base, shift, rk
+        self._base_blocks = base_blocks
         self.d, self.m = base.d, base.m
         self.kind = base.kind + "+shift"     # (not "dense": _system_rho reads diag_blocks)
         self.norm_q = q_norm
@@ -517,7 +519,7 @@ class _ShiftedSystem:
         return self.base.factorizations
 
     def diag_blocks(self):
-        out = np.array(self.base.diag_blocks(), dtype=np.float64)
+        out = np.array(self._base_blocks, dtype=np.float64)
         s = self.shift.reshape(-1, self.d)
         for a in range(self.d):
             out[:, a, a] += s[:, a]
@@ -941,16 +943,15 @@ def error_prox(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_li
     (``history``: the outer errors).
     """
     d = system.d
-    diag = np.einsum("iaa->ia", system.diag_blocks()).reshape(-1)
+    blocks = system.diag_blocks()
+    diag = np.einsum("iaa->ia", blocks).reshape(-1)
     if written is None:
-        unit = np.ones(system.m)            # (the shift per unknown, per unit of alpha)
+        a_w = unit = np.ones(system.m)      # (the shift per unknown, per unit of alpha)
         q_written = getattr(system, "q", None)
-        qa = None
     else:
-        a, b, q_norm = written
-        unit = a / b
-        q_written = b * system.q
-        qa = (a, b, q_norm)
+        a_w, b_w, _ = written
+        unit = a_w / b_w
+        q_written = b_w * system.q
     sbar = float(np.mean(diag / unit)) if diag.size else 1.0
     if not (math.isfinite(sbar) and sbar > 0.0):
         sbar = 1.0
@@ -958,15 +959,17 @@ def error_prox(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_li
 
     def measure(r, u, q_norm):
         """Siconos' error of the pair ``(r, u)`` (as written with ``written``)."""
-        if qa is None:
+        if written is None:
             return siconos_error(r, u, mu, d, q_norm)
-        return origin_error(r, u, qa[0], qa[1], mu, d, q_norm)
+        return origin_error(r, u, written[0], written[1], mu, d, q_norm)
 
     def errors(r):
+        """``(e_k, the stop measure)`` of ``r``: Siconos' error (as written with
+        ``written``) and the system's velocity-relative error."""
         u = system.start(r)
-        return (measure(r, u, system.norm_q if qa is None else qa[2]),
-                velocity_relative_error(siconos_error(r, u, mu, d, system.norm_q), r, u,
-                                        system.norm_q))
+        own = siconos_error(r, u, mu, d, system.norm_q)
+        e_k = own if written is None else measure(r, u, written[2])
+        return e_k, velocity_relative_error(own, r, u, system.norm_q)
 
     e, err = errors(r)
     hist = [err] if history else None
@@ -988,13 +991,12 @@ def error_prox(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_li
         shift = alpha * unit
         rk = r.copy()
         if q_written is None:       # (a global system keeps no q: its ||q||)
-            sub_norm, inner_norm = system.norm_q, system.norm_q
-        else:
-            sub_norm = float(np.linalg.norm(q_written - alpha * (rk if qa is None
-                                                                 else qa[0] * rk)))
-            inner_norm = (sub_norm if qa is None
+            sub_norm = inner_norm = system.norm_q
+        else:                       # (the subproblem's ||q||, as written and in the system)
+            sub_norm = float(np.linalg.norm(q_written - alpha * (a_w * rk)))
+            inner_norm = (sub_norm if written is None
                           else float(np.linalg.norm(system.q - shift * rk)))
-        sub = _ShiftedSystem(system, shift, rk, inner_norm)
+        sub = _ShiftedSystem(system, shift, rk, inner_norm, blocks)
         st, r, _, _, info = prox_newton(sub, mu, r.copy(), tol=e / PROX_INNER_RATIO,
                                         max_iter=PROX_INNER_MAX_ITER, alpha0=1.0,
                                         alpha_min=alpha_min, inner_max_iter=1,
