@@ -42,10 +42,11 @@ import numpy as np
 import socp_cd
 from socp_cd.bench import evalset
 from socp_cd.bench.reports import emit
-from socp_cd.bench.siconos_peer import SOLVERS, family_of, siconos_available, siconos_batch
+from socp_cd.bench.siconos_peer import SOLVERS, family_of, siconos_available
 from socp_cd.data import shared_problems_dir
 
 from auto_probe import write_csv
+from misses_vs_siconos import siconos_rows
 
 HERE = Path(__file__).resolve().parent
 #: Siconos' strongest solvers at 1e-8 (README), for the large cases with ``--strong-large``
@@ -92,19 +93,7 @@ def run_siconos(cases, misses, tol, small_limit, large_limit, large, strong_larg
         big = p.n_contacts > large
         limit = large_limit if big else small_limit
         names = [n for n in SOLVERS[family_of(p)] if not (strong_large and big) or n in STRONG]
-        tasks = [{"task": "solve", "problem": p, "solver": s, "tol": tol,
-                  "max_iter": 1_000_000, "time_limit": limit} for s in names]
-        for s, res in zip(names, siconos_batch(tasks)):
-            r = res.get("r")
-            ok = res["status"] == "ok" and r is not None and np.all(np.isfinite(r))
-            err = float(socp_cd.error(p, r)) if ok else float("inf")
-            guard = float(socp_cd.guard(p, r)["value"]) if ok else float("inf")
-            rows.append({"case": m["case"], "nc": p.n_contacts, "solver": s,
-                         "status": res["status"], "error": err, "guard": guard,
-                         "solved": err <= tol, "guard_too": max(err, guard) <= tol,
-                         "time": res.get("time", float("inf"))})
-            print(f"  {m['case']} {s:8s} {res['status']:10s} err {err:.1e} guard {guard:.1e}",
-                  flush=True)
+        rows += siconos_rows(m["case"], p, names, tol, limit)
     return rows
 
 

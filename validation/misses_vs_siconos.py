@@ -52,6 +52,28 @@ def missed(paths, family, config):
     return out
 
 
+def siconos_rows(cid, p, names, tol, time_limit, extra=None) -> list[dict]:
+    """Each Siconos solver of ``names`` on problem ``p`` (case ``cid``) once, in one worker, at
+    ``time_limit``, max_iter 1 000 000, judged by our recomputed error (``solved``) and the
+    units guard (``guard_too``): one row per solver, ``extra`` (e.g. ``auto``'s error and
+    time) after ``case`` and ``nc``; each row printed."""
+    tasks = [{"task": "solve", "problem": p, "solver": s, "tol": tol,
+              "max_iter": 1_000_000, "time_limit": time_limit} for s in names]
+    rows = []
+    for s, res in zip(names, siconos_batch(tasks)):
+        r = res.get("r")
+        ok = res["status"] == "ok" and r is not None and np.all(np.isfinite(r))
+        err = float(socp_cd.error(p, r)) if ok else float("inf")
+        guard = float(socp_cd.guard(p, r)["value"]) if ok else float("inf")
+        rows.append({"case": cid, "nc": p.n_contacts, **(extra or {}), "solver": s,
+                     "status": res["status"], "claimed": res.get("info") == 0, "error": err,
+                     "guard": guard, "solved": err <= tol, "guard_too": max(err, guard) <= tol,
+                     "time": res.get("time", float("inf"))})
+        print(f"{cid} {s:8s} {res['status']:10s} err {err:.1e} guard {guard:.1e} "
+              f"t {rows[-1]['time']:.3g}", flush=True)
+    return rows
+
+
 def problems(case_ids):
     """``{case_id: problem}`` from the evaluation set (manufactured and rescaled cases)."""
     want = set(case_ids)
@@ -84,20 +106,8 @@ def main() -> None:
     for cid in sorted(miss):
         p = probs[cid]
         names = [n for n in SOLVERS[family_of(p)] if args.solvers is None or n in args.solvers]
-        tasks = [{"task": "solve", "problem": p, "solver": s, "tol": args.tol,
-                  "max_iter": 1_000_000, "time_limit": args.time_limit} for s in names]
-        for s, res in zip(names, siconos_batch(tasks)):
-            r = res.get("r")
-            ok = res["status"] == "ok" and r is not None and np.all(np.isfinite(r))
-            err = float(socp_cd.error(p, r)) if ok else float("inf")
-            guard = float(socp_cd.guard(p, r)["value"]) if ok else float("inf")
-            rows.append({"case": cid, "nc": p.n_contacts, "auto_error": miss[cid][0],
-                         "auto_time": miss[cid][1], "solver": s, "status": res["status"],
-                         "claimed": res.get("info") == 0, "error": err, "guard": guard,
-                         "solved": err <= args.tol, "guard_too": max(err, guard) <= args.tol,
-                         "time": res.get("time", float("inf"))})
-            print(f"{cid} {s:8s} {res['status']:10s} err {err:.1e} guard {guard:.1e} "
-                  f"t {rows[-1]['time']:.3g}", flush=True)
+        rows += siconos_rows(cid, p, names, args.tol, args.time_limit,
+                             {"auto_error": miss[cid][0], "auto_time": miss[cid][1]})
     args.out.parent.mkdir(parents=True, exist_ok=True)
     write_csv(rows, args.out.with_suffix(".csv"))
     write_md(rows, args, args.out.with_suffix(".md"))
