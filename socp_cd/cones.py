@@ -163,6 +163,56 @@ def natural_map(r, u, mu, dim: int = 3, rho: float = 1.0) -> np.ndarray:
     return _restore(R - project_cone(x, mu, dim), r)
 
 
+def natural_map_jacobian(r, u, mu, dim: int = 3, rho=1.0):
+    """The natural map and one element of its generalized Jacobian, per contact.
+
+    With ``x = r - rho û`` and ``û = u + mu ||u_T|| e_N``, ``F = r - P_K(x)`` and
+    ``dF = Dr dr + Du du`` with ``Dr = I - P``, ``Du = rho P D``, ``P`` the projection's
+    Jacobian at ``x`` (:func:`project_cone_jacobian`) and ``D = I + mu e_N wᵀ``,
+    ``w = u_T / ||u_T||`` (``w = 0`` when ``u_T = 0``, an element of the norm's
+    subdifferential there).  The Newton matrix of ``F(r, W r + q) = 0`` is ``Dr + Du W``
+    (``formulations/newton.md`` §13; the NumPy reference of the compiled
+    :func:`socp_cd.solvers.kernels.newton_nm.nm_blocks`).
+
+    Parameters
+    ----------
+    r, u : array_like
+        Stacked impulses and velocities (or ``(nc, dim)`` arrays).
+    mu : float or array_like, shape (nc,)
+    dim : {2, 3}
+    rho : float or array_like, shape (nc,)
+        One positive parameter per contact.
+
+    Returns
+    -------
+    F : ndarray, shape (dim * nc,)
+    Dr, Du : ndarray, shape (nc, dim, dim)
+    branch : ndarray of int64, shape (nc,)
+        ``0`` when ``x`` lies on the polar cone (``r`` projected to 0: separated),
+        ``2`` inside ``K`` (sticking), ``3`` projected on the cone's surface (sliding):
+        the Alart–Curnier kernel's codes of the same state.
+    """
+    R = _blocks(r, dim)
+    U = _blocks(u, dim)
+    nc = R.shape[0]
+    mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), (nc,))
+    rho = np.broadcast_to(np.asarray(rho, dtype=np.float64), (nc,))
+    X = R - rho[:, None] * desaxce_velocity(U, mu, dim)
+    F = R - project_cone(X, mu, dim)
+    P = project_cone_jacobian(X, mu, dim)
+    tu = tangential_norm(U, dim)
+    w = np.zeros((nc, dim - 1))
+    moving = tu > 0
+    w[moving] = U[moving, 1:] / tu[moving, None]
+    D = np.repeat(np.eye(dim)[None], nc, axis=0)
+    D[:, 0, 1:] += mu[:, None] * w
+    Dr = np.eye(dim)[None] - P
+    Du = rho[:, None, None] * np.einsum("kij,kjl->kil", P, D)
+    xt = tangential_norm(X, dim)
+    branch = np.where(mu * xt <= -X[:, 0], 0, np.where(xt <= mu * X[:, 0], 2, 3))
+    return F.reshape(-1), Dr, Du, branch.astype(np.int64)
+
+
 def in_cone_violation(r, mu, dim: int = 3) -> np.ndarray:
     """Distance from ``r`` to ``K_mu`` per contact (0 when feasible)."""
     R = _blocks(r, dim)
@@ -255,6 +305,7 @@ __all__ = [
     "tangential_norm",
     "desaxce_velocity",
     "natural_map",
+    "natural_map_jacobian",
     "in_cone_violation",
     "fenchel_young_gap",
     "bipotential",

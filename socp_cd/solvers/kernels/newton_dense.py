@@ -72,7 +72,7 @@ def run_info(fs, ist, wscale, plain, factorizations, linear_solver, rho) -> dict
     (:func:`new_state`) as lists, ``wscale`` the block scale of ``W`` (the proximal
     parameter's unit), ``plain`` the plain-steps loop, ``factorizations`` the system's
     count so far (this run's included), ``linear_solver`` its kind, ``rho`` the
-    Alart–Curnier strategy."""
+    Alart–Curnier strategy (these loops solve the Alart–Curnier equation: ``equation``)."""
     alpha = fs[F_ALPHA]
     return {"alpha": alpha, "alpha_relative": alpha / wscale,
             "alpha_max_relative": fs[F_ALPHA_MAX_USED] / wscale,
@@ -81,7 +81,8 @@ def run_info(fs, ist, wscale, plain, factorizations, linear_solver, rho) -> dict
             "backtracks": ist[I_BACKTRACK], "line_search_failures": ist[I_LS_FAIL],
             "singular_steps": ist[I_SINGULAR], "rejected_outer": ist[I_REJECTED],
             "factorizations": factorizations, "linear_solver": linear_solver,
-            "internal_error": min(fs[F_ERR], fs[F_BEST_ERR]), "rho": rho}
+            "internal_error": min(fs[F_ERR], fs[F_BEST_ERR]), "rho": rho,
+            "equation": "alart_curnier"}
 
 
 @njit(cache=True)

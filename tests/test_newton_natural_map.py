@@ -1,0 +1,197 @@
+"""Newton's second equation of the law: the natural map (``equation="natural_map"``).
+
+Kernel against its NumPy reference and against finite differences in every branch; the
+map is zero exactly at the law; the Newton runs on it (every policy, local and global,
+2D and 3D, rank-deficient and asymmetric ``W``) meet ``tol`` by the recomputed error.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import socp_cd
+from socp_cd.bench.generators import manufactured
+from socp_cd.cones import natural_map, natural_map_jacobian
+from socp_cd.errors import SocpCdError
+from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem
+from socp_cd.solvers import newton
+from socp_cd.solvers.kernels.newton_nm import NM_SEPARATED, NM_SLIDE, NM_STICK, nm_blocks
+
+MU = 0.6
+
+
+def _blocks(r, u, mu, rho, dim, jac=True):
+    nc = mu.shape[0]
+    F = np.empty(nc * dim)
+    Dr, Du = np.empty((nc, dim, dim)), np.empty((nc, dim, dim))
+    br = np.empty(nc, np.int64)
+    nF = nm_blocks(r, u, mu, rho, rho, dim, jac, F, Dr, Du, br)
+    return nF, F, Dr, Du, br
+
+
+def _branch_point(branch, dim, rng, rho):
+    """``(r, u)`` of one contact strictly inside a branch of the projection at
+    ``x = r - rho û`` (away from the cone's kinks), with ``u_T != 0``."""
+    t = rng.normal(size=dim - 1)
+    t /= np.linalg.norm(t)
+    ut = 0.3 * rng.normal(size=dim - 1)
+    if branch == "separated":          # x deep in the polar cone: r_N small, u_N large
+        r = np.concatenate([[0.1], 0.02 * t])
+        u = np.concatenate([[3.0 / rho], ut / rho])
+    elif branch == "stick":            # x well inside K: large r_N, small û
+        r = np.concatenate([[2.0], 0.1 * t])
+        u = np.concatenate([[0.01 / rho], 0.05 * ut / rho])
+    else:                              # 'slide': x outside K and outside the polar cone
+        r = np.concatenate([[1.0], 0.2 * t])
+        u = np.concatenate([[0.05 / rho], -2.0 * t / rho + 0.1 * ut / rho])
+    return r, u
+
+
+@pytest.mark.parametrize("rho", [0.7, 0.05, 20.0])
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("branch,code", [("separated", NM_SEPARATED), ("stick", NM_STICK),
+                                         ("slide", NM_SLIDE)])
+def test_jacobian_matches_finite_differences_in_every_branch(dim, branch, code, rho):
+    rng = np.random.default_rng(11)
+    r, u = _branch_point(branch, dim, rng, rho)
+    mu, rh = np.array([MU]), np.array([rho])
+    _, F, Dr, Du, br = _blocks(r, u, mu, rh, dim)
+    assert br[0] == code                       # the point is in the intended branch
+    h = 1e-7 * max(1.0, np.abs(np.r_[r, u]).max())
+    for j in range(dim):
+        e = np.zeros(dim)
+        e[j] = h
+        fd_r = (_blocks(r + e, u, mu, rh, dim, False)[1]
+                - _blocks(r - e, u, mu, rh, dim, False)[1]) / (2 * h)
+        fd_u = (_blocks(r, u + e, mu, rh, dim, False)[1]
+                - _blocks(r, u - e, mu, rh, dim, False)[1]) / (2 * h)
+        np.testing.assert_allclose(Dr[0, :, j], fd_r, atol=1e-6)
+        np.testing.assert_allclose(Du[0, :, j], fd_u, atol=1e-6 * max(1.0, rho))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_kernel_equals_numpy_reference(dim):
+    rng = np.random.default_rng(5)
+    nc = 300
+    r, u = rng.normal(size=nc * dim), rng.normal(size=nc * dim)
+    mu, rho = rng.uniform(0, 2, nc), rng.uniform(0.1, 2, nc)
+    u.reshape(nc, dim)[:20, 1:] = 0.0          # u_T = 0: the norm's kink (w = 0)
+    mu[20:25] = 0.0                            # frictionless contacts
+    nF, F, Dr, Du, br = _blocks(r, u, mu, rho, dim)
+    F0, Dr0, Du0, br0 = natural_map_jacobian(r, u, mu, dim, rho)
+    assert set(br0.tolist()) == {NM_SEPARATED, NM_STICK, NM_SLIDE}
+    np.testing.assert_allclose(F, F0, atol=1e-14)
+    np.testing.assert_allclose(Dr, Dr0, atol=1e-14)
+    np.testing.assert_allclose(Du, Du0, atol=1e-14)
+    np.testing.assert_array_equal(br, br0)
+    assert nF == pytest.approx(np.linalg.norm(F0), rel=1e-14)
+    # the map itself is socp_cd.cones.natural_map's, one rho per contact
+    np.testing.assert_allclose(F0, natural_map(r, u, mu, dim, rho[:, None]).reshape(-1),
+                               atol=1e-14)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_zero_exactly_at_the_law(dim):
+    """At a manufactured exact solution F = 0 for any rho; off it, F != 0."""
+    p = manufactured(25, dim, 0.8, seed=3)
+    r, u = p.solution.r, p.solution.u
+    rho = np.random.default_rng(0).uniform(0.1, 10, p.n_contacts)
+    nF = _blocks(r, u, p.mu, rho, dim, False)[0]
+    assert nF <= 1e-12 * max(1.0, np.linalg.norm(r))
+    assert _blocks(r + 0.01, u, p.mu, rho, dim, False)[0] > 1e-4
+
+
+#: (policy, structure): plain steps have no proximal term, so on a rank-deficient W
+#: (``redundant``) their matrix is singular where contacts stick (``Dr = I - P = 0``,
+#: ``Du W`` of W's rank) and only the shift of PLAIN_REGULARIZATION is left: NSN_NM's
+#: weakness there too (formulations/newton.md §13); the proximal policies are held to both
+CASES = [(policy, structure) for policy in ("prox", "plain", "hybrid", "prox_error")
+         for structure in ("tree", "redundant") if (policy, structure) != ("plain", "redundant")]
+
+
+@pytest.mark.parametrize("policy,structure", CASES)
+@pytest.mark.parametrize("dim", [2, 3])
+def test_manufactured_exact_solutions(dim, structure, policy):
+    p = manufactured(30, dim, 0.5, structure=structure, seed=11)
+    res = socp_cd.solve(p, "newton", tol=1e-10, equation="natural_map", policy=policy)
+    assert res.converged and socp_cd.error(p, res.r) <= 1e-10
+    assert res.info["equation"] == "natural_map"
+    if structure == "tree":                    # u is unique: the exact one
+        u_star = p.solution.u
+        assert np.linalg.norm(res.u - u_star) <= 1e-6 * max(1.0, np.linalg.norm(u_star))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_asymmetric_w(dim):
+    base = manufactured(20, dim, 0.5, seed=4)
+    rng = np.random.default_rng(4)
+    S = rng.normal(size=(base.m, base.m))
+    W = base.W.toarray() + 0.05 * np.abs(base.W).max() * (S - S.T)
+    r_star, u_star = base.solution.r, base.solution.u
+    p = FrictionContactProblem(W, u_star - W @ r_star, base.mu, dim)
+    assert p.asymmetry > 1e-3
+    res = socp_cd.solve(p, "newton", tol=1e-10, equation="natural_map")
+    assert res.converged and socp_cd.error(p, res.r) <= 1e-10
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_global_native_and_condensed_agree(dim):
+    rng = np.random.default_rng(2)
+    n, nc = 12, 5
+    A = rng.normal(size=(n, n))
+    M = A @ A.T + n * np.eye(n)
+    H = rng.normal(size=(n, nc * dim))
+    w = np.tile(np.r_[0.1, np.zeros(dim - 1)], nc)
+    g = GlobalFrictionContactProblem(sp.csr_matrix(M), sp.csr_matrix(H), rng.normal(size=n), w,
+                                     0.4, dim)
+    native = socp_cd.solve(g, "newton", tol=1e-10, global_mode="native", equation="natural_map")
+    cond = socp_cd.solve(g, "newton", tol=1e-10, global_mode="condense", equation="natural_map")
+    assert native.converged and cond.converged
+    assert native.info["linear_solver"] == "splu-global"
+    np.testing.assert_allclose(native.u, cond.u, atol=1e-7 * max(1.0, np.linalg.norm(cond.u)))
+
+
+def test_the_same_run_on_the_dense_and_sparse_matrices():
+    p = manufactured(40, 3, 0.5, seed=8)
+    a = socp_cd.solve(p, "newton", tol=1e-10, linear_solver="dense", equation="natural_map")
+    b = socp_cd.solve(p, "newton", tol=1e-10, linear_solver="splu", equation="natural_map")
+    assert a.converged and b.converged
+    np.testing.assert_allclose(a.u, b.u, atol=1e-8)
+
+
+def test_the_two_equations_differ_and_the_default_is_alart_curnier():
+    """Not the Alart–Curnier run under another name: other iterates, the same solution."""
+    p = manufactured(30, 3, 1.0, seed=5)
+    ac = socp_cd.solve(p, "newton", tol=1e-10, history=True, policy="plain")
+    nm = socp_cd.solve(p, "newton", tol=1e-10, history=True, policy="plain",
+                       equation="natural_map")
+    assert ac.info["equation"] == "alart_curnier"
+    assert ac.converged and nm.converged and ac.history != nm.history
+    np.testing.assert_allclose(ac.u, nm.u, atol=1e-7 * max(1.0, np.linalg.norm(ac.u)))
+
+
+def test_never_converged_above_tol():
+    p = manufactured(40, 3, 2.0, structure="redundant", seed=9)
+    for max_iter in (1, 2, 3):
+        res = socp_cd.solve(p, "newton", tol=1e-12, max_iter=max_iter, policy="plain",
+                            equation="natural_map")
+        assert res.converged == (socp_cd.error(p, res.r) <= 1e-12)
+
+
+@pytest.mark.parametrize("opts", [dict(equation="fischer"), dict(equation=3),
+                                  dict(equation="natural_map", rho="split")])
+def test_bad_options_raise_socp_cd_errors(opts):
+    p = manufactured(3, 3, 0.5, seed=1)
+    with pytest.raises(SocpCdError, match="equation|rho"):
+        socp_cd.solve(p, "newton", **opts)
+
+
+def test_the_compiled_loop_refuses_the_natural_map():
+    p = manufactured(4, 3, 0.5, seed=1)
+    system = newton._LocalSystem(p, "dense")
+    with pytest.raises(SocpCdError):
+        newton.prox_newton(system, p.mu, np.zeros(p.m), tol=1e-8, max_iter=5, alpha0=0.1,
+                           alpha_min=1e-10, inner_max_iter=10, stall_window=50,
+                           time_limit=None, history=False, compiled=True,
+                           equation="natural_map")

@@ -1,0 +1,165 @@
+"""Newton on the natural map against Newton on the Alart–Curnier equation, case by case.
+
+``solver="newton"`` solves either nonsmooth equation of the law (option ``equation``,
+formulations/newton.md §13).  This script gives every case of a split of the evaluation
+set (the manufactured and rescaled cases of ``socp_cd.bench.evalset``, seeds 0-3, or a
+fresh draw with ``--seeds``; local and global) to each configuration
+``equation/policy`` once, from ``r = 0``, judged by ``solve`` (Siconos' error and the units
+guard), and with ``--siconos`` gives the same cases to Siconos' two Newton solvers on the
+same equations, NSN_AC and NSN_NM (local 3D cases), at the same budget::
+
+    python validation/nm_vs_ac.py --split tune --out results/nm_vs_ac_tune
+    python validation/nm_vs_ac.py --split holdout --out results/nm_vs_ac_holdout
+
+Writes ``<out>.csv`` (one row per case and configuration) and ``<out>.md``: solved counts
+and the shifted geometric mean of the time (10 ms, failures charged the time limit) per
+configuration and family (local 2D, local 3D, global), and the cases one equation solves
+and the other does not under the same policy.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+import socp_cd
+from socp_cd.bench import evalset
+from socp_cd.bench.reports import emit, shifted_geometric_mean
+from socp_cd.data import shared_problems_dir
+from auto_probe import write_csv
+from misses_vs_siconos import siconos_rows
+
+HERE = Path(__file__).resolve().parent
+#: the configurations: (equation, policy)
+CONFIGS = (("alart_curnier", "prox"), ("natural_map", "prox"),
+           ("alart_curnier", "plain"), ("natural_map", "plain"))
+SICONOS = ("nsn_ac", "nsn_nm")
+
+
+def family(p) -> str:
+    """``"global"``, ``"local2"`` or ``"local3"``."""
+    return "global" if p.is_global else f"local{p.dim}"
+
+
+def run_case(c, p, configs, tol, limit) -> list[dict]:
+    """Each configuration on case ``c`` once (a fresh problem object each)."""
+    rows = []
+    for eq, pol in configs:
+        q = c.problem()
+        t0 = time.perf_counter()
+        res = socp_cd.solve(q, "newton", tol=tol, time_limit=limit, max_iter=10_000,
+                            equation=eq, policy=pol)
+        wall = time.perf_counter() - t0
+        guard = float(res.info.get("guard", {}).get("value", np.inf))
+        rows.append({"case": c.case_id, "split": c.split, "family": family(p),
+                     "nc": c.n_contacts, "config": f"{eq}/{pol}", "status": res.status,
+                     "solved": bool(res.converged), "error": float(res.error), "guard": guard,
+                     "time": wall, "time_limit": limit})
+    print(f"{c.case_id}: " + " ".join(f"{r['config']}={'Y' if r['solved'] else '-'}"
+                                      f"{r['time']:.2g}" for r in rows), flush=True)
+    return rows
+
+
+def report(rows, sic, args, command) -> list[str]:
+    what = (f"seeds {' '.join(map(str, args.seeds))}" if args.seeds else f"{args.split} split")
+    what += f", cases with {args.family!r}" if args.family else ""
+    lines = [f"# Newton on the natural map and on Alart–Curnier ({what})", "",
+             f"`{command}`; tol {args.tol:g}; one run per case from `r = 0`, "
+             f"{args.time_limit:g} s ({args.large_time_limit:g} s above {args.large} "
+             "contacts); solved = `solve`'s verdict (Siconos' error and the units guard); "
+             "sgm: shifted geometric mean (10 ms) of the wall time, a failure charged its "
+             "time limit.", ""]
+    by = defaultdict(list)
+    for r in rows:
+        by[r["family"], r["config"]].append(r)
+    fams = sorted({r["family"] for r in rows})
+    configs = [f"{e}/{p}" for e, p in args.configs]
+    lines += ["| configuration | " + " | ".join(f"{f}: solved, sgm [s]" for f in fams) + " |",
+              "|---|" + "---|" * len(fams)]
+    for cfg in configs:
+        cells = []
+        for f in fams:
+            rs = by[f, cfg]
+            t = [r["time"] if r["solved"] else r["time_limit"] for r in rs]
+            cells.append(f"{sum(r['solved'] for r in rs)} / {len(rs)}, "
+                         f"{shifted_geometric_mean(t):.4f}")
+        lines.append(f"| `{cfg}` | " + " | ".join(cells) + " |")
+    if sic:
+        lines += ["", "Siconos on the local 3D cases, same budgets (solved by our recomputed "
+                  "error / with the units guard too):", ""]
+        for s in SICONOS:
+            rs = [r for r in sic if r["solver"] == s]
+            t = [r["time"] if r["guard_too"] else r["time_limit"] for r in rs]
+            lines.append(f"- {s.upper()}: {sum(r['solved'] for r in rs)} / "
+                         f"{sum(r['guard_too'] for r in rs)} of {len(rs)}, sgm (with the "
+                         f"guard) {shifted_geometric_mean(t):.4f} s")
+    lines += ["", "Cases one equation solves and the other does not, same policy "
+              "(error / guard of the one that misses):", ""]
+    cases = defaultdict(dict)
+    for r in rows:
+        cases[r["case"]][r["config"]] = r
+    for pol in sorted({p for _, p in args.configs}):
+        a, n = f"alart_curnier/{pol}", f"natural_map/{pol}"
+        if a not in configs or n not in configs:
+            continue
+        only = {a: [], n: []}
+        for cid, cr in cases.items():
+            if a in cr and n in cr and cr[a]["solved"] != cr[n]["solved"]:
+                win, lose = (a, n) if cr[a]["solved"] else (n, a)
+                only[win].append(f"{cid} ({cr[lose]['error']:.1e} / {cr[lose]['guard']:.1e})")
+        for cfg, got in only.items():
+            lines.append(f"- only `{cfg}` ({len(got)}): " + ("; ".join(got) if got else "none"))
+    return lines
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--split", choices=("tune", "holdout", "all"), default="tune")
+    ap.add_argument("--seeds", nargs="+", type=int, default=None,
+                    help="a fresh draw of the manufactured families on these seeds instead")
+    ap.add_argument("--tol", type=float, default=1e-8)
+    ap.add_argument("--time-limit", type=float, default=1.0)
+    ap.add_argument("--large", type=int, default=250)
+    ap.add_argument("--large-time-limit", type=float, default=1.0)
+    ap.add_argument("--max-contacts", type=int, default=None)
+    ap.add_argument("--family", default="", help="only the cases whose id contains this")
+    ap.add_argument("--siconos", action="store_true",
+                    help="Siconos NSN_AC and NSN_NM on the local 3D cases too")
+    ap.add_argument("--out", type=Path, required=True)
+    args = ap.parse_args(argv)
+    args.configs = CONFIGS
+    out = args.out if args.out.is_absolute() else HERE / args.out
+    command = "python validation/nm_vs_ac.py " + " ".join(argv if argv is not None
+                                                          else sys.argv[1:])
+    if args.seeds:
+        cases = evalset.manufactured_cases(shared_problems_dir(), seeds=args.seeds, scales=(),
+                                          max_contacts=args.max_contacts)
+    else:
+        cases = evalset.manufactured_cases(shared_problems_dir(),
+                                          max_contacts=args.max_contacts)
+    if args.split != "all":
+        cases = [c for c in cases if c.split == args.split]
+    cases = [c for c in cases if args.family in c.case_id]
+    socp_cd.warmup()
+    rows, sic = [], []
+    for c in cases:
+        p = c.problem()
+        limit = args.large_time_limit if c.n_contacts > args.large else args.time_limit
+        rows += run_case(c, p, CONFIGS, args.tol, limit)
+        if args.siconos and not p.is_global and p.dim == 3:
+            sic += [dict(r, time_limit=limit)
+                    for r in siconos_rows(c.case_id, p, SICONOS, args.tol, limit)]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_csv(rows, out.with_suffix(".csv"))
+    if sic:
+        write_csv(sic, out.with_name(out.name + "_siconos.csv"))
+    emit(report(rows, sic, args, command), out.with_suffix(".md"))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
