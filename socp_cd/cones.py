@@ -190,7 +190,8 @@ def natural_map_jacobian(r, u, mu, dim: int = 3, rho=1.0):
     branch : ndarray of int64, shape (nc,)
         ``0`` when ``x`` lies on the polar cone (``r`` projected to 0: separated),
         ``2`` inside ``K`` (sticking), ``3`` projected on the cone's surface (sliding):
-        the Alart–Curnier kernel's codes of the same state.
+        the Alart–Curnier kernel's codes of sticking and sliding (it codes a separated
+        contact 0 or 1).
     """
     R = _blocks(r, dim)
     U = _blocks(u, dim)

@@ -13,7 +13,7 @@ import scipy.sparse as sp
 import socp_cd
 from socp_cd.bench.generators import manufactured
 from socp_cd.cones import natural_map, natural_map_jacobian
-from socp_cd.errors import SocpCdError
+from socp_cd.errors import InvalidProblemError, UnsupportedError
 from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem
 from socp_cd.solvers import newton
 from socp_cd.solvers.kernels.newton_nm import NM_SEPARATED, NM_SLIDE, NM_STICK, nm_blocks
@@ -81,6 +81,7 @@ def test_kernel_equals_numpy_reference(dim):
     nF, F, Dr, Du, br = _blocks(r, u, mu, rho, dim)
     F0, Dr0, Du0, br0 = natural_map_jacobian(r, u, mu, dim, rho)
     assert set(br0.tolist()) == {NM_SEPARATED, NM_STICK, NM_SLIDE}
+    assert set(br0[:20].tolist()) == {NM_SEPARATED, NM_STICK, NM_SLIDE}   # u_T = 0 in each
     np.testing.assert_allclose(F, F0, atol=1e-14)
     np.testing.assert_allclose(Dr, Dr0, atol=1e-14)
     np.testing.assert_allclose(Du, Du0, atol=1e-14)
@@ -89,6 +90,33 @@ def test_kernel_equals_numpy_reference(dim):
     # the map itself is socp_cd.cones.natural_map's, one rho per contact
     np.testing.assert_allclose(F0, natural_map(r, u, mu, dim, rho[:, None]).reshape(-1),
                                atol=1e-14)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_kernel_equals_reference_on_the_kinks(dim):
+    """Points exactly on the projection's kinks (rho = 1, u = 0: x = r exactly): the
+    surface of K, the surface of the polar cone, the apex, and mu = 0 with x_T = 0 — both
+    implementations take the same branch and the same Jacobian."""
+    t = np.zeros(dim - 1)
+    t[0] = 1.0
+    blocks = [np.r_[1.0, 0.5 * t], np.r_[-0.5, 1.0 * t], np.zeros(dim), np.r_[1.0, 0.0 * t],
+              np.r_[1.0, 0.0 * t], np.r_[-1.0, 0.0 * t]]
+    mu = np.array([0.5, 0.5, 0.5, 0.5, 0.0, 0.0])
+    r = np.concatenate(blocks)
+    u = np.zeros_like(r)
+    rho = np.ones(len(blocks))
+    _, F, Dr, Du, br = _blocks(r, u, mu, rho, dim)
+    F0, Dr0, Du0, br0 = natural_map_jacobian(r, u, mu, dim, rho)
+    np.testing.assert_array_equal(br, br0)
+    np.testing.assert_array_equal(br, [NM_STICK, NM_SEPARATED, NM_SEPARATED, NM_STICK,
+                                       NM_STICK, NM_SEPARATED])
+    np.testing.assert_allclose(F, F0, atol=1e-15)
+    np.testing.assert_allclose(Dr, Dr0, atol=1e-15)
+    np.testing.assert_allclose(Du, Du0, atol=1e-15)
+    # r in K (rows 0, 2, 3, 4) is its own projection; r on the polar cone projects to 0
+    in_k = np.repeat([True, False, True, True, True, False], dim)
+    np.testing.assert_array_equal(F[in_k], 0.0)
+    np.testing.assert_array_equal(F[~in_k], r[~in_k])
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -179,18 +207,50 @@ def test_never_converged_above_tol():
         assert res.converged == (socp_cd.error(p, res.r) <= 1e-12)
 
 
-@pytest.mark.parametrize("opts", [dict(equation="fischer"), dict(equation=3),
-                                  dict(equation="natural_map", rho="split")])
-def test_bad_options_raise_socp_cd_errors(opts):
+@pytest.mark.parametrize("opts,field", [
+    (dict(equation="fischer"), "equation"), (dict(equation=3), "equation"),
+    (dict(equation=np.array("natural_map")), "equation"),     # (equal to a choice, unhashable)
+    (dict(equation="natural_map", rho="split"), "rho")])
+def test_bad_options_raise_socp_cd_errors(opts, field):
     p = manufactured(3, 3, 0.5, seed=1)
-    with pytest.raises(SocpCdError, match="equation|rho"):
+    with pytest.raises(InvalidProblemError) as exc:
         socp_cd.solve(p, "newton", **opts)
+    assert exc.value.field == field
+
+
+def _refuse(*args):
+    raise AssertionError("the Alart–Curnier kernel ran in a natural-map solve")
+
+
+@pytest.mark.parametrize("policy", ["prox", "plain", "hybrid", "prox_error"])
+@pytest.mark.parametrize("history", [False, True])
+def test_no_path_of_a_natural_map_solve_runs_the_alart_curnier_kernel(monkeypatch, policy,
+                                                                     history):
+    """Every call site takes the run's equation: with the Alart–Curnier kernel replaced by
+    one that raises, natural-map solves under every policy still converge (prox_error's
+    balanced second run forced by an unreachable tolerance and a stall window of one)."""
+    monkeypatch.setattr(newton, "_LAW_BLOCKS",
+                        dict(newton._LAW_BLOCKS, alart_curnier=_refuse))
+    monkeypatch.setattr(newton, "ac_blocks", _refuse)
+    p = manufactured(12, 3, 0.8, structure="redundant", seed=2)
+    res = socp_cd.solve(p, "newton", tol=1e-10, equation="natural_map", policy=policy,
+                        history=history, max_iter=400)
+    assert res.converged
+    if policy == "prox_error":
+        from socp_cd.solvers.scaling import balanced
+        rec = balanced(p)
+        out = newton.prox_error_runs(newton._LocalSystem(rec.problem, "dense"), rec.problem.mu,
+                                     np.zeros(p.m), tol=1e-30, max_iter=200, alpha_min=1e-10,
+                                     stall_window=1, time_limit=None, history=history,
+                                     written=newton.origin(rec.problem),
+                                     equation="natural_map")
+        assert [run[0] for run in out[4]["runs"]] == ["written", "balanced"]
 
 
 def test_the_compiled_loop_refuses_the_natural_map():
     p = manufactured(4, 3, 0.5, seed=1)
     system = newton._LocalSystem(p, "dense")
-    with pytest.raises(SocpCdError):
+    with pytest.raises(UnsupportedError):
         newton.prox_newton(system, p.mu, np.zeros(p.m), tol=1e-8, max_iter=5, alpha0=0.1,
                            alpha_min=1e-10, inner_max_iter=10, stall_window=50,
                            time_limit=None, history=False, compiled=True,

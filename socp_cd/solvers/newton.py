@@ -2,7 +2,9 @@
 
 The Coulomb law with Signorini's condition is written as the nonsmooth
 equation ``F_AC(r, u) = 0`` of Alart and Curnier (kernels in
-:mod:`socp_cd.solvers.kernels.newton_ac`).  Newton's method on it is
+:mod:`socp_cd.solvers.kernels.newton_ac`), or, with ``equation="natural_map"``, as the
+natural map ``r - P_K(r - rho û) = 0`` (:mod:`socp_cd.solvers.kernels.newton_nm`).
+Newton's method on it is
 globalized by an inexact proximal-point outer loop (Acary, Brémond & Huber
 2018; Siconos ``fc3d_proximal``): at outer iterate ``r_k`` the subproblem is
 the same law with ``u_alpha = u + alpha (r - r_k)``, i.e. with ``W + alpha I``,
@@ -48,7 +50,8 @@ stall_window : int, default 50
     Status ``"stalled"`` when the best error has not dropped by 10 % over that
     many outer iterations.
 rho : {"block", "split"}, default "block"
-    Alart–Curnier parameters of contact ``i``.  ``"block"``: one value
+    Parameters of the equation at contact ``i`` (Alart–Curnier's ``rho_N``,
+    ``rho_T``; the natural map's ``rho``, ``"block"`` only).  ``"block"``: one value
     ``rho_N = rho_T = sqrt(d) / ||W_ii||_F``; ``"split"``: ``rho_N = 1/W_NN``
     (the normal diagonal entry of ``W_ii``) and ``rho_T = 1/||W_TT||_2`` (the
     tangential sub-block's spectral norm).  Measured in
@@ -62,7 +65,7 @@ equation : {"alart_curnier", "natural_map"}, default "alart_curnier"
     Alart–Curnier's).  Every policy below takes either.
 policy : {"prox", "hybrid", "plain", "prox_error"}, default "prox"
     Outer policy: the proximal loop alone, or plain Newton steps on the
-    Alart–Curnier equation first with the proximal loop as fallback
+    equation first with the proximal loop as fallback
     (``"hybrid"``, ``formulations/newton.md`` §7; measured in
     ``validation/results/newton_outer.md``: faster, but not more robust, so
     not the default), or ``"plain"``: Siconos NSN_AC's method, one semismooth
@@ -177,8 +180,8 @@ OPTIONS = {
     "linear_solver": "'auto' (default), 'dense' (LAPACK LU) or 'splu' (SuperLU)",
     "global_mode": "'auto' (default), 'native' (saddle point) or 'condense'",
     "stall_window": "outer iterations without a 10 % error drop before 'stalled' (default 50)",
-    "rho": "Alart–Curnier parameters: 'block' (default, one per contact) or 'split' "
-           "(rho_N = 1/W_NN, rho_T = 1/||W_TT||_2)",
+    "rho": "parameters of the equation: 'block' (default, one per contact) or 'split' "
+           "(Alart–Curnier only: rho_N = 1/W_NN, rho_T = 1/||W_TT||_2)",
     "equation": "nonsmooth equation of the law: 'alart_curnier' (default) or 'natural_map' "
                 "(r - P_K(r - rho û), Siconos NSN_NM's; formulations/newton.md §13)",
     "policy": "outer policy: 'prox' (default), 'plain' (nonmonotone semismooth Newton, no proximal term, Siconos NSN_AC style) or 'hybrid' (plain Newton steps while they "
@@ -190,7 +193,7 @@ OPTIONS = {
 EQUATIONS = ("alart_curnier", "natural_map")
 DEFAULT_EQUATION = "alart_curnier"
 _LAW_BLOCKS = types.MappingProxyType({"alart_curnier": ac_blocks, "natural_map": nm_blocks})
-#: strategies of the Alart–Curnier parameters (see :func:`_rho`)
+#: strategies of the equation's parameters (see :func:`_rho`; "split" is Alart–Curnier's)
 RHO_STRATEGIES = ("block", "split")
 DEFAULT_RHO = "block"
 _ARMIJO = 1e-4
@@ -612,10 +615,10 @@ def _system_rho(system, strategy):
 
 
 def _plain_step(system, r, u, mu, rho_n, rho_t, d, F, Ft, Dr, Du, branch, *, nonmonotone,
-                reg=0.0, reg_first=False, blocks=ac_blocks):
+                blocks, reg=0.0, reg_first=False):
     """One plain semismooth Newton step (no proximal shift) on the law's equation ``blocks``
-    (the kernel of ``F`` and its Jacobian blocks: :data:`_LAW_BLOCKS`; Alart–Curnier's by
-    default).
+    (the kernel of ``F`` and its Jacobian blocks, one of :data:`_LAW_BLOCKS`; no default, so
+    that no caller drops the run's equation).
 
     Direction ``(Dr + Du W) dr = -F(r, u)``; steps ``t = 1, ½, ¼, ...``.
 
@@ -694,9 +697,9 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     """Run the proximal-point semismooth Newton method.
 
     This Python loop is the reference; a small dense local system
-    (``m <= COMPILED_LOOP_MAX_M``) with ``policy="prox"`` or ``"plain"`` and no
-    history runs its compiled twin instead (:func:`_newton_compiled`: same
-    iterates, same counters).
+    (``m <= COMPILED_LOOP_MAX_M``) with ``policy="prox"`` or ``"plain"``, the
+    Alart–Curnier equation and no history runs its compiled twin instead
+    (:func:`_newton_compiled`: same iterates, same counters).
 
     Parameters
     ----------
@@ -706,13 +709,14 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     r : ndarray (m,)
         Initial impulses (modified in place).
     rho : {"block", "split"}
-        Strategy of the Alart–Curnier parameters (see :func:`_rho`).
+        Strategy of the equation's parameters (see :func:`_rho`; ``"split"``, two per
+        contact, for the Alart–Curnier equation only).
     policy : {"prox", "hybrid", "plain"}, optional
         ``None``: :data:`DEFAULT_POLICY`.  Outer policy
         (``formulations/newton.md`` §4, §7, §8): ``"prox"`` the proximal loop alone;
         ``"plain"`` no proximal term: one nonmonotone semismooth Newton step per
         outer iteration (see :func:`_plain_step`), the best iterate kept;
-        ``"hybrid"`` first tries a plain Newton step on the Alart–Curnier
+        ``"hybrid"`` first tries a plain Newton step on the
         equation (see :func:`_plain_step`) and solves the proximal subproblem
         only when that step does not cut ``||F||`` by ``PLAIN_DECREASE``; after
         such a failure, or a plain step that did not cut the error, plain steps
@@ -742,8 +746,8 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
                                "the Alart–Curnier equation and no history")
     blocks = _LAW_BLOCKS[equation]
     if rho == "split" and equation != "alart_curnier":
-        raise UnsupportedError(f"rho='split' is the Alart–Curnier equation's; {equation!r} "
-                               "takes one parameter per contact (rho='block')")
+        raise InvalidProblemError("rho", f"'split' is the Alart–Curnier equation's; "
+                                  f"{equation!r} takes one parameter per contact ('block')")
     if twin and compiled is not False:
         return _newton_compiled(system, mu, r, tol=tol, max_iter=max_iter, alpha0=alpha0,
                                 alpha_min=alpha_min, inner_max_iter=inner_max_iter,
@@ -1603,8 +1607,8 @@ def _route_info(info, x) -> dict:
 
 SPEC = SolverSpec(
     "newton", newton_backend, ("coulomb",), global_native=("coulomb",), dims=(2, 3),
-    description="proximal-point semismooth Newton on the Alart–Curnier equation "
-                "(exact Coulomb law; local and global, dense LU or SuperLU)",
+    description="proximal-point semismooth Newton on the Alart–Curnier equation or the "
+                "natural map (exact Coulomb law; local and global, dense LU or SuperLU)",
     default_max_iter=DEFAULT_MAX_ITER, options=OPTIONS,
     check=_check, route=route)
 

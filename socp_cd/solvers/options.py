@@ -107,8 +107,11 @@ def check_int(name, value, *, minimum=None, maximum=None) -> int:
 
 
 def check_choice(name, value, choices):
-    """``value`` if it is one of ``choices``, else ``InvalidProblemError``."""
-    if value not in choices:
+    """``value`` if it is one of ``choices`` (strings), else ``InvalidProblemError``.
+
+    Only a ``str`` qualifies: a 0-d NumPy string array compares equal to a choice and then
+    fails as a dictionary key deep in a backend."""
+    if not isinstance(value, str) or value not in choices:
         raise InvalidProblemError(name, f"must be one of {sorted(choices)}, got {value!r}")
     return value
 

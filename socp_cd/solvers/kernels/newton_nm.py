@@ -22,8 +22,9 @@ matrix is again ``Dr + Du W`` (local) or keeps ``H`` and ``M`` sparse (global)::
     Dr = I - P
     Du = rho P D
 
-Branch codes per contact (the Alart–Curnier codes of the same physical state,
-``normal * 2 + tangential``): ``x`` on the polar cone (``r`` projected to 0: separated)
+Branch codes per contact (sticking and sliding as the Alart–Curnier kernel codes them,
+``normal * 2 + tangential``; a separated contact is 0 here, where that kernel gives 0 or
+1 by whether ``r_T - rho_T u_T`` vanishes): ``x`` on the polar cone (``r`` projected to 0: separated)
 ``0``; ``x`` inside ``K`` (sticking) ``2``; ``x`` projected on the cone's surface
 (sliding) ``3``.
 
@@ -39,7 +40,7 @@ from numba import njit
 
 from .cone import cone_projection, project_cone_jacobian_block, tangential_norm
 
-#: branch codes of :func:`nm_blocks` (the Alart–Curnier codes of the same state)
+#: branch codes of :func:`nm_blocks` (stick and slide: the Alart–Curnier codes)
 NM_SEPARATED, NM_STICK, NM_SLIDE = 0, 2, 3
 
 
