@@ -22,11 +22,11 @@ matrix is again ``Dr + Du W`` (local) or keeps ``H`` and ``M`` sparse (global)::
     Dr = I - P
     Du = rho P D
 
-Branch codes per contact (sticking and sliding as the Alart–Curnier kernel codes them,
-``normal * 2 + tangential``; a separated contact is 0 here, where that kernel gives 0 or
-1 by whether ``r_T - rho_T u_T`` vanishes): ``x`` on the polar cone (``r`` projected to 0: separated)
+Branch codes per contact: ``x`` on the polar cone (``r`` projected to 0: separated)
 ``0``; ``x`` inside ``K`` (sticking) ``2``; ``x`` projected on the cone's surface
-(sliding) ``3``.
+(sliding) ``3``.  Sticking and sliding are coded as the Alart–Curnier kernel codes them
+(``normal * 2 + tangential``); that kernel codes a separated contact 0 or 1 by whether
+``r_T - rho_T u_T`` vanishes.
 
 The kernel reads one parameter per contact, ``rho_n``; ``rho_t`` is accepted for the
 Alart–Curnier kernel's signature and not read (the solver refuses ``rho="split"`` with
