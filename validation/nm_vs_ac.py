@@ -14,11 +14,17 @@ same equations, NSN_AC and NSN_NM (local 3D cases), at the same budget::
 Writes ``<out>.csv`` (one row per case and configuration) and ``<out>.md``: solved counts
 and the shifted geometric mean of the time (10 ms, failures charged the time limit) per
 configuration and family (local 2D, local 3D, global), and the cases one equation solves
-and the other does not under the same policy.
+and the other does not under the same policy; and ``<out>_profile.png``, the Dolan–Moré
+performance profiles of the local 3D cases (the four configurations, solved = error and
+units guard within ``tol``; Siconos' rows give counts only: its calls here are single, cold,
+in the peer's default storage, sparse-block, not the benchmark's timing).  ``--from-csv``
+writes the report and the figure again from the run's CSVs.
 """
 from __future__ import annotations
 
 import argparse
+import csv
+import math
 import sys
 import time
 from collections import defaultdict
@@ -28,7 +34,7 @@ import numpy as np
 
 import socp_cd
 from socp_cd.bench import evalset
-from socp_cd.bench.reports import emit, shifted_geometric_mean
+from socp_cd.bench.reports import emit, performance_profile, shifted_geometric_mean
 from socp_cd.data import shared_problems_dir
 from auto_probe import write_csv
 from misses_vs_siconos import siconos_rows
@@ -72,7 +78,11 @@ def report(rows, sic, args, command) -> list[str]:
              f"{args.time_limit:g} s ({args.large_time_limit:g} s above {args.large} "
              "contacts); solved = `solve`'s verdict (Siconos' error and the units guard); "
              "sgm: shifted geometric mean (10 ms) of the wall time, a failure charged its "
-             "time limit.", ""]
+             "time limit. The natural map runs the Python Newton loop, Alart–Curnier the "
+             "compiled one on dense systems: on small problems the times compare the two "
+             "implementations as much as the two equations. Figure: "
+             f"`{args.out.name}_profile.png` (local 3D, Dolan–Moré over the four "
+             "configurations, solved = error and guard).", ""]
     by = defaultdict(list)
     for r in rows:
         by[r["family"], r["config"]].append(r)
@@ -89,14 +99,14 @@ def report(rows, sic, args, command) -> list[str]:
                          f"{shifted_geometric_mean(t):.4f}")
         lines.append(f"| `{cfg}` | " + " | ".join(cells) + " |")
     if sic:
-        lines += ["", "Siconos on the local 3D cases, same budgets (solved by our recomputed "
-                  "error / with the units guard too):", ""]
+        lines += ["", "Siconos on the local 3D cases, same budgets, one call each with the "
+                  "peer's default storage (`misses_vs_siconos.siconos_rows`; its times are "
+                  "cold single calls, not the benchmark's, so only counts are given): solved "
+                  "by our recomputed error / with the units guard too:", ""]
         for s in SICONOS:
             rs = [r for r in sic if r["solver"] == s]
-            t = [r["time"] if r["guard_too"] else r["time_limit"] for r in rs]
             lines.append(f"- {s.upper()}: {sum(r['solved'] for r in rs)} / "
-                         f"{sum(r['guard_too'] for r in rs)} of {len(rs)}, sgm (with the "
-                         f"guard) {shifted_geometric_mean(t):.4f} s")
+                         f"{sum(r['guard_too'] for r in rs)} of {len(rs)}")
     lines += ["", "Cases one equation solves and the other does not, same policy "
               "(error / guard of the one that misses):", ""]
     cases = defaultdict(dict)
@@ -116,6 +126,54 @@ def report(rows, sic, args, command) -> list[str]:
     return lines
 
 
+def read_csv(path, typed=("solved", "guard_too", "claimed")) -> list[dict]:
+    """A CSV written by this script: numbers as floats, flags as booleans."""
+    rows = []
+    with open(path, newline="") as fh:
+        for row in csv.DictReader(fh):
+            for k, v in row.items():
+                if k in typed:
+                    row[k] = v == "True"
+                elif k in ("error", "guard", "time", "time_limit", "nc"):
+                    row[k] = float(v)
+            rows.append(row)
+    return rows
+
+
+def plot_profile(rows, path, title) -> None:
+    """Dolan–Moré profiles over the local 3D cases, one per configuration, solved by the
+    error and the units guard (a failure: infinite time).  Siconos' rows are left out: their
+    times are cold single calls (:func:`report`)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    table = defaultdict(dict)
+    for r in rows:
+        if r["family"] == "local3":
+            table[r["case"]][r["config"]] = r["time"] if r["solved"] else math.inf
+    if not table:
+        return
+    taus, rho = performance_profile(table)
+    tmax = max(4.0, float(taus[taus < math.inf][-1]) * 1.5)
+    fig, ax = plt.subplots(figsize=(7.0, 4.6))
+    for name in sorted(rho):
+        x = np.concatenate([taus, [tmax]])
+        y = np.concatenate([rho[name], [rho[name][-1]]])
+        ax.step(x, y, where="post", label=name, lw=2.0,
+                ls="-" if "natural" in name else "-.")
+    ax.set_xscale("log", base=2)
+    ax.set_xlim(1.0, tmax)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlabel("τ: time within this factor of the fastest")
+    ax.set_ylabel("share of problems")
+    ax.set_title(f"{title} ({len(table)} local 3D cases)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="lower right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--split", choices=("tune", "holdout", "all"), default="tune")
@@ -130,11 +188,22 @@ def main(argv=None) -> int:
     ap.add_argument("--siconos", action="store_true",
                     help="Siconos NSN_AC and NSN_NM on the local 3D cases too")
     ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--from-csv", action="store_true",
+                    help="write the report and the figure from the run's CSVs")
     args = ap.parse_args(argv)
     args.configs = CONFIGS
     out = args.out if args.out.is_absolute() else HERE / args.out
-    command = "python validation/nm_vs_ac.py " + " ".join(argv if argv is not None
-                                                          else sys.argv[1:])
+    command = "python validation/nm_vs_ac.py " + " ".join(
+        a for a in (argv if argv is not None else sys.argv[1:]) if a != "--from-csv")
+    title = "Newton: natural map vs Alart–Curnier, " + (
+        f"seeds {' '.join(map(str, args.seeds))}" if args.seeds else f"{args.split} split")
+    if args.from_csv:
+        rows = read_csv(out.with_suffix(".csv"))
+        sic_path = out.with_name(out.name + "_siconos.csv")
+        sic = read_csv(sic_path) if sic_path.exists() else []
+        emit(report(rows, sic, args, command), out.with_suffix(".md"))
+        plot_profile(rows, out.with_name(out.name + "_profile.png"), title)
+        return 0
     if args.seeds:
         cases = evalset.manufactured_cases(shared_problems_dir(), seeds=args.seeds, scales=(),
                                           max_contacts=args.max_contacts)
@@ -158,6 +227,7 @@ def main(argv=None) -> int:
     if sic:
         write_csv(sic, out.with_name(out.name + "_siconos.csv"))
     emit(report(rows, sic, args, command), out.with_suffix(".md"))
+    plot_profile(rows, out.with_name(out.name + "_profile.png"), title)
     return 0
 
 
