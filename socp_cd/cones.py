@@ -214,6 +214,141 @@ def natural_map_jacobian(r, u, mu, dim: int = 3, rho=1.0):
     return F.reshape(-1), Dr, Du, branch.astype(np.int64)
 
 
+#: the Fischer–Burmeister map's degenerate set (:func:`fischer_burmeister_jacobian`): a block
+#: whose ``z = x² + y²`` has ``λ₁(z) <= FB_DEGENERATE λ₂(z)`` takes the closed-form limit
+#: element there (the compiled kernel's ``newton_fb.FB_DEGENERATE``, held equal by the tests)
+FB_DEGENERATE = 1e-10
+
+
+def _fb_det(x, y):
+    """``det(x² + y²) = λ₁ λ₂`` as a sum of squares, accurate where ``λ₁ = z₀ − ||z̄||``
+    cancels (the degenerate set, where it is 0): ``(x₀² − ||x̄||²)² + (y₀² − ||ȳ||²)²
+    + 2 (||x₀ȳ − y₀x̄||² + (x₀y₀ − x̄ᵀȳ)² + ||x̄||²||ȳ||² − (x̄ᵀȳ)²)``, the last two terms
+    ``||x̄ × ȳ||²`` in 3D and 0 in 2D."""
+    nx, ny = float(np.linalg.norm(x[1:])), float(np.linalg.norm(y[1:]))
+    dx = (x[0] - nx) * (x[0] + nx)
+    dy = (y[0] - ny) * (y[0] + ny)
+    cross = float(np.sum((x[0] * y[1:] - y[0] * x[1:]) ** 2))
+    inner = x[0] * y[0] - float(x[1:] @ y[1:])
+    wedge = (x[1] * y[2] - x[2] * y[1]) ** 2 if x.shape[0] == 3 else 0.0
+    return dx * dx + dy * dy + 2.0 * (cross + inner * inner + wedge)
+
+
+def _arrow(x):
+    """The arrow matrix ``L_x`` of the Jordan product on the Lorentz cone (``L_x y = x ∘ y``)."""
+    L = np.eye(x.shape[0]) * x[0]
+    L[0, 1:] = x[1:]
+    L[1:, 0] = x[1:]
+    return L
+
+
+def lorentz_fb(x, y):
+    """Fischer–Burmeister function of the Lorentz cone ``L = {||x̄|| <= x₀}`` for one block.
+
+    ``φ(x, y) = x + y − (x² + y²)^{1/2}`` in the cone's Jordan algebra
+    (``x ∘ y = (xᵀy, x₀ȳ + y₀x̄)``); ``φ = 0`` ⇔ ``x ∈ L, y ∈ L, xᵀy = 0``.  Returns
+    ``(φ, Mx, My, degenerate)`` with ``dφ = (I − Mx) dx + (I − My) dy`` one element of the
+    generalized Jacobian:
+
+    * ``z = x² + y²`` inside ``L`` (``λ₁(z) > FB_DEGENERATE λ₂(z)``): the derivative,
+      ``Mx = L_s⁻¹ L_x``, ``My = L_s⁻¹ L_y``, ``s = z^{1/2}``;
+    * ``z`` on the boundary of ``L``, ``z ≠ 0``: then ``x = x₀ c``, ``y = y₀ c`` on one ray
+      ``c = (1, w)``, ``w = z̄/||z̄||``, and the limit of the derivative along
+      ``(x + τe, y + τe)``, ``τ → 0⁺``: ``Mx = α I + (1/√2 − α) q qᵀ``, ``α = x₀/||(x₀, y₀)||``,
+      ``q = (1, −w)/√2`` (``My`` with ``β = y₀/||(x₀, y₀)||``), so an element of the
+      B-subdifferential (``formulations/newton.md`` §14);
+    * ``z = 0`` (``x = y = 0``): the same limit, ``Mx = My = I/√2``.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    d = x.shape[0]
+    z = np.r_[x @ x + y @ y, 2.0 * (x[0] * x[1:] + y[0] * y[1:])]
+    nz = float(np.linalg.norm(z[1:]))
+    l2 = z[0] + nz
+    l1 = _fb_det(x, y) / l2 if l2 > 0 else 0.0
+    w = z[1:] / nz if nz > 0 else np.zeros(d - 1)
+    a1, a2 = np.sqrt(max(l1, 0.0)), np.sqrt(max(l2, 0.0))
+    s = np.r_[(a1 + a2) / 2, (a2 - a1) / 2 * w]
+    phi = x + y - s
+    if l1 > FB_DEGENERATE * l2:
+        det = a1 * a2
+        Li = np.empty((d, d))
+        Li[0, 0] = s[0]
+        Li[0, 1:] = -s[1:]
+        Li[1:, 0] = -s[1:]
+        Li[1:, 1:] = (det / s[0]) * np.eye(d - 1) + np.outer(s[1:], s[1:]) / s[0]
+        Li /= det
+        return phi, Li @ _arrow(x), Li @ _arrow(y), False
+    k = 1.0 / np.sqrt(2.0)
+    if not l2 > 0.0:
+        return phi, k * np.eye(d), k * np.eye(d), True
+    q = np.r_[1.0, -w] * k
+    n = float(np.hypot(x[0], y[0]))
+    al, be = (x[0] / n, y[0] / n) if n > 0 else (k, k)
+    P = np.outer(q, q)
+    return phi, al * np.eye(d) + (k - al) * P, be * np.eye(d) + (k - be) * P, True
+
+
+def fischer_burmeister_jacobian(r, u, mu, dim: int = 3, rho=1.0):
+    """The Fischer–Burmeister equation of the Coulomb law and its Jacobian blocks, per contact.
+
+    With ``û = u + mu ||u_T|| e_N``, the pair ``x = (mu r_N, r_T)``, ``y = rho (û_N, mu û_T)``
+    maps ``r ∈ K_mu`` to ``x ∈ L``, ``û ∈ K*_mu`` to ``y ∈ L`` and ``r·û`` to a positive
+    multiple of ``xᵀy``, so ``F = φ(x, y) = 0`` (:func:`lorentz_fb`) is the law.  For
+    ``mu = 0`` (``K_0`` a half-line, not a Lorentz cone) the block is the scalar
+    Fischer–Burmeister function of ``0 <= r_N ⊥ rho u_N >= 0`` and ``F_T = r_T``.  Blocks
+    ``dF = Dr dr + Du du``: ``Dr = (I − Mx) S_r``, ``Du = rho (I − My) S_u D`` with
+    ``S_r = diag(mu, 1, 1)``, ``S_u = diag(1, mu, mu)``, ``D = I + mu e_N wᵀ``
+    (``w = u_T/||u_T||``, 0 when ``u_T = 0``); the NumPy reference of the compiled
+    :func:`socp_cd.solvers.kernels.newton_fb.fb_blocks` (``formulations/newton.md`` §14).
+
+    Returns
+    -------
+    F : ndarray, shape (dim * nc,)
+    Dr, Du : ndarray, shape (nc, dim, dim)
+    branch : ndarray of int64, shape (nc,)
+        ``1`` on the degenerate set (the map's kinks, grazing states), else ``0``.
+    """
+    R = _blocks(r, dim)
+    U = _blocks(u, dim)
+    nc = R.shape[0]
+    mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), (nc,))
+    rho = np.broadcast_to(np.asarray(rho, dtype=np.float64), (nc,))
+    Uh = desaxce_velocity(U, mu, dim)
+    tu = tangential_norm(U, dim)
+    F = np.zeros((nc, dim))
+    Dr = np.zeros((nc, dim, dim))
+    Du = np.zeros((nc, dim, dim))
+    branch = np.zeros(nc, dtype=np.int64)
+    eye = np.eye(dim)
+    for i in range(nc):
+        m, p = mu[i], rho[i]
+        if m == 0.0:
+            a, b = R[i, 0], p * U[i, 0]
+            n = float(np.hypot(a, b))
+            F[i, 0] = a + b - n
+            F[i, 1:] = R[i, 1:]
+            ga, gb = (1.0 - a / n, 1.0 - b / n) if n > 0 else (1.0 - 1.0 / np.sqrt(2.0),) * 2
+            Dr[i] = eye
+            Dr[i, 0, 0] = ga
+            Du[i, 0, 0] = p * gb
+            branch[i] = 0 if n > 0 else 1
+            continue
+        Sr = np.diag(np.r_[m, np.ones(dim - 1)])
+        Su = np.diag(np.r_[1.0, np.full(dim - 1, m)])
+        x = Sr @ R[i]
+        y = p * (Su @ Uh[i])
+        phi, Mx, My, degenerate = lorentz_fb(x, y)
+        D = eye.copy()
+        if tu[i] > 0:
+            D[0, 1:] += m * U[i, 1:] / tu[i]
+        F[i] = phi
+        Dr[i] = (eye - Mx) @ Sr
+        Du[i] = p * (eye - My) @ Su @ D
+        branch[i] = int(degenerate)
+    return F.reshape(-1), Dr, Du, branch
+
+
 def in_cone_violation(r, mu, dim: int = 3) -> np.ndarray:
     """Distance from ``r`` to ``K_mu`` per contact (0 when feasible)."""
     R = _blocks(r, dim)
@@ -307,6 +442,9 @@ __all__ = [
     "desaxce_velocity",
     "natural_map",
     "natural_map_jacobian",
+    "lorentz_fb",
+    "fischer_burmeister_jacobian",
+    "FB_DEGENERATE",
     "in_cone_violation",
     "fenchel_young_gap",
     "bipotential",

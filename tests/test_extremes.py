@@ -201,9 +201,11 @@ def test_prox_error_policy_on_every_extreme_case(dim):
             assert [run[0] for run in res.info["runs"]] == ["written", "balanced"]
 
 
+@pytest.mark.parametrize("equation", ["natural_map", "fischer_burmeister"])
 @pytest.mark.parametrize("dim", [2, 3])
-def test_natural_map_on_every_extreme_case(dim):
-    """newton's ``equation="natural_map"`` on each extreme case, proximal loop and plain steps:
+def test_other_equations_on_every_extreme_case(dim, equation):
+    """newton's natural map and Fischer–Burmeister equations on each extreme case, proximal
+    loop and plain steps:
     a status of STATUSES, a finite answer, ``converged`` only with the recomputed error and
     guard within tol; each case solved by one of the two policies but mu = 1e3 in 3D, where
     both stall (as the Alart–Curnier proximal loop does; its plain steps solve it)."""
@@ -213,7 +215,7 @@ def test_natural_map_on_every_extreme_case(dim):
         p = build(case, 6, dim)
         solved = []
         for policy in ("prox", "plain"):
-            res = socp_cd.solve(p, "newton", equation="natural_map", policy=policy, tol=1e-6,
+            res = socp_cd.solve(p, "newton", equation=equation, policy=policy, tol=1e-6,
                                 time_limit=30.0)
             assert res.status in STATUSES, (case, policy)
             assert np.all(np.isfinite(res.r)), (case, policy)

@@ -47,6 +47,7 @@ CHECK = textwrap.dedent('''
         socp_cd.solve(p, "projection", max_iter=50)
         socp_cd.solve(p, "newton", policy="prox_error", max_iter=3)     # (auto's last resort)
         socp_cd.solve(p, "newton", equation="natural_map", max_iter=3)
+        socp_cd.solve(p, "newton", equation="fischer_burmeister", max_iter=3)
         if n <= 12:
             for form in ("associated", "frictionless"):
                 socp_cd.solve(p, formulation=form)

@@ -1,21 +1,24 @@
-"""Newton on the natural map against Newton on the Alart–Curnier equation, case by case.
+"""Newton on the natural map (or Fischer–Burmeister's equation) against Alart–Curnier's, case by case.
 
-``solver="newton"`` solves either nonsmooth equation of the law (option ``equation``,
-formulations/newton.md §13).  This script gives every case of a split of the evaluation
+``solver="newton"`` solves three nonsmooth equations of the law (option ``equation``,
+formulations/newton.md §13, §14).  This script gives every case of a split of the evaluation
 set (the manufactured and rescaled cases of ``socp_cd.bench.evalset``, seeds 0-3, or a
 fresh draw with ``--seeds``; local and global) to each configuration
-``equation/policy`` once, from ``r = 0``, judged by ``solve`` (Siconos' error and the units
-guard), and with ``--siconos`` gives the same cases to Siconos' two Newton solvers on the
-same equations, NSN_AC and NSN_NM (local 3D cases), at the same budget::
+``equation/policy`` once (``--equations``, default Alart–Curnier and the natural map; the
+policies ``prox`` and ``plain``), from ``r = 0``, judged by ``solve`` (Siconos' error and the
+units guard), and with ``--siconos`` gives the same cases to Siconos' Newton solvers on the
+same equations (NSN_AC, NSN_NM, NSN_FB; local 3D cases) at the same budget::
 
     python validation/nm_vs_ac.py --split tune --out results/nm_vs_ac_tune
     python validation/nm_vs_ac.py --split holdout --out results/nm_vs_ac_holdout
+    python validation/nm_vs_ac.py --split tune --equations alart_curnier fischer_burmeister \
+        --out results/fb_vs_ac_tune
 
 Writes ``<out>.csv`` (one row per case and configuration) and ``<out>.md``: solved counts
 and the shifted geometric mean of the time (10 ms, failures charged the time limit) per
 configuration and family (local 2D, local 3D, global), and the cases one equation solves
 and the other does not under the same policy; and ``<out>_profile.png``, the Dolan–Moré
-performance profiles of the local 3D cases (the four configurations, solved = error and
+performance profiles of the local 3D cases (the configurations, solved = error and
 units guard within ``tol``; Siconos' rows give counts only: its calls here are single, cold,
 in the peer's default storage, sparse-block, not the benchmark's timing).  ``--from-csv``
 writes the report and the figure again from the run's CSVs.
@@ -41,9 +44,9 @@ from misses_vs_siconos import siconos_rows
 
 HERE = Path(__file__).resolve().parent
 #: the configurations: (equation, policy)
-CONFIGS = (("alart_curnier", "prox"), ("natural_map", "prox"),
-           ("alart_curnier", "plain"), ("natural_map", "plain"))
-SICONOS = ("nsn_ac", "nsn_nm")
+POLICIES = ("prox", "plain")
+#: Siconos' Newton solver on each equation
+SICONOS = {"alart_curnier": "nsn_ac", "natural_map": "nsn_nm", "fischer_burmeister": "nsn_fb"}
 
 
 def family(p) -> str:
@@ -103,17 +106,18 @@ def report(rows, sic, args, command) -> list[str]:
                   "peer's default storage (`misses_vs_siconos.siconos_rows`; its times are "
                   "cold single calls, not the benchmark's, so only counts are given): solved "
                   "by our recomputed error / with the units guard too:", ""]
-        for s in SICONOS:
+        for s in sorted({r["solver"] for r in sic}):
             rs = [r for r in sic if r["solver"] == s]
             lines.append(f"- {s.upper()}: {sum(r['solved'] for r in rs)} / "
                          f"{sum(r['guard_too'] for r in rs)} of {len(rs)}")
-    lines += ["", "Cases one equation solves and the other does not, same policy "
-              "(error / guard of the one that misses):", ""]
+    lines += ["", "Cases one equation solves and the other (Alart–Curnier's) does not, same "
+              "policy (error / guard of the one that misses):", ""]
     cases = defaultdict(dict)
     for r in rows:
         cases[r["case"]][r["config"]] = r
-    for pol in sorted({p for _, p in args.configs}):
-        a, n = f"alart_curnier/{pol}", f"natural_map/{pol}"
+    for pol, other in [(p, e) for p in sorted({p for _, p in args.configs})
+                       for e in args.equations if e != "alart_curnier"]:
+        a, n = f"alart_curnier/{pol}", f"{other}/{pol}"
         if a not in configs or n not in configs:
             continue
         only = {a: [], n: []}
@@ -160,7 +164,7 @@ def plot_profile(rows, path, title) -> None:
         x = np.concatenate([taus, [tmax]])
         y = np.concatenate([rho[name], [rho[name][-1]]])
         ax.step(x, y, where="post", label=name, lw=2.0,
-                ls="-" if "natural" in name else "-.")
+                ls="-." if name.startswith("alart") else "-")
     ax.set_xscale("log", base=2)
     ax.set_xlim(1.0, tmax)
     ax.set_ylim(-0.02, 1.02)
@@ -185,17 +189,20 @@ def main(argv=None) -> int:
     ap.add_argument("--large-time-limit", type=float, default=1.0)
     ap.add_argument("--max-contacts", type=int, default=None)
     ap.add_argument("--family", default="", help="only the cases whose id contains this")
+    ap.add_argument("--equations", nargs="+", default=["alart_curnier", "natural_map"],
+                    choices=sorted(SICONOS), help="the equations compared (Alart–Curnier "
+                    "first: the others are set against it)")
     ap.add_argument("--siconos", action="store_true",
-                    help="Siconos NSN_AC and NSN_NM on the local 3D cases too")
+                    help="Siconos' Newton solvers on the same equations, local 3D cases")
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--from-csv", action="store_true",
                     help="write the report and the figure from the run's CSVs")
     args = ap.parse_args(argv)
-    args.configs = CONFIGS
+    args.configs = [(e, p) for p in POLICIES for e in args.equations]
     out = args.out if args.out.is_absolute() else HERE / args.out
     command = "python validation/nm_vs_ac.py " + " ".join(
         a for a in (argv if argv is not None else sys.argv[1:]) if a != "--from-csv")
-    title = "Newton: natural map vs Alart–Curnier, " + (
+    title = "Newton: " + " vs ".join(e.replace("_", " ") for e in args.equations) + ", " + (
         f"seeds {' '.join(map(str, args.seeds))}" if args.seeds else f"{args.split} split")
     if args.from_csv:
         rows = read_csv(out.with_suffix(".csv"))
@@ -218,10 +225,11 @@ def main(argv=None) -> int:
     for c in cases:
         p = c.problem()
         limit = args.large_time_limit if c.n_contacts > args.large else args.time_limit
-        rows += run_case(c, p, CONFIGS, args.tol, limit)
+        rows += run_case(c, p, args.configs, args.tol, limit)
         if args.siconos and not p.is_global and p.dim == 3:
+            names = [SICONOS[e] for e in args.equations]
             sic += [dict(r, time_limit=limit)
-                    for r in siconos_rows(c.case_id, p, SICONOS, args.tol, limit)]
+                    for r in siconos_rows(c.case_id, p, names, args.tol, limit)]
     out.parent.mkdir(parents=True, exist_ok=True)
     write_csv(rows, out.with_suffix(".csv"))
     if sic:

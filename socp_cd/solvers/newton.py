@@ -3,7 +3,8 @@
 The Coulomb law with Signorini's condition is written as the nonsmooth
 equation ``F_AC(r, u) = 0`` of Alart and Curnier (kernels in
 :mod:`socp_cd.solvers.kernels.newton_ac`), or, with ``equation="natural_map"``, as the
-natural map ``r - P_K(r - rho û) = 0`` (:mod:`socp_cd.solvers.kernels.newton_nm`).
+natural map ``r - P_K(r - rho û) = 0`` (:mod:`socp_cd.solvers.kernels.newton_nm`), or
+Fischer–Burmeister's (:mod:`socp_cd.solvers.kernels.newton_fb`).
 Newton's method on it is
 globalized by an inexact proximal-point outer loop (Acary, Brémond & Huber
 2018; Siconos ``fc3d_proximal``): at outer iterate ``r_k`` the subproblem is
@@ -56,13 +57,15 @@ rho : {"block", "split"}, default "block"
     (the normal diagonal entry of ``W_ii``) and ``rho_T = 1/||W_TT||_2`` (the
     tangential sub-block's spectral norm).  Measured in
     ``validation/results/newton_rho.md``.
-equation : {"alart_curnier", "natural_map"}, default "alart_curnier"
+equation : {"alart_curnier", "natural_map", "fischer_burmeister"}, default "alart_curnier"
     The nonsmooth equation of the law the Newton steps solve: Alart and Curnier's
-    (:mod:`~socp_cd.solvers.kernels.newton_ac`), or the natural map
+    (:mod:`~socp_cd.solvers.kernels.newton_ac`), the natural map
     ``F = r - P_K(r - rho û)`` of the cone complementarity form, Siconos NSN_NM's
-    (:mod:`~socp_cd.solvers.kernels.newton_nm`, ``formulations/newton.md`` §13; with
-    ``rho="block"`` only, and on the Python loop: the compiled loops solve
-    Alart–Curnier's).  Every policy below takes either.
+    (:mod:`~socp_cd.solvers.kernels.newton_nm`, ``formulations/newton.md`` §13), or the
+    Fischer–Burmeister function of the same complementarity mapped onto the Lorentz cone,
+    the family of Siconos NSN_FB (:mod:`~socp_cd.solvers.kernels.newton_fb`, §14).  The
+    last two with ``rho="block"`` only, and on the Python loop: the compiled loops solve
+    Alart–Curnier's.  Every policy below takes any of them.
 policy : {"prox", "hybrid", "plain", "prox_error"}, default "prox"
     Outer policy: the proximal loop alone, or plain Newton steps on the
     equation first with the proximal loop as fallback
@@ -106,6 +109,7 @@ from .kernels.cone import project_cone_stacked, siconos_error
 from .kernels.dense import (LAPACK_LU, NAIVE_LU_MAX_N, PIVOT_TOL, csr_to_dense, dense_solve,
                             envelope_fraction, matvec, matvec_into)
 from .kernels.newton_ac import ac_blocks, block_jacobian, block_rho_dense, dense_jacobian
+from .kernels.newton_fb import fb_blocks
 from .kernels.newton_nm import nm_blocks
 from .kernels.scaling import origin_error
 from . import nsgs_route
@@ -182,17 +186,19 @@ OPTIONS = {
     "stall_window": "outer iterations without a 10 % error drop before 'stalled' (default 50)",
     "rho": "parameters of the equation: 'block' (default, one per contact) or 'split' "
            "(Alart–Curnier only: rho_N = 1/W_NN, rho_T = 1/||W_TT||_2)",
-    "equation": "nonsmooth equation of the law: 'alart_curnier' (default) or 'natural_map' "
-                "(r - P_K(r - rho û), Siconos NSN_NM's; formulations/newton.md §13)",
+    "equation": "nonsmooth equation of the law: 'alart_curnier' (default), 'natural_map' "
+                "(r - P_K(r - rho û), Siconos NSN_NM's; formulations/newton.md §13) or "
+                "'fischer_burmeister' (the Lorentz-cone FB function, Siconos NSN_FB's family; §14)",
     "policy": "outer policy: 'prox' (default), 'plain' (nonmonotone semismooth Newton, no proximal term, Siconos NSN_AC style) or 'hybrid' (plain Newton steps while they "
               "cut ||F|| and the error, the proximal loop otherwise; formulations/newton.md §4) or "
               "'prox_error' (Siconos PROX: alpha = 5 x the error, subproblems by plain steps; §12)",
 }
 #: nonsmooth equations of the law the Newton steps solve (the ``equation`` option), and the
 #: kernel of each: ``F`` and the blocks ``Dr``, ``Du`` of its generalized Jacobian
-EQUATIONS = ("alart_curnier", "natural_map")
+EQUATIONS = ("alart_curnier", "natural_map", "fischer_burmeister")
 DEFAULT_EQUATION = "alart_curnier"
-_LAW_BLOCKS = types.MappingProxyType({"alart_curnier": ac_blocks, "natural_map": nm_blocks})
+_LAW_BLOCKS = types.MappingProxyType({"alart_curnier": ac_blocks, "natural_map": nm_blocks,
+                                      "fischer_burmeister": fb_blocks})
 #: strategies of the equation's parameters (see :func:`_rho`; "split" is Alart–Curnier's)
 RHO_STRATEGIES = ("block", "split")
 DEFAULT_RHO = "block"
@@ -726,9 +732,9 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         ``None``: the compiled twin when it applies (see above); ``False``: this
         Python loop always (the reference the tests compare with); ``True``:
         the twin (``UnsupportedError`` when it does not apply).
-    equation : {"alart_curnier", "natural_map"}
+    equation : {"alart_curnier", "natural_map", "fischer_burmeister"}
         The nonsmooth equation of the law (:data:`EQUATIONS`); the compiled twin solves
-        Alart–Curnier's only, so ``"natural_map"`` runs this loop.
+        Alart–Curnier's only, so the others run this loop.
 
     Returns
     -------
@@ -1607,8 +1613,9 @@ def _route_info(info, x) -> dict:
 
 SPEC = SolverSpec(
     "newton", newton_backend, ("coulomb",), global_native=("coulomb",), dims=(2, 3),
-    description="proximal-point semismooth Newton on the Alart–Curnier equation or the "
-                "natural map (exact Coulomb law; local and global, dense LU or SuperLU)",
+    description="proximal-point semismooth Newton on the Alart–Curnier equation, the "
+                "natural map or Fischer–Burmeister's (exact Coulomb law; local and global, "
+                "dense LU or SuperLU)",
     default_max_iter=DEFAULT_MAX_ITER, options=OPTIONS,
     check=_check, route=route)
 
@@ -1620,7 +1627,7 @@ def warmup() -> float:
     :func:`~.kernels.newton_dense.plain_newton_dense`) on tiny dense problems in 2D and
     3D, with and without a time limit, with the written-out LU and with LAPACK's
     (:func:`~.kernels.dense.dense_solve`), and the compiled routes' run-and-checks call
-    (:func:`compiled_runs`), and the natural map's kernel (``equation="natural_map"``).
+    (:func:`compiled_runs`), and the other equations' kernels (``equation=...``).
     A benchmark calls it before timing: otherwise
     the first solve that reaches a twin pays its compilation (``solver="auto"`` reaches
     the plain one only when its first Newton stage misses ``tol``).
@@ -1638,8 +1645,9 @@ def warmup() -> float:
                 # (the compiled route's and auto's trials' one call, nsgs_route.newton_checked)
                 compiled_runs(prob, -1.0, np.zeros(prob.m), 1e-14, 2, prox=policy == "prox",
                               stall_window=DEFAULT_STALL_WINDOW, constants=trial_constants())
-        # (the natural map's kernel, reached on the Python loop only)
-        newton_backend(prob, "coulomb", tol=1e-14, max_iter=2, equation="natural_map")
+        # (the other equations' kernels, reached on the Python loop only)
+        for equation in EQUATIONS[1:]:
+            newton_backend(prob, "coulomb", tol=1e-14, max_iter=2, equation=equation)
     return time.perf_counter() - t0
 
 
