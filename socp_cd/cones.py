@@ -216,8 +216,12 @@ def natural_map_jacobian(r, u, mu, dim: int = 3, rho=1.0):
 
 #: the Fischer–Burmeister map's degenerate set (:func:`fischer_burmeister_jacobian`): a block
 #: whose ``z = x² + y²`` has ``λ₁(z) <= FB_DEGENERATE λ₂(z)`` takes the closed-form limit
-#: element there (the compiled kernel's ``newton_fb.FB_DEGENERATE``, held equal by the tests)
-FB_DEGENERATE = 1e-10
+#: element there (the compiled kernel's ``newton_fb.FB_DEGENERATE``, held equal by the tests).
+#: ``λ₁/λ₂ ~ δ²/2`` at a relative distance ``δ`` from that set, and the derivative's rounding
+#: error is ``~eps (λ₂/λ₁)^{1/2}``: 1e-20 takes the limit element within ``δ ~ 1e-10`` only,
+#: where the derivative would carry ~1e-6 of error (1e-10, ``δ ~ 1e-5``, made Newton linear
+#: with rate ~0.7 near grazing solutions: ``formulations/newton.md`` §14)
+FB_DEGENERATE = 1e-20
 
 
 def _fb_det(x, y):
@@ -261,6 +265,18 @@ def lorentz_fb(x, y):
     """
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
+    d = x.shape[0]
+    # φ is positively homogeneous of degree 1 and Mx, My of degree 0: work on (x, y) / t
+    # (det(z) grows as |x|⁴: no overflow above 1e77 nor underflow below 1e-81)
+    t = float(max(np.abs(x).max(), np.abs(y).max()))
+    if t > 0.0 and np.isfinite(t):
+        phi, Mx, My, degenerate = _lorentz_fb(x / t, y / t)
+        return phi * t, Mx, My, degenerate
+    return _lorentz_fb(x, y)
+
+
+def _lorentz_fb(x, y):
+    """:func:`lorentz_fb` on a pair of unit scale (or all zero / not finite)."""
     d = x.shape[0]
     z = np.r_[x @ x + y @ y, 2.0 * (x[0] * x[1:] + y[0] * y[1:])]
     nz = float(np.linalg.norm(z[1:]))

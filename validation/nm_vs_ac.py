@@ -45,6 +45,9 @@ from misses_vs_siconos import siconos_rows
 HERE = Path(__file__).resolve().parent
 #: the configurations: (equation, policy)
 POLICIES = ("prox", "plain")
+#: each equation as a report names it
+SHOWN = {"alart_curnier": "Alart–Curnier", "natural_map": "the natural map",
+         "fischer_burmeister": "Fischer–Burmeister's equation"}
 #: Siconos' Newton solver on each equation
 SICONOS = {"alart_curnier": "nsn_ac", "natural_map": "nsn_nm", "fischer_burmeister": "nsn_fb"}
 
@@ -76,7 +79,8 @@ def run_case(c, p, configs, tol, limit) -> list[dict]:
 def report(rows, sic, args, command) -> list[str]:
     what = (f"seeds {' '.join(map(str, args.seeds))}" if args.seeds else f"{args.split} split")
     what += f", cases with {args.family!r}" if args.family else ""
-    lines = [f"# Newton on the natural map and on Alart–Curnier ({what})", "",
+    names = " and on ".join(SHOWN[e] for e in args.equations[::-1])
+    lines = [f"# Newton on {names} ({what})", "",
              f"`{command}`; tol {args.tol:g}; one run per case from `r = 0`, "
              f"{args.time_limit:g} s ({args.large_time_limit:g} s above {args.large} "
              "contacts); solved = `solve`'s verdict (Siconos' error and the units guard); "

@@ -1220,7 +1220,7 @@ def _settings(problem, options, inner_settings=None) -> dict:
     equation = check_choice("equation", get("equation", DEFAULT_EQUATION), EQUATIONS)
     rho = check_choice("rho", get("rho", DEFAULT_RHO), RHO_STRATEGIES)
     if rho == "split" and equation != "alart_curnier":
-        # (the natural map projects the whole block on K: one parameter per contact)
+        # (the natural map and Fischer–Burmeister's take one parameter per contact)
         raise InvalidProblemError("rho", "'split' gives the Alart–Curnier equation two "
                                   f"parameters per contact; equation {equation!r} takes one "
                                   "('block')")

@@ -16,8 +16,14 @@ Blocks ``dF = Dr dr + Du du`` as the other equations' kernels, so the Newton mat
 ``Dr = (I − Mx) S_r``, ``Du = rho (I − My) S_u D``, ``S_r = diag(mu, 1, 1)``,
 ``S_u = diag(1, mu, mu)``, ``D = I + mu e_N wᵀ`` (``w = u_T/||u_T||``, 0 when ``u_T = 0``).
 
-Branch codes: ``1`` where ``x² + y²`` is on the boundary of ``L`` (the map's kinks: the
-grazing states, a closed-form limit element there), else ``0``.  The kernel reads
+Branch codes: ``1`` where ``x² + y²`` is on the boundary of ``L`` (the map's kinks: ``x``
+and ``y`` on one boundary ray, at a solution the grazing states; a closed-form limit element
+there) or, at ``mu = 0``, where ``r_N = u_N = 0``; else ``0``.
+
+``x = (mu r_N, r_T)`` gives ``r_N`` a weight ``mu`` beside ``y``'s: at small ``mu`` rounding
+hides changes of ``r_N`` below ``~eps |y| / mu``, an error floor of that order (at tol 1e-10
+the natural map and Alart–Curnier solve problems of ``mu = 1e-8`` this equation does not;
+``formulations/newton.md`` §14).  The kernel reads
 ``rho_n`` (one parameter per contact; ``rho_t`` is not read).  Its NumPy reference is
 :func:`socp_cd.cones.fischer_burmeister_jacobian` (tested equal).
 """
@@ -28,8 +34,9 @@ from numba import njit
 
 from .cone import tangential_norm
 
-#: ``λ₁(x² + y²) <= FB_DEGENERATE λ₂(x² + y²)``: the degenerate set (``cones.FB_DEGENERATE``)
-FB_DEGENERATE = 1e-10
+#: ``λ₁(x² + y²) <= FB_DEGENERATE λ₂(x² + y²)``: the degenerate set (``cones.FB_DEGENERATE``,
+#: where the choice is explained)
+FB_DEGENERATE = 1e-20
 _K = 1.0 / np.sqrt(2.0)
 
 
@@ -40,8 +47,20 @@ def lorentz_fb(x, y, d, phi, Mx, My):
     Writes ``phi = x + y − (x² + y²)^{1/2}`` and ``Mx``, ``My`` with
     ``dφ = (I − Mx) dx + (I − My) dy`` (``x``, ``y``, ``phi`` of length >= d; ``Mx``,
     ``My`` at least d x d); returns True on the degenerate set, where ``Mx``, ``My`` are the
-    closed-form limit of the derivative along ``(x + τe, y + τe)``, ``τ → 0⁺``.
+    closed-form limit of the derivative along ``(x + τe, y + τe)``, ``τ → 0⁺``.  ``x``
+    and ``y`` are divided by ``t = max|·|`` first and ``phi`` multiplied back (``φ`` is
+    positively homogeneous of degree 1, ``Mx``, ``My`` of degree 0: ``det(z)`` grows as
+    ``|x|⁴`` and would overflow above 1e77 and underflow below 1e-81); ``x`` and ``y`` are
+    overwritten with the scaled pair.
     """
+    t = 0.0
+    for a in range(d):
+        t = max(t, abs(x[a]), abs(y[a]))
+    scale = t > 0.0 and t < np.inf
+    if scale:
+        for a in range(d):
+            x[a] /= t
+            y[a] /= t
     z0 = 0.0
     for a in range(d):
         z0 += x[a] * x[a] + y[a] * y[a]
@@ -69,10 +88,11 @@ def lorentz_fb(x, y, d, phi, Mx, My):
     h = 0.5 * (a2 - a1)
     s1 = h * w1
     s2 = h * w2
-    phi[0] = x[0] + y[0] - s0
-    phi[1] = x[1] + y[1] - s1
+    f = t if scale else 1.0
+    phi[0] = (x[0] + y[0] - s0) * f
+    phi[1] = (x[1] + y[1] - s1) * f
     if d == 3:
-        phi[2] = x[2] + y[2] - s2
+        phi[2] = (x[2] + y[2] - s2) * f
     if l1 > FB_DEGENERATE * l2:
         det = a1 * a2
         # L_s⁻¹ = [[s0, −s̄ᵀ], [−s̄, (det/s0) I + s̄ s̄ᵀ/s0]] / det, times the arrow matrices
@@ -143,7 +163,7 @@ def fb_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch):
         if m_ == 0.0:
             a = r[o]
             b = p * u[o]
-            n = np.sqrt(a * a + b * b)
+            n = np.hypot(a, b)
             F[o] = a + b - n
             for c in range(1, d):
                 F[o + c] = r[o + c]
