@@ -85,9 +85,9 @@ def report(rows, sic, args, command) -> list[str]:
              f"{args.time_limit:g} s ({args.large_time_limit:g} s above {args.large} "
              "contacts); solved = `solve`'s verdict (Siconos' error and the units guard); "
              "sgm: shifted geometric mean (10 ms) of the wall time, a failure charged its "
-             "time limit. The natural map runs the Python Newton loop, Alart–Curnier the "
-             "compiled one on dense systems: on small problems the times compare the two "
-             "implementations as much as the two equations. Figure: "
+             "time limit. Equations other than Alart–Curnier's run the Python Newton loop, "
+             "Alart–Curnier's the compiled one on dense systems: on small problems the times "
+             "compare the implementations as much as the equations. Figure: "
              f"`{args.out.name}_profile.png` (local 3D, Dolan–Moré over the four "
              "configurations, solved = error and guard).", ""]
     by = defaultdict(list)
@@ -174,7 +174,8 @@ def plot_profile(rows, path, title) -> None:
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlabel("τ: time within this factor of the fastest")
     ax.set_ylabel("share of problems")
-    ax.set_title(f"{title} ({len(table)} local 3D cases)")
+    ax.set_title(f"{title}\n{len(table)} local 3D cases, solved = error and guard <= tol",
+                 fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
@@ -206,7 +207,7 @@ def main(argv=None) -> int:
     out = args.out if args.out.is_absolute() else HERE / args.out
     command = "python validation/nm_vs_ac.py " + " ".join(
         a for a in (argv if argv is not None else sys.argv[1:]) if a != "--from-csv")
-    title = "Newton: " + " vs ".join(e.replace("_", " ") for e in args.equations) + ", " + (
+    title = "Newton: " + " vs ".join(SHOWN[e] for e in args.equations) + ", " + (
         f"seeds {' '.join(map(str, args.seeds))}" if args.seeds else f"{args.split} split")
     if args.from_csv:
         rows = read_csv(out.with_suffix(".csv"))
