@@ -224,7 +224,7 @@ def natural_map_jacobian(r, u, mu, dim: int = 3, rho=1.0):
 FB_DEGENERATE = 1e-20
 
 
-def _fb_det(x, y):
+def fb_determinant(x, y):
     """``det(x² + y²) = λ₁ λ₂`` as a sum of squares, accurate where ``λ₁ = z₀ − ||z̄||``
     cancels (the degenerate set, where it is 0): ``(x₀² − ||x̄||²)² + (y₀² − ||ȳ||²)²
     + 2 (||x₀ȳ − y₀x̄||² + (x₀y₀ − x̄ᵀȳ)² + ||x̄||²||ȳ||² − (x̄ᵀȳ)²)``, the last two terms
@@ -281,7 +281,7 @@ def _lorentz_fb(x, y):
     z = np.r_[x @ x + y @ y, 2.0 * (x[0] * x[1:] + y[0] * y[1:])]
     nz = float(np.linalg.norm(z[1:]))
     l2 = z[0] + nz
-    l1 = _fb_det(x, y) / l2 if l2 > 0 else 0.0
+    l1 = fb_determinant(x, y) / l2 if l2 > 0 else 0.0
     w = z[1:] / nz if nz > 0 else np.zeros(d - 1)
     a1, a2 = np.sqrt(max(l1, 0.0)), np.sqrt(max(l2, 0.0))
     s = np.r_[(a1 + a2) / 2, (a2 - a1) / 2 * w]
@@ -459,6 +459,7 @@ __all__ = [
     "natural_map",
     "natural_map_jacobian",
     "lorentz_fb",
+    "fb_determinant",
     "fischer_burmeister_jacobian",
     "FB_DEGENERATE",
     "in_cone_violation",

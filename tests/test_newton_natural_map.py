@@ -8,13 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
 
 import socp_cd
 from socp_cd.bench.generators import manufactured
 from socp_cd.cones import natural_map, natural_map_jacobian
 from socp_cd.errors import InvalidProblemError, UnsupportedError
-from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem
 from socp_cd.solvers import newton
 from socp_cd.solvers.kernels.newton_nm import NM_SEPARATED, NM_SLIDE, NM_STICK, nm_blocks
 
@@ -128,64 +126,6 @@ def test_zero_exactly_at_the_law(dim):
     nF = _blocks(r, u, p.mu, rho, dim, False)[0]
     assert nF <= 1e-12 * max(1.0, np.linalg.norm(r))
     assert _blocks(r + 0.01, u, p.mu, rho, dim, False)[0] > 1e-4
-
-
-#: (policy, structure): plain steps have no proximal term, so on a rank-deficient W
-#: (``redundant``) their matrix is singular where contacts stick (``Dr = I - P = 0``,
-#: ``Du W`` of W's rank) and only the shift of PLAIN_REGULARIZATION is left: NSN_NM's
-#: weakness there too (formulations/newton.md §13); the proximal policies are held to both
-CASES = [(policy, structure) for policy in ("prox", "plain", "hybrid", "prox_error")
-         for structure in ("tree", "redundant") if (policy, structure) != ("plain", "redundant")]
-
-
-@pytest.mark.parametrize("policy,structure", CASES)
-@pytest.mark.parametrize("dim", [2, 3])
-def test_manufactured_exact_solutions(dim, structure, policy):
-    p = manufactured(30, dim, 0.5, structure=structure, seed=11)
-    res = socp_cd.solve(p, "newton", tol=1e-10, equation="natural_map", policy=policy)
-    assert res.converged and socp_cd.error(p, res.r) <= 1e-10
-    assert res.info["equation"] == "natural_map"
-    if structure == "tree":                    # u is unique: the exact one
-        u_star = p.solution.u
-        assert np.linalg.norm(res.u - u_star) <= 1e-6 * max(1.0, np.linalg.norm(u_star))
-
-
-@pytest.mark.parametrize("dim", [2, 3])
-def test_asymmetric_w(dim):
-    base = manufactured(20, dim, 0.5, seed=4)
-    rng = np.random.default_rng(4)
-    S = rng.normal(size=(base.m, base.m))
-    W = base.W.toarray() + 0.05 * np.abs(base.W).max() * (S - S.T)
-    r_star, u_star = base.solution.r, base.solution.u
-    p = FrictionContactProblem(W, u_star - W @ r_star, base.mu, dim)
-    assert p.asymmetry > 1e-3
-    res = socp_cd.solve(p, "newton", tol=1e-10, equation="natural_map")
-    assert res.converged and socp_cd.error(p, res.r) <= 1e-10
-
-
-@pytest.mark.parametrize("dim", [2, 3])
-def test_global_native_and_condensed_agree(dim):
-    rng = np.random.default_rng(2)
-    n, nc = 12, 5
-    A = rng.normal(size=(n, n))
-    M = A @ A.T + n * np.eye(n)
-    H = rng.normal(size=(n, nc * dim))
-    w = np.tile(np.r_[0.1, np.zeros(dim - 1)], nc)
-    g = GlobalFrictionContactProblem(sp.csr_matrix(M), sp.csr_matrix(H), rng.normal(size=n), w,
-                                     0.4, dim)
-    native = socp_cd.solve(g, "newton", tol=1e-10, global_mode="native", equation="natural_map")
-    cond = socp_cd.solve(g, "newton", tol=1e-10, global_mode="condense", equation="natural_map")
-    assert native.converged and cond.converged
-    assert native.info["linear_solver"] == "splu-global"
-    np.testing.assert_allclose(native.u, cond.u, atol=1e-7 * max(1.0, np.linalg.norm(cond.u)))
-
-
-def test_the_same_run_on_the_dense_and_sparse_matrices():
-    p = manufactured(40, 3, 0.5, seed=8)
-    a = socp_cd.solve(p, "newton", tol=1e-10, linear_solver="dense", equation="natural_map")
-    b = socp_cd.solve(p, "newton", tol=1e-10, linear_solver="splu", equation="natural_map")
-    assert a.converged and b.converged
-    np.testing.assert_allclose(a.u, b.u, atol=1e-8)
 
 
 def test_the_two_equations_differ_and_the_default_is_alart_curnier():

@@ -68,7 +68,7 @@ def lorentz_fb(x, y, d, phi, Mx, My):
     z2 = 2.0 * (x[0] * x[2] + y[0] * y[2]) if d == 3 else 0.0
     nz = np.sqrt(z1 * z1 + z2 * z2)
     l2 = z0 + nz
-    # λ₁ = det(z) / λ₂, det(z) as a sum of squares (cones._fb_det): z₀ − ||z̄|| cancels to
+    # λ₁ = det(z) / λ₂, det(z) as a sum of squares (cones.fb_determinant): z₀ − ||z̄|| cancels to
     # ~eps z₀ on the degenerate set, whose square root would put ~1e-8 |x| of noise in F
     nx = np.sqrt(x[1] * x[1] + (x[2] * x[2] if d == 3 else 0.0))
     ny = np.sqrt(y[1] * y[1] + (y[2] * y[2] if d == 3 else 0.0))
