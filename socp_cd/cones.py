@@ -156,6 +156,24 @@ def desaxce_velocity(u, mu, dim: int = 3) -> np.ndarray:
     return _restore(out, u)
 
 
+def desaxce_velocity_jacobian(u, mu, dim: int = 3) -> np.ndarray:
+    """One element of the generalized Jacobian of :func:`desaxce_velocity`, per contact.
+
+    ``D = I + mu e_N wᵀ`` with ``w = u_T / ||u_T||``, and ``w = 0`` when ``u_T = 0`` (an
+    element of the norm's subdifferential there); shape ``(nc, dim, dim)``.
+    """
+    U = _blocks(u, dim)
+    nc = U.shape[0]
+    mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), (nc,))
+    tu = tangential_norm(U, dim)
+    w = np.zeros((nc, dim - 1))
+    moving = tu > 0
+    w[moving] = U[moving, 1:] / tu[moving, None]
+    D = np.repeat(np.eye(dim)[None], nc, axis=0)
+    D[:, 0, 1:] += mu[:, None] * w
+    return D
+
+
 def natural_map(r, u, mu, dim: int = 3, rho: float = 1.0) -> np.ndarray:
     """Natural map ``F(r) = r - P_K(r - rho û)`` (zero iff the Coulomb law holds)."""
     R = _blocks(r, dim)
@@ -168,10 +186,9 @@ def natural_map_jacobian(r, u, mu, dim: int = 3, rho=1.0):
 
     With ``x = r - rho û`` and ``û = u + mu ||u_T|| e_N``, ``F = r - P_K(x)`` and
     ``dF = Dr dr + Du du`` with ``Dr = I - P``, ``Du = rho P D``, ``P`` the projection's
-    Jacobian at ``x`` (:func:`project_cone_jacobian`) and ``D = I + mu e_N wᵀ``,
-    ``w = u_T / ||u_T||`` (``w = 0`` when ``u_T = 0``, an element of the norm's
-    subdifferential there).  The Newton matrix of ``F(r, W r + q) = 0`` is ``Dr + Du W``
-    (``formulations/newton.md`` §13; the NumPy reference of the compiled
+    Jacobian at ``x`` (:func:`project_cone_jacobian`) and ``D`` the De Saxcé velocity's
+    (:func:`desaxce_velocity_jacobian`).  The Newton matrix of ``F(r, W r + q) = 0`` is
+    ``Dr + Du W`` (``formulations/newton.md`` §13; the NumPy reference of the compiled
     :func:`socp_cd.solvers.kernels.newton_nm.nm_blocks`).
 
     Parameters
@@ -201,12 +218,7 @@ def natural_map_jacobian(r, u, mu, dim: int = 3, rho=1.0):
     X = R - rho[:, None] * desaxce_velocity(U, mu, dim)
     F = R - project_cone(X, mu, dim)
     P = project_cone_jacobian(X, mu, dim)
-    tu = tangential_norm(U, dim)
-    w = np.zeros((nc, dim - 1))
-    moving = tu > 0
-    w[moving] = U[moving, 1:] / tu[moving, None]
-    D = np.repeat(np.eye(dim)[None], nc, axis=0)
-    D[:, 0, 1:] += mu[:, None] * w
+    D = desaxce_velocity_jacobian(U, mu, dim)
     Dr = np.eye(dim)[None] - P
     Du = rho[:, None, None] * np.einsum("kij,kjl->kil", P, D)
     xt = tangential_norm(X, dim)
@@ -314,8 +326,8 @@ def fischer_burmeister_jacobian(r, u, mu, dim: int = 3, rho=1.0):
     ``mu = 0`` (``K_0`` a half-line, not a Lorentz cone) the block is the scalar
     Fischer–Burmeister function of ``0 <= r_N ⊥ rho u_N >= 0`` and ``F_T = r_T``.  Blocks
     ``dF = Dr dr + Du du``: ``Dr = (I − Mx) S_r``, ``Du = rho (I − My) S_u D`` with
-    ``S_r = diag(mu, 1, 1)``, ``S_u = diag(1, mu, mu)``, ``D = I + mu e_N wᵀ``
-    (``w = u_T/||u_T||``, 0 when ``u_T = 0``); the NumPy reference of the compiled
+    ``S_r = diag(mu, 1, 1)``, ``S_u = diag(1, mu, mu)``, ``D`` the De Saxcé velocity's
+    Jacobian (:func:`desaxce_velocity_jacobian`); the NumPy reference of the compiled
     :func:`socp_cd.solvers.kernels.newton_fb.fb_blocks` (``formulations/newton.md`` §14).
 
     Returns
@@ -331,7 +343,7 @@ def fischer_burmeister_jacobian(r, u, mu, dim: int = 3, rho=1.0):
     mu = np.broadcast_to(np.asarray(mu, dtype=np.float64), (nc,))
     rho = np.broadcast_to(np.asarray(rho, dtype=np.float64), (nc,))
     Uh = desaxce_velocity(U, mu, dim)
-    tu = tangential_norm(U, dim)
+    DUh = desaxce_velocity_jacobian(U, mu, dim)
     F = np.zeros((nc, dim))
     Dr = np.zeros((nc, dim, dim))
     Du = np.zeros((nc, dim, dim))
@@ -355,12 +367,9 @@ def fischer_burmeister_jacobian(r, u, mu, dim: int = 3, rho=1.0):
         x = Sr @ R[i]
         y = p * (Su @ Uh[i])
         phi, Mx, My, degenerate = lorentz_fb(x, y)
-        D = eye.copy()
-        if tu[i] > 0:
-            D[0, 1:] += m * U[i, 1:] / tu[i]
         F[i] = phi
         Dr[i] = (eye - Mx) @ Sr
-        Du[i] = p * (eye - My) @ Su @ D
+        Du[i] = p * (eye - My) @ Su @ DUh[i]
         branch[i] = int(degenerate)
     return F.reshape(-1), Dr, Du, branch
 
@@ -456,6 +465,7 @@ __all__ = [
     "project_dual_cone",
     "tangential_norm",
     "desaxce_velocity",
+    "desaxce_velocity_jacobian",
     "natural_map",
     "natural_map_jacobian",
     "lorentz_fb",

@@ -286,3 +286,24 @@ def test_classify_contacts_tolerance_is_relative():
     r = np.array([1e3, 0.0, 0.0, 1e-12, 0.0, 0.0])
     u = np.array([0.0, 0.0, 0.0, 5.0, 0.0, 0.0])
     assert list(classify_contacts(r, u, MU)) == [ContactStatus.STICKING, ContactStatus.SEPARATED]
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_desaxce_velocity_jacobian_matches_finite_differences(dim):
+    """D = I + mu e_N wᵀ against central differences of desaxce_velocity (u_T != 0), and
+    w = 0 where u_T = 0."""
+    from socp_cd.cones import desaxce_velocity_jacobian
+    rng = np.random.default_rng(4)
+    nc = 20
+    u, mu = rng.normal(size=nc * dim), rng.uniform(0, 2, nc)
+    D = desaxce_velocity_jacobian(u, mu, dim)
+    h = 1e-7
+    for j in range(nc * dim):
+        e = np.zeros(nc * dim)
+        e[j] = h
+        fd = (desaxce_velocity(u + e, mu, dim) - desaxce_velocity(u - e, mu, dim)) / (2 * h)
+        i, c = divmod(j, dim)
+        np.testing.assert_allclose(D[i, :, c], fd[i * dim:(i + 1) * dim], atol=1e-7)
+    u.reshape(nc, dim)[:, 1:] = 0.0
+    np.testing.assert_array_equal(desaxce_velocity_jacobian(u, mu, dim),
+                                  np.repeat(np.eye(dim)[None], nc, axis=0))
