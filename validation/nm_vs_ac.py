@@ -26,7 +26,6 @@ writes the report and the figure again from the run's CSVs.
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import sys
 import time
@@ -40,6 +39,7 @@ from socp_cd.bench import evalset
 from socp_cd.bench.reports import emit, performance_profile, shifted_geometric_mean
 from socp_cd.data import shared_problems_dir
 from auto_probe import write_csv
+from fresh_draw import read_rows
 from misses_vs_siconos import siconos_rows
 
 HERE = Path(__file__).resolve().parent
@@ -134,20 +134,6 @@ def report(rows, sic, args, command) -> list[str]:
     return lines
 
 
-def read_csv(path, typed=("solved", "guard_too", "claimed")) -> list[dict]:
-    """A CSV written by this script: numbers as floats, flags as booleans."""
-    rows = []
-    with open(path, newline="") as fh:
-        for row in csv.DictReader(fh):
-            for k, v in row.items():
-                if k in typed:
-                    row[k] = v == "True"
-                elif k in ("error", "guard", "time", "time_limit", "nc"):
-                    row[k] = float(v)
-            rows.append(row)
-    return rows
-
-
 def plot_profile(rows, path, title) -> None:
     """Dolan–Moré profiles over the local 3D cases, one per configuration, solved by the
     error and the units guard (a failure: infinite time).  Siconos' rows are left out: their
@@ -210,9 +196,7 @@ def main(argv=None) -> int:
     title = "Newton: " + " vs ".join(SHOWN[e] for e in args.equations) + ", " + (
         f"seeds {' '.join(map(str, args.seeds))}" if args.seeds else f"{args.split} split")
     if args.from_csv:
-        rows = read_csv(out.with_suffix(".csv"))
-        sic_path = out.with_name(out.name + "_siconos.csv")
-        sic = read_csv(sic_path) if sic_path.exists() else []
+        rows, sic = read_rows(out)
         emit(report(rows, sic, args, command), out.with_suffix(".md"))
         plot_profile(rows, out.with_name(out.name + "_profile.png"), title)
         return 0
