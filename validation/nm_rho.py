@@ -11,7 +11,8 @@ and the units guard of the answer mapped back::
 
     python validation/nm_rho.py --split tune --out results/nm_rho_tune.md
 
-Not an option of the solver: the parameter is swapped in for the run (``newton._system_rho``).
+Siconos' value is passed as the option ``rho=1.0`` (values in the problem's units; since
+session 36, before which the study swapped a private function of the solver).
 """
 from __future__ import annotations
 
@@ -20,7 +21,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 
 import socp_cd
 from socp_cd.bench import evalset
@@ -35,22 +35,13 @@ HERE = Path(__file__).resolve().parent
 def run(p, mode, limit, tol):
     """``(solved, max(error, guard), seconds)`` of plain natural-map steps with ``mode``'s rho."""
     cp = balanced(p).problem
-    a, b, _ = origin(cp)
-    d = p.dim
-    own = newton._system_rho
-    if mode == "siconos":
-        rho = np.ascontiguousarray(b[::d] / a[::d])
-
-        def swapped(system, strategy):
-            return rho, rho, own(system, "block")[2]     # (the proximal unit unchanged)
-        newton._system_rho = swapped
-    try:
-        t0 = time.perf_counter()
-        res = newton.newton_backend(cp, "coulomb", tol=tol, max_iter=10_000, time_limit=limit,
-                                    policy="plain", equation="natural_map")
-        wall = time.perf_counter() - t0
-    finally:
-        newton._system_rho = own
+    a, _, _ = origin(cp)
+    # (Siconos' rho = 1 as written: the backend maps it onto the balanced copy, rho b / a)
+    t0 = time.perf_counter()
+    res = newton.newton_backend(cp, "coulomb", tol=tol, max_iter=10_000, time_limit=limit,
+                                policy="plain", equation="natural_map",
+                                rho=1.0 if mode == "siconos" else "block")
+    wall = time.perf_counter() - t0
     r = a * res.r
     worst = max(socp_cd.error(p, r), socp_cd.guard(p, r)["value"])
     return worst <= tol, worst, wall

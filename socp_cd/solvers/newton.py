@@ -50,13 +50,17 @@ global_mode : {"auto", "native", "condense"}, default "auto"
 stall_window : int, default 50
     Status ``"stalled"`` when the best error has not dropped by 10 % over that
     many outer iterations.
-rho : {"block", "split"}, default "block"
+rho : {"block", "split"}, float or array of shape (n_contacts,), default "block"
     Parameters of the equation at contact ``i`` (Alart–Curnier's ``rho_N``,
-    ``rho_T``; the natural map's ``rho``, ``"block"`` only).  ``"block"``: one value
-    ``rho_N = rho_T = sqrt(d) / ||W_ii||_F``; ``"split"``: ``rho_N = 1/W_NN``
-    (the normal diagonal entry of ``W_ii``) and ``rho_T = 1/||W_TT||_2`` (the
-    tangential sub-block's spectral norm).  Measured in
-    ``validation/results/newton_rho.md``.
+    ``rho_T``; the natural map's and Fischer–Burmeister's ``rho``, not ``"split"``).
+    ``"block"``: one value ``rho_N = rho_T = sqrt(d) / ||W_ii||_F``; ``"split"``:
+    ``rho_N = 1/W_NN`` (the normal diagonal entry of ``W_ii``) and
+    ``rho_T = 1/||W_TT||_2`` (the tangential sub-block's spectral norm).  Measured in
+    ``validation/results/newton_rho.md``.  Numbers: the parameter itself,
+    ``rho_N = rho_T``, in the units of the problem as written (one for every contact or
+    one per contact; Siconos' NSN solvers take 1 for every contact, ``validation/nm_rho.py``);
+    the Python loop then runs (the compiled loops take the strategies).  The proximal
+    parameter's unit stays the ``"block"`` one.
 equation : {"alart_curnier", "natural_map", "fischer_burmeister"}, default "alart_curnier"
     The nonsmooth equation of the law the Newton steps solve: Alart and Curnier's
     (:mod:`~socp_cd.solvers.kernels.newton_ac`), the natural map
@@ -184,8 +188,9 @@ OPTIONS = {
     "linear_solver": "'auto' (default), 'dense' (LAPACK LU) or 'splu' (SuperLU)",
     "global_mode": "'auto' (default), 'native' (saddle point) or 'condense'",
     "stall_window": "outer iterations without a 10 % error drop before 'stalled' (default 50)",
-    "rho": "parameters of the equation: 'block' (default, one per contact) or 'split' "
-           "(Alart–Curnier only: rho_N = 1/W_NN, rho_T = 1/||W_TT||_2)",
+    "rho": "parameters of the equation: 'block' (default, one per contact), 'split' "
+           "(Alart–Curnier only: rho_N = 1/W_NN, rho_T = 1/||W_TT||_2), or the values "
+           "themselves in the problem's units (a positive number, or one per contact)",
     "equation": "nonsmooth equation of the law: 'alart_curnier' (default), 'natural_map' "
                 "(r - P_K(r - rho û), Siconos NSN_NM's; formulations/newton.md §13) or "
                 "'fischer_burmeister' (the Lorentz-cone FB function, Siconos NSN_FB's family; §14)",
@@ -602,12 +607,16 @@ def _rho(diag_blocks, d, strategy="block"):
 
 
 def _system_rho(system, strategy):
-    """:func:`_rho` of ``system``'s diagonal blocks, computed once per system and strategy.
+    """:func:`_rho` of ``system``'s diagonal blocks, computed once per system and strategy
+    (values given per contact, an array in the system's units: themselves, with the
+    ``"block"`` unit of the proximal parameter).
 
     A dense ``W`` with strategy "block" goes through the compiled twin
     :func:`~socp_cd.solvers.kernels.newton_ac.block_rho_dense` (no per-call
     NumPy overhead on a few contacts).
     """
+    if not isinstance(strategy, str):       # values given per contact (working units)
+        return strategy, strategy, _system_rho(system, "block")[2]
     hit = system.rho_cache.get(strategy)
     if hit is None:
         if strategy == "block" and getattr(system, "kind", None) == "dense":
@@ -714,9 +723,10 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     mu : ndarray (nc,)
     r : ndarray (m,)
         Initial impulses (modified in place).
-    rho : {"block", "split"}
+    rho : {"block", "split"} or ndarray (nc,)
         Strategy of the equation's parameters (see :func:`_rho`; ``"split"``, two per
-        contact, for the Alart–Curnier equation only).
+        contact, for the Alart–Curnier equation only), or the values per contact in the
+        system's units (the Python loop).
     policy : {"prox", "hybrid", "plain"}, optional
         ``None``: :data:`DEFAULT_POLICY`.  Outer policy
         (``formulations/newton.md`` §4, §7, §8): ``"prox"`` the proximal loop alone;
@@ -745,13 +755,14 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     """
     policy = DEFAULT_POLICY if policy is None else policy
     twin = (policy in ("prox", "plain") and not history and getattr(system, "compiled", False)
-            and system.m <= COMPILED_LOOP_MAX_M and equation == "alart_curnier")
+            and system.m <= COMPILED_LOOP_MAX_M and equation == "alart_curnier"
+            and isinstance(rho, str))
     if compiled and not twin:
         raise UnsupportedError("the compiled Newton loop needs a dense local system with "
                                f"m <= {COMPILED_LOOP_MAX_M}, policy 'prox' or 'plain', "
-                               "the Alart–Curnier equation and no history")
+                               "the Alart–Curnier equation, a rho strategy and no history")
     blocks = _LAW_BLOCKS[equation]
-    if rho == "split" and equation != "alart_curnier":
+    if _is_split(rho) and equation != "alart_curnier":
         raise InvalidProblemError("rho", f"'split' is the Alart–Curnier equation's; "
                                   f"{equation!r} takes one parameter per contact ('block')")
     if twin and compiled is not False:
@@ -916,7 +927,8 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
             "backtracks": n_backtrack, "line_search_failures": n_ls_fail,
             "singular_steps": n_singular, "rejected_outer": n_rejected,
             "factorizations": system.factorizations,
-            "linear_solver": system.kind, "internal_error": min(err, best_err), "rho": rho,
+            "linear_solver": system.kind, "internal_error": min(err, best_err),
+            "rho": _rho_label(rho),
             "equation": equation}
     if trace is not None:
         info["trace"] = trace
@@ -1064,7 +1076,8 @@ def error_prox(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_li
     info = dict(counts, alpha=alpha, alpha_relative=alpha / sbar,
                 alpha_max_relative=alpha_max_used / sbar, policy="prox_error",
                 factorizations=system.factorizations, linear_solver=system.kind,
-                internal_error=min(err, best_err), rho=rho, inner_failures=n_inner_failed,
+                internal_error=min(err, best_err), rho=_rho_label(rho),
+                inner_failures=n_inner_failed,
                 equation=equation)
     return status, r, it, hist, info
 
@@ -1218,8 +1231,8 @@ def _settings(problem, options, inner_settings=None) -> dict:
     alpha_min = check_real("alpha_min", get("alpha_min", _DEFAULT_ALPHA_MIN), minimum=0.0,
                            maximum=None if policy == "prox_error" else alpha0)
     equation = check_choice("equation", get("equation", DEFAULT_EQUATION), EQUATIONS)
-    rho = check_choice("rho", get("rho", DEFAULT_RHO), RHO_STRATEGIES)
-    if rho == "split" and equation != "alart_curnier":
+    rho = _check_rho(problem, get("rho", DEFAULT_RHO))
+    if _is_split(rho) and equation != "alart_curnier":
         # (the natural map and Fischer–Burmeister's take one parameter per contact)
         raise InvalidProblemError("rho", "'split' gives the Alart–Curnier equation two "
                                   f"parameters per contact; equation {equation!r} takes one "
@@ -1234,6 +1247,41 @@ def _settings(problem, options, inner_settings=None) -> dict:
                 global_mode=check_choice("global_mode", get("global_mode", "auto"),
                                          ("auto", "native", "condense")),
                 rho=rho, policy=policy, equation=equation)
+
+
+def _check_rho(problem, value):
+    """The option ``rho``: a strategy of :data:`RHO_STRATEGIES`, or the equation's parameter
+    given in the problem's units as written (one positive number for every contact, or one
+    per contact), returned as an array of ``n_contacts`` values."""
+    if isinstance(value, str):
+        return check_choice("rho", value, RHO_STRATEGIES)
+    nc = problem.n_contacts
+    if isinstance(value, (bool, np.bool_)):
+        raise InvalidProblemError("rho", f"must be one of {sorted(RHO_STRATEGIES)} or positive "
+                                         f"numbers, got {value!r}")
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidProblemError("rho", f"must be one of {sorted(RHO_STRATEGIES)} or positive "
+                                         f"numbers, got {value!r}") from None
+    if arr.ndim == 0:
+        arr = np.full(nc, float(arr))
+    if arr.shape != (nc,):
+        raise InvalidProblemError("rho", f"needs one value or one per contact ({nc}), got shape "
+                                         f"{arr.shape}")
+    if not (np.all(np.isfinite(arr)) and np.all(arr > 0)):
+        raise InvalidProblemError("rho", "given values must be finite and > 0")
+    return arr
+
+
+def _is_split(rho) -> bool:
+    """Whether the option ``rho`` (checked) is the strategy ``"split"``."""
+    return isinstance(rho, str) and rho == "split"
+
+
+def _rho_label(rho) -> str:
+    """``info["rho"]``: the strategy, or ``"given"`` for values the caller set."""
+    return rho if isinstance(rho, str) else "given"
 
 
 def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=False,
@@ -1251,6 +1299,11 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
     r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=np.float64).reshape(-1)
     # on the dispatcher's balanced copy: its own measure, Siconos' error as written
     units = None if problem.is_global else origin(problem)
+    if not isinstance(st["rho"], str) and units is not None:
+        # values given as written; on the balanced copy r = a r~, u = b u~, so that
+        # F(r) = a F~(r~) with the parameter rho b / a (P_K is positively homogeneous)
+        d = problem.dim
+        st["rho"] = np.ascontiguousarray(st["rho"] * units[1][::d] / units[0][::d])
     t0 = time.perf_counter()        # (entering _one_blas_thread counts against time_limit)
     as_written = None
     if units is not None:
