@@ -37,7 +37,8 @@ SMALL_SHARED = ["FrictionContact3D_1c.dat", "FrictionContact3D_RR_1c.dat", "Rove
                 "OneObject-i1028-138.hdf5.dat"]
 
 
-def _both(p, r0, tol, max_iter=200, time_limit=None, rho="block", policy="prox", **settings):
+def _both(p, r0, tol, max_iter=200, time_limit=None, rho="block", policy="prox",
+          equation="alart_curnier", **settings):
     """``(python, compiled)`` results of ``prox_newton`` on ``p`` from ``r0``."""
     settings = settings or COLD
     out = []
@@ -46,7 +47,8 @@ def _both(p, r0, tol, max_iter=200, time_limit=None, rho="block", policy="prox",
         mu = np.ascontiguousarray(p.mu, dtype=np.float64)
         out.append(nt.prox_newton(system, mu, np.array(r0, dtype=np.float64), tol=tol,
                                   max_iter=max_iter, time_limit=time_limit, history=False,
-                                  rho=rho, policy=policy, compiled=compiled, **settings))
+                                  rho=rho, policy=policy, compiled=compiled,
+                                  equation=equation, **settings))
     return out
 
 
@@ -333,6 +335,41 @@ def test_plain_twin_equals_python_loop_on_manufactured_problems(dim, structure, 
         a, b = _both(p, p.solution.r + 1e-4 * np.abs(p.solution.r).max(), 1e-12,
                      policy="plain", **PLAIN)
         _assert_equal(a, b)
+
+
+OTHER_EQUATIONS = ["natural_map", "fischer_burmeister"]
+
+
+@pytest.mark.parametrize("equation", OTHER_EQUATIONS)
+@pytest.mark.parametrize("name", SMALL_SHARED)
+def test_twins_equal_python_loop_on_the_other_equations_shared(name, equation):
+    # since session 36 the compiled loops take the equation (law_blocks): the natural
+    # map's and Fischer–Burmeister's runs are the Python loop's, bit for bit
+    p = _shared(name)
+    a, b = _both(p, np.zeros(p.m), 1e-10, equation=equation)
+    _assert_equal(a, b)
+    assert a[4]["equation"] == b[4]["equation"] == equation
+    _assert_equal(*_both(p, np.zeros(p.m), 1e-10, policy="plain", equation=equation, **PLAIN))
+
+
+@pytest.mark.parametrize("equation", OTHER_EQUATIONS)
+@pytest.mark.parametrize("policy", ["prox", "plain"])
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("structure", ["tree", "redundant"])
+@pytest.mark.parametrize("m", [72, 90])
+def test_twins_equal_python_loop_on_the_other_equations_manufactured(m, structure, dim, policy,
+                                                                     equation):
+    """Separated/stick/slide/grazing mixes, mu = 0 (FB's scalar branch) to 2, rank-deficient
+    W, both LUs; cold and from a perturbed exact solution."""
+    nc = m // dim
+    settings = PLAIN if policy == "plain" else COLD
+    for seed, (mu, mix) in enumerate([(0.3, (0.25, 0.35, 0.3, 0.1)), (2.0, (0.0, 0.0, 1.0, 0.0)),
+                                      (0.0, (0.5, 0.0, 0.0, 0.5))]):
+        p = manufactured(nc, dim, mu, structure=structure, mix=mix, seed=seed)
+        _assert_equal(*_both(p, np.zeros(p.m), 1e-10, max_iter=60, policy=policy,
+                             equation=equation, **settings))
+        _assert_equal(*_both(p, p.solution.r + 1e-4 * np.abs(p.solution.r).max(), 1e-12,
+                             policy=policy, equation=equation, **settings))
 
 
 def test_plain_twin_counts_failed_line_searches_like_the_python_loop():

@@ -187,11 +187,15 @@ def test_no_path_of_a_natural_map_solve_runs_the_alart_curnier_kernel(monkeypatc
         assert [run[0] for run in out[4]["runs"]] == ["written", "balanced"]
 
 
-def test_the_compiled_loop_refuses_the_natural_map():
+def test_the_compiled_loop_takes_the_natural_map_not_given_rho_values():
+    # (since session 36 the compiled loops take every equation; values of rho given per
+    # contact run the Python loop)
     p = manufactured(4, 3, 0.5, seed=1)
-    system = newton._LocalSystem(p, "dense")
+    kw = dict(tol=1e-8, max_iter=5, alpha0=0.1, alpha_min=1e-10, inner_max_iter=10,
+              stall_window=50, time_limit=None, history=False, compiled=True,
+              equation="natural_map")
+    out = newton.prox_newton(newton._LocalSystem(p, "dense"), p.mu, np.zeros(p.m), **kw)
+    assert out[4]["equation"] == "natural_map"
     with pytest.raises(UnsupportedError):
-        newton.prox_newton(system, p.mu, np.zeros(p.m), tol=1e-8, max_iter=5, alpha0=0.1,
-                           alpha_min=1e-10, inner_max_iter=10, stall_window=50,
-                           time_limit=None, history=False, compiled=True,
-                           equation="natural_map")
+        newton.prox_newton(newton._LocalSystem(p, "dense"), p.mu, np.zeros(p.m),
+                           rho=np.ones(p.n_contacts), **kw)

@@ -68,8 +68,8 @@ equation : {"alart_curnier", "natural_map", "fischer_burmeister"}, default "alar
     (:mod:`~socp_cd.solvers.kernels.newton_nm`, ``formulations/newton.md`` §13), or the
     Fischer–Burmeister function of the same complementarity mapped onto the Lorentz cone,
     the family of Siconos NSN_FB (:mod:`~socp_cd.solvers.kernels.newton_fb`, §14).  The
-    last two with ``rho="block"`` only, and on the Python loop: the compiled loops solve
-    Alart–Curnier's.  Every policy below takes any of them.
+    last two not with ``rho="split"``.  Every policy below takes any of them, and the
+    compiled loops all three (since session 36).
 policy : {"prox", "hybrid", "plain", "prox_error"}, default "prox"
     Outer policy: the proximal loop alone, or plain Newton steps on the
     equation first with the proximal loop as fallback
@@ -712,9 +712,9 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     """Run the proximal-point semismooth Newton method.
 
     This Python loop is the reference; a small dense local system
-    (``m <= COMPILED_LOOP_MAX_M``) with ``policy="prox"`` or ``"plain"``, the
-    Alart–Curnier equation and no history runs its compiled twin instead
-    (:func:`_newton_compiled`: same iterates, same counters).
+    (``m <= COMPILED_LOOP_MAX_M``) with ``policy="prox"`` or ``"plain"``, a ``rho``
+    strategy and no history runs its compiled twin instead (:func:`_newton_compiled`: same
+    iterates, same counters; any equation).
 
     Parameters
     ----------
@@ -743,8 +743,8 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         Python loop always (the reference the tests compare with); ``True``:
         the twin (``UnsupportedError`` when it does not apply).
     equation : {"alart_curnier", "natural_map", "fischer_burmeister"}
-        The nonsmooth equation of the law (:data:`EQUATIONS`); the compiled twin solves
-        Alart–Curnier's only, so the others run this loop.
+        The nonsmooth equation of the law (:data:`EQUATIONS`; the compiled twin's ``law``
+        code, :data:`~.kernels.newton_dense.LAW_CODES`).
 
     Returns
     -------
@@ -755,12 +755,11 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     """
     policy = DEFAULT_POLICY if policy is None else policy
     twin = (policy in ("prox", "plain") and not history and getattr(system, "compiled", False)
-            and system.m <= COMPILED_LOOP_MAX_M and equation == "alart_curnier"
-            and isinstance(rho, str))
+            and system.m <= COMPILED_LOOP_MAX_M and isinstance(rho, str))
     if compiled and not twin:
         raise UnsupportedError("the compiled Newton loop needs a dense local system with "
                                f"m <= {COMPILED_LOOP_MAX_M}, policy 'prox' or 'plain', "
-                               "the Alart–Curnier equation, a rho strategy and no history")
+                               "a rho strategy and no history")
     blocks = _LAW_BLOCKS[equation]
     if _is_split(rho) and equation != "alart_curnier":
         raise InvalidProblemError("rho", f"'split' is the Alart–Curnier equation's; "
@@ -769,7 +768,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         return _newton_compiled(system, mu, r, tol=tol, max_iter=max_iter, alpha0=alpha0,
                                 alpha_min=alpha_min, inner_max_iter=inner_max_iter,
                                 stall_window=stall_window, time_limit=time_limit, rho=rho,
-                                plain=policy == "plain")
+                                plain=policy == "plain", equation=equation)
     d = system.d
     nc = mu.shape[0]
     rho_n, rho_t, wscale = _system_rho(system, rho)
@@ -1119,7 +1118,7 @@ def prox_error_runs(system, mu, r, *, tol, max_iter, alpha_min, stall_window, ti
 
 
 def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
-                     stall_window, time_limit, rho, plain=False):
+                     stall_window, time_limit, rho, plain=False, equation=DEFAULT_EQUATION):
     """:func:`prox_newton` (policy "prox", or "plain" when ``plain``; no history) through its
     compiled twin (:func:`~.kernels.newton_dense.prox_newton_dense`,
     :func:`~.kernels.newton_dense.plain_newton_dense`).
@@ -1135,6 +1134,7 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
     Python between them (a run may then overrun its limit by one chunk).
     """
     rho_n, rho_t, wscale = _system_rho(system, rho)
+    law = nd.LAW_CODES[equation]
     fstate, istate = nd.new_state(alpha0 * wscale, clock.deadline_after(time_limit))
     r = np.array(r, dtype=np.float64)         # a copy: the caller's r is never written
     best_r = np.empty_like(r)
@@ -1144,12 +1144,12 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
     if plain:
         loop = nd.plain_newton_dense
         rest = (PLAIN_REGULARIZATION * wscale, int(stall_window), GOLDSTEIN_M1, _MAX_BACKTRACK,
-                r, best_r, fstate, istate, system.lapack)
+                r, best_r, fstate, istate, system.lapack, law)
     else:
         loop = nd.prox_newton_dense
         rest = (alpha_min * wscale, _ALPHA_MAX * wscale, int(inner_max_iter), int(stall_window),
                 _ARMIJO, _MAX_BACKTRACK, NONMONOTONE, INNER_GATE, INNER_DECREASE, r, best_r,
-                fstate, istate, system.lapack)
+                fstate, istate, system.lapack, law)
     if time_limit is None or clock.AVAILABLE:
         loop(*args, int(max_iter), *rest)
         status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
@@ -1172,7 +1172,7 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
     if status != "converged" and best_err < err:
         r = best_r
     system.factorizations += ist[nd.I_FACTORIZATIONS]
-    info = nd.run_info(fs, ist, wscale, plain, system.factorizations, system.kind, rho)
+    info = nd.run_info(fs, ist, wscale, plain, system.factorizations, system.kind, rho, law)
     return status, r, ist[nd.I_IT], None, info
 
 
@@ -1698,9 +1698,11 @@ def warmup() -> float:
                 # (the compiled route's and auto's trials' one call, nsgs_route.newton_checked)
                 compiled_runs(prob, -1.0, np.zeros(prob.m), 1e-14, 2, prox=policy == "prox",
                               stall_window=DEFAULT_STALL_WINDOW, constants=trial_constants())
-        # (the other equations' kernels, reached on the Python loop only)
+        # (the other equations' kernels as the Python loop calls them, history forcing it:
+        # the compiled loops above reach them inlined)
         for equation in EQUATIONS[1:]:
-            newton_backend(prob, "coulomb", tol=1e-14, max_iter=2, equation=equation)
+            newton_backend(prob, "coulomb", tol=1e-14, max_iter=2, equation=equation,
+                           history=True)
     return time.perf_counter() - t0
 
 

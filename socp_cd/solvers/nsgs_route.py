@@ -423,12 +423,12 @@ def _balanced_run(W, q_s, a, b, q_norm, mu, dim, start, norm_q, tol, max_iter, s
                              int(constants[C_INNER_MAX_ITER]), stall_window, constants[C_ARMIJO],
                              max_backtrack, constants[C_NONMONOTONE], constants[C_INNER_GATE],
                              constants[C_INNER_DECREASE], r_s, best_r, fstate, istate,
-                             None)
+                             None, nd.LAW_AC)
     else:
         nd.plain_newton_dense(W, q_s, norm_q, mu, rho, rho, dim, tol, max_iter,
                               constants[C_PLAIN_REGULARIZATION] * wscale, stall_window,
                               constants[C_GOLDSTEIN_M1], max_backtrack, r_s, best_r, fstate,
-                              istate, None)
+                              istate, None, nd.LAW_AC)
     status = istate[nd.I_STATUS]
     err, best_err = fstate[nd.F_ERR], fstate[nd.F_BEST_ERR]
     if status != nd.CONVERGED and best_err < err:
@@ -746,7 +746,8 @@ def run_record(fstate, istate, wscale, prox, internal, e, full_info, factorizati
     if full_info:
         ist = istate.tolist()
         info = nd.run_info(fstate.tolist(), ist, wscale, not prox,
-                           factorizations + ist[nd.I_FACTORIZATIONS], "dense", "block")
+                           factorizations + ist[nd.I_FACTORIZATIONS], "dense", "block",
+                           nd.LAW_AC)
     else:
         info = {}
     info["internal_error"] = float(internal)

@@ -7,7 +7,7 @@ The Python function is the reference and the path of every other case
 (sparse or global systems, ``policy="hybrid"``, ``history=True``);
 ``tests/test_newton_dense.py`` holds the two equal (same status, same number of
 outer iterations, same counters, same ``r``).  Both call the same kernels in
-the same order (:func:`~.newton_ac.ac_blocks`, :func:`~.newton_ac.dense_jacobian`,
+the same order (the equation's kernel through :func:`law_blocks`, :func:`~.newton_ac.dense_jacobian`,
 :func:`~.dense.dense_solve`, :func:`~.dense.matvec_into`,
 :func:`~.cone.siconos_error`), so the iterates agree to the last bit; what the
 twin removes is the interpreter and the small temporaries of the loop body
@@ -35,6 +35,8 @@ from .clock import past
 from .cone import project_cone_stacked, siconos_error
 from .dense import dense_solve, matvec, matvec_into
 from .newton_ac import ac_blocks, dense_jacobian
+from .newton_fb import fb_blocks
+from .newton_nm import nm_blocks
 
 #: run status codes (``RUNNING`` after the last call means the step cap was reached;
 #: ``TIME_LIMIT``: the clock passed the deadline ``F_DEADLINE``)
@@ -54,6 +56,23 @@ FSTATE = 5
 #: a step's retry with it worked, cleared when a retry without it did)
 I_REGULARIZED = 10
 ISTATE = 11
+#: codes of the equations of the law the loops solve (their ``law`` argument), by the
+#: backend's names (``newton.EQUATIONS``)
+LAW_AC, LAW_NM, LAW_FB = 0, 1, 2
+LAW_CODES = {"alart_curnier": LAW_AC, "natural_map": LAW_NM, "fischer_burmeister": LAW_FB}
+LAW_NAMES = {code: name for name, code in LAW_CODES.items()}
+
+
+@njit(cache=True)
+def law_blocks(law, r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch):
+    """The kernel of the equation ``law`` (:data:`LAW_CODES`):
+    :func:`~.newton_ac.ac_blocks`, :func:`~.newton_nm.nm_blocks` or
+    :func:`~.newton_fb.fb_blocks`, same arguments and return value (``||F||``)."""
+    if law == LAW_NM:
+        return nm_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch)
+    if law == LAW_FB:
+        return fb_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch)
+    return ac_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch)
 
 
 def new_state(alpha, deadline=np.inf):
@@ -66,13 +85,13 @@ def new_state(alpha, deadline=np.inf):
     return fstate, np.zeros(ISTATE, dtype=np.int64)
 
 
-def run_info(fs, ist, wscale, plain, factorizations, linear_solver, rho) -> dict:
+def run_info(fs, ist, wscale, plain, factorizations, linear_solver, rho, law) -> dict:
     """``info`` of a run of these loops as the Newton backend reports it
     (:func:`socp_cd.solvers.newton.prox_newton`'s keys): ``fs``, ``ist`` the run's state
     (:func:`new_state`) as lists, ``wscale`` the block scale of ``W`` (the proximal
     parameter's unit), ``plain`` the plain-steps loop, ``factorizations`` the system's
     count so far (this run's included), ``linear_solver`` its kind, ``rho`` the
-    Alart–Curnier strategy (these loops solve the Alart–Curnier equation: ``equation``)."""
+    strategy of the equation's parameters, ``law`` the equation's code (:data:`LAW_CODES`)."""
     alpha = fs[F_ALPHA]
     return {"alpha": alpha, "alpha_relative": alpha / wscale,
             "alpha_max_relative": fs[F_ALPHA_MAX_USED] / wscale,
@@ -82,7 +101,7 @@ def run_info(fs, ist, wscale, plain, factorizations, linear_solver, rho) -> dict
             "singular_steps": ist[I_SINGULAR], "rejected_outer": ist[I_REJECTED],
             "factorizations": factorizations, "linear_solver": linear_solver,
             "internal_error": min(fs[F_ERR], fs[F_BEST_ERR]), "rho": rho,
-            "equation": "alart_curnier"}
+            "equation": LAW_NAMES[law]}
 
 
 @njit(cache=True)
@@ -157,7 +176,7 @@ def _store(istate, fstate, status, it, best_it, n_newton, n_backtrack, n_ls_fail
 @njit(cache=True)
 def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_max,
                       inner_max_iter, stall_window, armijo, max_backtrack, nonmonotone,
-                      inner_gate, inner_decrease, r, best_r, fstate, istate, lapack):
+                      inner_gate, inner_decrease, r, best_r, fstate, istate, lapack, law):
     """Run outer proximal iterations until ``it_end``, convergence, stall or a non-finite error.
 
     Parameters
@@ -167,7 +186,7 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
     norm_q : float
         ``||q||`` (the normalization of Siconos' error).
     mu, rho_n, rho_t : ndarray (nc,)
-        Friction coefficients and Alart–Curnier parameters.
+        Friction coefficients and the equation's parameters.
     d : int
     tol : float
     it_end : int
@@ -186,6 +205,8 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
         Run state (:func:`new_state`), updated in place.
     lapack : None or tuple
         The LU of :func:`~.dense.dense_solve` (None: the written-out one).
+    law : int
+        The equation of the law (:data:`LAW_CODES`; ``rho_t`` is read by Alart–Curnier's only).
 
     Notes
     -----
@@ -213,7 +234,7 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
         for _inner in range(inner_max_iter):
             for k in range(m):
                 ua[k] = u[k] + alpha * (r[k] - rk[k])
-            nF = ac_blocks(r, ua, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
+            nF = law_blocks(law, r, ua, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
             if nF == 0.0:
                 solved = True
                 break
@@ -240,7 +261,7 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
                     ut[k] = u[k] + t * du[k]
                 for k in range(m):
                     ua[k] = ut[k] + alpha * (rt[k] - rk[k])
-                nFt = ac_blocks(rt, ua, mu, rho_n, rho_t, d, False, Ft, Dr, Du, branch)
+                nFt = law_blocks(law, rt, ua, mu, rho_n, rho_t, d, False, Ft, Dr, Du, branch)
                 if 0.5 * nFt * nFt <= (1.0 - 2.0 * armijo * t) * phi:
                     found = True
                     break
@@ -332,13 +353,13 @@ def _plain_direction(W, Dr, Du, F, d, reg, J, mF, lapack, reg_first):
 
 @njit(cache=True)
 def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stall_window,
-                       m1, max_backtrack, r, best_r, fstate, istate, lapack):
+                       m1, max_backtrack, r, best_r, fstate, istate, lapack, law):
     """Plain (nonmonotone) semismooth Newton steps until ``it_end``, convergence or stall.
 
     The compiled twin of :func:`socp_cd.solvers.newton.prox_newton` with
     ``policy="plain"`` (Siconos NSN_AC's globalization, ``formulations/newton.md``
     §8), same iterates and counters: per step the Newton direction of the
-    Alart–Curnier equation (a singular matrix retried with ``W + reg I``, and the
+    equation ``law`` (a singular matrix retried with ``W + reg I``, and the
     run's later steps regularized first, the unregularized matrix their retry, until
     that retry is the one that works; when both are singular the run ends with
     ``NUMERICAL_ERROR``), halvings of ``t``
@@ -348,7 +369,7 @@ def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stal
     iterate is kept in ``best_r``; stalled after ``stall_window`` steps
     without a 10 % drop of the best error.  ``fstate``, ``istate``: as
     :func:`prox_newton_dense` (``F_ALPHA`` unused; every step counts in
-    ``I_NEWTON``), and ``lapack``.
+    ``I_NEWTON``), ``lapack`` and ``law``.
     """
     m = r.shape[0]
     nc = mu.shape[0]
@@ -359,7 +380,7 @@ def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stal
     while status == RUNNING and it < it_end:
         it += 1
         rk[:] = r
-        nF = ac_blocks(r, u, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
+        nF = law_blocks(law, r, u, mu, rho_n, rho_t, d, True, F, Dr, Du, branch)
         bt = 0
         ls_ok = True
         if nF != 0.0:
@@ -378,7 +399,7 @@ def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stal
                 for k in range(m):
                     rt[k] = r[k] + t * dr[k]
                     ut[k] = u[k] + t * du[k]
-                nFt = ac_blocks(rt, ut, mu, rho_n, rho_t, d, False, Ft, Dr, Du, branch)
+                nFt = law_blocks(law, rt, ut, mu, rho_n, rho_t, d, False, Ft, Dr, Du, branch)
                 if nFt * nFt <= (1.0 - 2.0 * m1 * t) * nF * nF:
                     ls_ok = True
                     bt = b
@@ -422,7 +443,8 @@ def projected_error(W, q, norm_q, mu, d, r, out):
     return siconos_error(out, u, mu, d, norm_q)
 
 
-__all__ = ["prox_newton_dense", "plain_newton_dense", "velocity_error", "new_state", "RUNNING", "CONVERGED", "STALLED",
+__all__ = ["prox_newton_dense", "plain_newton_dense", "law_blocks", "LAW_CODES", "LAW_AC",
+           "LAW_NM", "LAW_FB", "LAW_NAMES", "velocity_error", "new_state", "RUNNING", "CONVERGED", "STALLED",
            "NUMERICAL_ERROR", "TIME_LIMIT", "FSTATE", "ISTATE", "F_ALPHA", "F_ALPHA_MAX_USED",
            "F_ERR", "F_BEST_ERR", "F_DEADLINE", "I_STARTED", "I_STATUS", "I_IT", "I_BEST_IT", "I_NEWTON",
            "I_BACKTRACK", "I_LS_FAIL", "I_SINGULAR", "I_REJECTED", "I_FACTORIZATIONS",
