@@ -195,7 +195,23 @@ def shift_fixed_point(p, iterations, report=(10, 20, 40)):
         if k in report:
             out[k] = (siconos_error(p, r), float(np.linalg.norm(s - s_star) / np.linalg.norm(s_star)))
         s = p.mu * np.linalg.norm(p.velocity(r).reshape(n, 3)[:, 1:], axis=1)
-    return out
+    return out, sticking_that_slip(p, r)
+
+
+def sticking_that_slip(p, r):
+    """At ``r``: how many contacts that stick in the manufactured solution (``r* != 0``,
+    ``u* = 0``) slip (``|u_T|`` above 1 % of the largest ``|u*_T|``), with their largest
+    ``|u_T|``, largest ``r_N`` and largest contact error."""
+    from socp_cd.residuals import contact_errors
+    n = p.n_contacts
+    rs, us = p.solution.r.reshape(n, 3), p.velocity(p.solution.r).reshape(n, 3)
+    stick = (np.abs(rs).max(axis=1) > 0) & (np.abs(us).max(axis=1) == 0)
+    ut = np.linalg.norm(p.velocity(r).reshape(n, 3)[:, 1:], axis=1)
+    slip = stick & (ut > 1e-2 * np.linalg.norm(us[:, 1:], axis=1).max())
+    if not slip.any():
+        return int(stick.sum()), 0, 0.0, 0.0, 0.0
+    return (int(stick.sum()), int(slip.sum()), float(ut[slip].max()),
+            float(r.reshape(n, 3)[slip, 0].max()), float(contact_errors(p, r)[slip].max()))
 
 
 def shift_newton_krylov(p, plain_first=5, maxiter=15):
@@ -260,6 +276,11 @@ def main():
     fp_lines = ["", "Shift fixed point (no acceleration; Clarabel at 1e-12 per SOCP): error and "
                 "`|s_k - s*| / |s*|` after k SOCPs.", "",
                 "| case | k | error | rel. distance to s* |", "|---|---:|---:|---:|"]
+    slip_lines = ["", "At the fixed point's last iterate: contacts that stick in the manufactured "
+                  "solution, those of them that slip (`|u_T|` above 1 % of the largest `|u*_T|`), "
+                  "their largest `|u_T|`, `r_N` and contact error.", "",
+                  "| case | sticking in r* | slipping here | max ‖u_T‖ | max r_N | max error |",
+                  "|---|---:|---:|---:|---:|---:|"]
     for name, p in study_cases():
         cold = socp_cd.solve(p, "newton", time_limit=10.0)
         for label, kw in VARIANTS.items():
@@ -278,9 +299,11 @@ def main():
             lines.append(f"| {name} | {label} | {best:.1e} | {its} | {dt:.1f} | {then} | "
                          f"{cold.status} {cold.error:.1e} ({cold.time:.1f} s) |")
             print(lines[-1], flush=True)
-        for k, (e, dist) in shift_fixed_point(p, a.fp_iterations).items():
+        rows, (n_stick, n_slip, ut, rn, ce) = shift_fixed_point(p, a.fp_iterations)
+        for k, (e, dist) in rows.items():
             fp_lines.append(f"| {name} | {k} | {e:.1e} | {dist:.1e} |")
             print(fp_lines[-1], flush=True)
+        slip_lines.append(f"| {name} | {n_stick} | {n_slip} | {ut:.1e} | {rn:.1e} | {ce:.1e} |")
     if a.newton_krylov:
         name, p = study_cases()[0]
         e, n_socp = shift_newton_krylov(p)
@@ -289,7 +312,7 @@ def main():
                      f"{n_socp} SOCPs."]
         print(fp_lines[-1], flush=True)
     out = Path(__file__).with_name("results") / "ipm_study_s36.md"
-    out.write_text("\n".join(lines + fp_lines) + "\n")
+    out.write_text("\n".join(lines + fp_lines + slip_lines) + "\n")
     print("wrote", out)
 
 
