@@ -208,6 +208,8 @@ def main(argv=None) -> int:
     ap.add_argument("--max-contacts", type=int, default=None,
                     help="leave out operators of more contacts (a quick check)")
     ap.add_argument("--large-time-limit", type=float, default=10.0)
+    ap.add_argument("--family", default="",
+                    help="only the cases whose id contains this (e.g. Capsules)")
     ap.add_argument("--siconos", action="store_true", help="give auto's misses to Siconos")
     ap.add_argument("--strong-large", action="store_true",
                     help="only Siconos' five strongest solvers on the large misses")
@@ -233,6 +235,7 @@ def main(argv=None) -> int:
     else:
         cases = evalset.manufactured_cases(shared_problems_dir(), seeds=args.seeds, scales=(),
                                           max_contacts=args.max_contacts)
+    cases = [c for c in cases if args.family in c.case_id]
     socp_cd.warmup()
     rows = run_auto(cases, args.tol, args.time_limit, args.large_time_limit, args.large)
     out.parent.mkdir(parents=True, exist_ok=True)
