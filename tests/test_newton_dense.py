@@ -340,6 +340,23 @@ def test_plain_twin_equals_python_loop_on_manufactured_problems(dim, structure, 
 OTHER_EQUATIONS = ["natural_map", "fischer_burmeister"]
 
 
+def test_law_codes_are_the_backend_equations_and_an_unknown_code_is_nan():
+    from socp_cd.solvers.kernels import newton_dense as nd
+    assert set(nd.LAW_CODES) == set(nt.EQUATIONS) == set(nt._LAW_BLOCKS)
+    assert sorted(nd.LAW_CODES.values()) == list(range(len(nt.EQUATIONS)))
+    p = manufactured(3, 3, 0.5, seed=1)
+    nc, m = p.n_contacts, p.m
+    F, Dr, Du = np.zeros(m), np.zeros((nc, 3, 3)), np.zeros((nc, 3, 3))
+    branch = np.zeros(nc, dtype=np.int64)
+    r, u, rho = p.solution.r, p.solution.u, np.ones(nc)
+    for name, code in nd.LAW_CODES.items():
+        # each code runs its own kernel: F = 0 at the exact solution, F != 0 away from it
+        assert nd.law_blocks(code, r, u, p.mu, rho, rho, 3, True, F, Dr, Du, branch) < 1e-12
+        assert nd.law_blocks(code, r + 1.0, u, p.mu, rho, rho, 3, True, F, Dr, Du, branch) > 0
+    assert np.isnan(nd.law_blocks(99, r, u, p.mu, rho, rho, 3, True, F, Dr, Du, branch))
+    assert np.isnan(F).all()
+
+
 @pytest.mark.parametrize("equation", OTHER_EQUATIONS)
 @pytest.mark.parametrize("name", SMALL_SHARED)
 def test_twins_equal_python_loop_on_the_other_equations_shared(name, equation):

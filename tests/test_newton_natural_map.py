@@ -166,9 +166,12 @@ def _refuse(*args):
 @pytest.mark.parametrize("history", [False, True])
 def test_no_path_of_a_natural_map_solve_runs_the_alart_curnier_kernel(monkeypatch, policy,
                                                                      history):
-    """Every call site takes the run's equation: with the Alart–Curnier kernel replaced by
-    one that raises, natural-map solves under every policy still converge (prox_error's
-    balanced second run forced by an unreachable tolerance and a stall window of one)."""
+    """Every Python call site takes the run's equation: with the Alart–Curnier kernel
+    replaced by one that raises, natural-map solves under every policy still converge
+    (prox_error's balanced second run forced by an unreachable tolerance and a stall window
+    of one).  Since session 36, ``prox`` and ``plain`` without history run the compiled
+    loops, which the patch does not reach; ``history=True`` holds those two policies to the
+    Python loop, and tests/test_newton_dense.py holds the compiled loops to it."""
     monkeypatch.setattr(newton, "_LAW_BLOCKS",
                         dict(newton._LAW_BLOCKS, alart_curnier=_refuse))
     monkeypatch.setattr(newton, "ac_blocks", _refuse)

@@ -44,8 +44,23 @@ def test_given_values_are_in_the_units_as_written(equation):
     assert np.linalg.norm(k * c.r - a.r) > 1e-6 * np.linalg.norm(a.r)
 
 
+@pytest.mark.parametrize("equation", EQUATIONS)
+def test_given_values_follow_a_change_of_units_per_contact(equation):
+    # contact i in its own unit: r = d_i r3, u3 = d_i u (W3 = D W D, q3 = D q); the
+    # equation at contact i is the same with rho3_i = rho_i / d_i²
+    p = manufactured(12, 3, 0.8, structure="redundant", seed=8)
+    d = np.repeat(np.geomspace(0.1, 10.0, p.n_contacts), 3)
+    p3 = FrictionContactProblem(d[:, None] * p.W.toarray() * d[None, :], d * p.q, p.mu, p.dim)
+    rho = np.linspace(0.5, 2.0, p.n_contacts)
+    a = socp_cd.solve(p, "newton", rho=rho, equation=equation, tol=1e-10)
+    b = socp_cd.solve(p3, "newton", rho=rho / d[::3] ** 2, equation=equation, tol=1e-10)
+    assert a.converged and b.converged
+    assert (a.iterations, a.info["newton_steps"]) == (b.iterations, b.info["newton_steps"])
+    np.testing.assert_allclose(d * b.r, a.r, rtol=0, atol=1e-7 * np.linalg.norm(a.r))
+
+
 @pytest.mark.parametrize("bad", [True, 0.0, -1.0, np.nan, np.inf, 1j, "nope", [1.0, 2.0],
-                                 np.ones((2, 2)), object()])
+                                 np.ones((2, 2)), object(), [True] * 4, ["1"] * 4])
 def test_bad_given_values_name_the_field(bad):
     p = manufactured(4, 3, 0.5, seed=1)
     with pytest.raises(InvalidProblemError) as exc:

@@ -8,7 +8,13 @@ and on manufactured ones, JIT warmed, min over repeats, and writes a Markdown ta
     python validation/equation_call_cost.py --out results/equation_call_cost_s36.md
 
 Run it once per checkout (that checkout first on ``PYTHONPATH``) with ``--json``, then
-``--merge BEFORE AFTER --out ...`` puts the two side by side.  Every call passes ``equation``,
+``--merge BEFORE AFTER --out ...`` puts the two side by side.  ``--ab OTHER_CHECKOUT``
+times Alart–Curnier's calls only, without options (the compiled route) and with
+``equation="alart_curnier"`` (the general path), in processes alternating between the other
+checkout and this one (``--rounds``), min over rounds::
+
+    python validation/equation_call_cost.py --ab /path/to/before --out results/equation_call_cost_ab_s36.md
+  Every call passes ``equation``,
 so every call takes the dispatcher's general path (~47 µs on one contact, against ~12 µs for
 ``solve(p, "newton")`` without options, its compiled route): the ratios compare the
 equations on the same path.
@@ -17,6 +23,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -56,6 +66,59 @@ def per_call(p, equation, repeats, budget=0.2):
     return best, res.status, res.error
 
 
+def ac_only(repeats):
+    """``{problem: (route time, general-path time)}`` of Alart–Curnier's calls."""
+    out = {}
+    for name, p in problems():
+        best = [np.inf, np.inf]
+        for k, kw in enumerate(({}, {"equation": "alart_curnier"})):
+            socp_cd.solve(p, "newton", **kw)
+            n = max(1, int(0.2 / max(_one(p, kw), 1e-7)))
+            for _ in range(repeats):
+                t = time.perf_counter()
+                for _ in range(n):
+                    socp_cd.solve(p, "newton", **kw)
+                best[k] = min(best[k], (time.perf_counter() - t) / n)
+        out[name] = best
+    return out
+
+
+def _one(p, kw):
+    t = time.perf_counter()
+    socp_cd.solve(p, "newton", **kw)
+    return time.perf_counter() - t
+
+
+def ab(other, rounds, out_path):
+    """Alternate processes between ``other`` (before) and this checkout (after)."""
+    here = str(Path(__file__).resolve().parents[1])
+    best = {"before": {}, "after": {}}
+    for _ in range(rounds):
+        for side, root in (("before", str(other)), ("after", here)):
+            with tempfile.NamedTemporaryFile(suffix=".json") as tmp:
+                env = dict(os.environ, PYTHONPATH=root)
+                subprocess.run([sys.executable, str(Path(__file__).resolve()), "--ac-only",
+                                "--json", tmp.name], env=env, check=True, cwd=tempfile.gettempdir())
+                got = json.loads(Path(tmp.name).read_text())
+            for name, times in got.items():
+                prev = best[side].get(name, [np.inf, np.inf])
+                best[side][name] = [min(a, b) for a, b in zip(prev, times)]
+    lines = ["# Alart–Curnier's per-call time before and after session 36's compiled equations",
+             "", f"`python validation/equation_call_cost.py --ab ... --rounds {rounds}`: "
+             "processes alternating between the two checkouts, min over rounds of the min over "
+             "repeats of batches, JIT warmed; µs per call.", "",
+             "| problem | no options: before | after | ratio | `equation=` given: before | "
+             "after | ratio |", "|---|---:|---:|---:|---:|---:|---:|"]
+    for name in best["after"]:
+        if name not in best["before"]:
+            continue
+        b, a = best["before"][name], best["after"][name]
+        lines.append(f"| {name} | {b[0] * 1e6:.1f} | {a[0] * 1e6:.1f} | ×{a[0] / b[0]:.2f} | "
+                     f"{b[1] * 1e6:.1f} | {a[1] * 1e6:.1f} | ×{a[1] / b[1]:.2f} |")
+    out_path.write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
@@ -63,7 +126,17 @@ def main(argv=None):
     ap.add_argument("--merge", nargs=2, type=Path, metavar=("BEFORE", "AFTER"),
                     help="two --json files: write the before/after table")
     ap.add_argument("--out", type=Path)
+    ap.add_argument("--ab", type=Path, metavar="OTHER_CHECKOUT")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--ac-only", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
+    if a.ab:
+        ab(a.ab, a.rounds, a.out)
+        return 0
+    if a.ac_only:
+        socp_cd.warmup()
+        a.json.write_text(json.dumps(ac_only(a.repeats)))
+        return 0
     if a.merge:
         before, after = (json.loads(f.read_text()) for f in a.merge)
         lines = ["# Per-call time of `solver=\"newton\"` by equation, before and after session 36",
@@ -73,7 +146,7 @@ def main(argv=None):
                  "Python loop; after: on the compiled loops.", "",
                  "| problem | AC before | AC after | NM before (ratio) | NM after (ratio) | "
                  "FB before (ratio) | FB after (ratio) |", "|---|---:|---:|---:|---:|---:|---:|"]
-        for name in after:
+        for name in [n for n in after if n in before]:
             b, f = before[name], after[name]
             cells = [f"{b['alart_curnier'][0] * 1e6:.1f}", f"{f['alart_curnier'][0] * 1e6:.1f}"]
             for eq in EQUATIONS[1:]:

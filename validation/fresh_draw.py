@@ -144,7 +144,9 @@ def report(rows, sic_rows, args, command) -> list[str]:
             f"a fresh manufactured draw (seeds {' '.join(map(str, args.seeds))})")
     how = ("step problems of the scenes' runs (NSGS at 1e-6 inside the simulation; each "
            "problem exact)" if args.collections else
-           f"every real operator of shared/, μ ∈ {{{', '.join(f'{m:g}' for m in evalset.MUS)}}}, "
+           f"every real operator of shared/"
+           f"{f' whose cases contain {args.family!r}' if getattr(args, 'family', '') else ''}, "
+           f"μ ∈ {{{', '.join(f'{m:g}' for m in evalset.MUS)}}}, "
            "the mix of seed k = MIXES[k mod 4]")
     by_split = defaultdict(lambda: [0, 0])
     for r in rows:

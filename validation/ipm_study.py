@@ -50,8 +50,8 @@ def arrow_blocks(x):
     return L
 
 
-def max_step(x, dx, frac=1.0):
-    """Largest a in (0, 1] with x + a dx in the Lorentz cone (per row), times nothing."""
+def max_step(x, dx):
+    """Largest a in (0, 1] with x + a dx in the Lorentz cone (every row)."""
     # x0 + a dx0 >= |x1 + a dx1|  <=>  quadratic in a
     a = np.ones(x.shape[0])
     x0, x1, d0, d1 = x[:, 0], x[:, 1:], dx[:, 0], dx[:, 1:]

@@ -21,7 +21,6 @@ import sys
 import time
 from pathlib import Path
 
-
 import socp_cd
 from socp_cd.bench import evalset
 from socp_cd.bench.reports import emit

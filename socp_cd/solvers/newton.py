@@ -761,6 +761,11 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
                                f"m <= {COMPILED_LOOP_MAX_M}, policy 'prox' or 'plain', "
                                "a rho strategy and no history")
     blocks = _LAW_BLOCKS[equation]
+    if not isinstance(rho, str) and (getattr(rho, "shape", None) != mu.shape
+                                     or getattr(rho, "dtype", None) != np.float64):
+        # (the kernels read rho per contact without bounds checks)
+        raise InvalidProblemError("rho", f"given values must be a float64 array of shape "
+                                         f"{mu.shape}, got {rho!r}")
     if _is_split(rho) and equation != "alart_curnier":
         raise InvalidProblemError("rho", f"'split' is the Alart–Curnier equation's; "
                                   f"{equation!r} takes one parameter per contact ('block')")
@@ -1118,7 +1123,7 @@ def prox_error_runs(system, mu, r, *, tol, max_iter, alpha_min, stall_window, ti
 
 
 def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
-                     stall_window, time_limit, rho, plain=False, equation=DEFAULT_EQUATION):
+                     stall_window, time_limit, rho, equation, plain=False):
     """:func:`prox_newton` (policy "prox", or "plain" when ``plain``; no history) through its
     compiled twin (:func:`~.kernels.newton_dense.prox_newton_dense`,
     :func:`~.kernels.newton_dense.plain_newton_dense`).
@@ -1256,14 +1261,15 @@ def _check_rho(problem, value):
     if isinstance(value, str):
         return check_choice("rho", value, RHO_STRATEGIES)
     nc = problem.n_contacts
-    if isinstance(value, (bool, np.bool_)):
-        raise InvalidProblemError("rho", f"must be one of {sorted(RHO_STRATEGIES)} or positive "
-                                         f"numbers, got {value!r}")
+    bad = InvalidProblemError("rho", f"must be one of {sorted(RHO_STRATEGIES)} or positive "
+                                     f"numbers, got {value!r}")
     try:
-        arr = np.array(value, dtype=np.float64)
+        raw = np.asarray(value)
     except (TypeError, ValueError):
-        raise InvalidProblemError("rho", f"must be one of {sorted(RHO_STRATEGIES)} or positive "
-                                         f"numbers, got {value!r}") from None
+        raise bad from None
+    if raw.dtype.kind not in "iuf":         # (no bool, str, complex or object values)
+        raise bad
+    arr = np.array(raw, dtype=np.float64)
     if arr.ndim == 0:
         arr = np.full(nc, float(arr))
     if arr.shape != (nc,):

@@ -4,7 +4,10 @@ The compiled twin of :func:`socp_cd.solvers.newton.prox_newton` (policy
 ``"prox"``, no history) for a dense local problem ``u = W r + q``
 (``m <= COMPILED_LOOP_MAX_M`` of :mod:`socp_cd.solvers.newton`).
 The Python function is the reference and the path of every other case
-(sparse or global systems, ``policy="hybrid"``, ``history=True``);
+(sparse or global systems, ``policy="hybrid"`` or ``"prox_error"``'s own loop,
+``history=True``, values of ``rho`` given per contact); the plain-steps loop
+(:func:`plain_newton_dense`) is the twin of ``policy="plain"``, and both take the
+equation of the law (:func:`law_blocks`);
 ``tests/test_newton_dense.py`` holds the two equal (same status, same number of
 outer iterations, same counters, same ``r``).  Both call the same kernels in
 the same order (the equation's kernel through :func:`law_blocks`, :func:`~.newton_ac.dense_jacobian`,
@@ -63,16 +66,20 @@ LAW_CODES = {"alart_curnier": LAW_AC, "natural_map": LAW_NM, "fischer_burmeister
 LAW_NAMES = {code: name for name, code in LAW_CODES.items()}
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def law_blocks(law, r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch):
     """The kernel of the equation ``law`` (:data:`LAW_CODES`):
     :func:`~.newton_ac.ac_blocks`, :func:`~.newton_nm.nm_blocks` or
-    :func:`~.newton_fb.fb_blocks`, same arguments and return value (``||F||``)."""
+    :func:`~.newton_fb.fb_blocks`, same arguments and return value (``||F||``); an unknown
+    code fills ``F`` with NaN and returns NaN (the loops then end ``NUMERICAL_ERROR``)."""
+    if law == LAW_AC:
+        return ac_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch)
     if law == LAW_NM:
         return nm_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch)
     if law == LAW_FB:
         return fb_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch)
-    return ac_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch)
+    F[:] = np.nan
+    return np.nan
 
 
 def new_state(alpha, deadline=np.inf):
