@@ -18,6 +18,8 @@ from socp_cd.solvers import newton
 from socp_cd.solvers.kernels import newton_fb
 from socp_cd.solvers.kernels.newton_fb import fb_blocks
 
+from _law_kernels import assert_blocks_are_central_differences, run_blocks
+
 
 def _kernel_lorentz(x, y):
     d = x.shape[0]
@@ -29,12 +31,7 @@ def _kernel_lorentz(x, y):
 
 
 def _blocks(r, u, mu, rho, dim, jac=True):
-    nc = mu.shape[0]
-    F = np.empty(nc * dim)
-    Dr, Du = np.empty((nc, dim, dim)), np.empty((nc, dim, dim))
-    br = np.empty(nc, np.int64)
-    nF = fb_blocks(r, u, mu, rho, rho, dim, jac, F, Dr, Du, br)
-    return nF, F, Dr, Du, br
+    return run_blocks(fb_blocks, r, u, mu, rho, dim, jac)
 
 
 def test_the_two_thresholds_agree():
@@ -183,14 +180,7 @@ def test_jacobian_matches_finite_differences(dim, state, mu, rho):
     m, p = np.array([mu]), np.array([rho])
     _, F, Dr, Du, br = _blocks(r, u, m, p, dim)
     assert br[0] == 0
-    h = 1e-7 * max(1.0, np.abs(np.r_[r, u]).max())
-    for j in range(dim):
-        e = np.zeros(dim)
-        e[j] = h
-        fd_r = (_blocks(r + e, u, m, p, dim, False)[1] - _blocks(r - e, u, m, p, dim, False)[1]) / (2 * h)
-        fd_u = (_blocks(r, u + e, m, p, dim, False)[1] - _blocks(r, u - e, m, p, dim, False)[1]) / (2 * h)
-        np.testing.assert_allclose(Dr[0, :, j], fd_r, atol=1e-6)
-        np.testing.assert_allclose(Du[0, :, j], fd_u, atol=1e-6 * max(1.0, rho))
+    assert_blocks_are_central_differences(fb_blocks, r, u, m, p, dim, Dr, Du)
 
 
 @pytest.mark.parametrize("dim", [2, 3])

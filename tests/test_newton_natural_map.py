@@ -16,16 +16,13 @@ from socp_cd.errors import InvalidProblemError, UnsupportedError
 from socp_cd.solvers import newton
 from socp_cd.solvers.kernels.newton_nm import NM_SEPARATED, NM_SLIDE, NM_STICK, nm_blocks
 
+from _law_kernels import assert_blocks_are_central_differences, run_blocks
+
 MU = 0.6
 
 
 def _blocks(r, u, mu, rho, dim, jac=True):
-    nc = mu.shape[0]
-    F = np.empty(nc * dim)
-    Dr, Du = np.empty((nc, dim, dim)), np.empty((nc, dim, dim))
-    br = np.empty(nc, np.int64)
-    nF = nm_blocks(r, u, mu, rho, rho, dim, jac, F, Dr, Du, br)
-    return nF, F, Dr, Du, br
+    return run_blocks(nm_blocks, r, u, mu, rho, dim, jac)
 
 
 def _branch_point(branch, dim, rng, rho):
@@ -56,16 +53,7 @@ def test_jacobian_matches_finite_differences_in_every_branch(dim, branch, code, 
     mu, rh = np.array([MU]), np.array([rho])
     _, F, Dr, Du, br = _blocks(r, u, mu, rh, dim)
     assert br[0] == code                       # the point is in the intended branch
-    h = 1e-7 * max(1.0, np.abs(np.r_[r, u]).max())
-    for j in range(dim):
-        e = np.zeros(dim)
-        e[j] = h
-        fd_r = (_blocks(r + e, u, mu, rh, dim, False)[1]
-                - _blocks(r - e, u, mu, rh, dim, False)[1]) / (2 * h)
-        fd_u = (_blocks(r, u + e, mu, rh, dim, False)[1]
-                - _blocks(r, u - e, mu, rh, dim, False)[1]) / (2 * h)
-        np.testing.assert_allclose(Dr[0, :, j], fd_r, atol=1e-6)
-        np.testing.assert_allclose(Du[0, :, j], fd_u, atol=1e-6 * max(1.0, rho))
+    assert_blocks_are_central_differences(nm_blocks, r, u, mu, rh, dim, Dr, Du)
 
 
 @pytest.mark.parametrize("dim", [2, 3])

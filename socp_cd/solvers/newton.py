@@ -766,9 +766,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         # (the kernels read rho per contact without bounds checks)
         raise InvalidProblemError("rho", f"given values must be a float64 array of shape "
                                          f"{mu.shape}, got {rho!r}")
-    if _is_split(rho) and equation != "alart_curnier":
-        raise InvalidProblemError("rho", f"'split' is the Alart–Curnier equation's; "
-                                  f"{equation!r} takes one parameter per contact ('block')")
+    _check_split_equation(rho, equation)
     if twin and compiled is not False:
         return _newton_compiled(system, mu, r, tol=tol, max_iter=max_iter, alpha0=alpha0,
                                 alpha_min=alpha_min, inner_max_iter=inner_max_iter,
@@ -1237,11 +1235,7 @@ def _settings(problem, options, inner_settings=None) -> dict:
                            maximum=None if policy == "prox_error" else alpha0)
     equation = check_choice("equation", get("equation", DEFAULT_EQUATION), EQUATIONS)
     rho = _check_rho(problem, get("rho", DEFAULT_RHO))
-    if _is_split(rho) and equation != "alart_curnier":
-        # (the natural map and Fischer–Burmeister's take one parameter per contact)
-        raise InvalidProblemError("rho", "'split' gives the Alart–Curnier equation two "
-                                  f"parameters per contact; equation {equation!r} takes one "
-                                  "('block')")
+    _check_split_equation(rho, equation)
     return dict(alpha0=alpha0, alpha_min=alpha_min,
                 inner_max_iter=check_int("inner_max_iter",
                                          get("inner_max_iter", _DEFAULT_INNER_MAX_ITER), minimum=1),
@@ -1283,6 +1277,16 @@ def _check_rho(problem, value):
 def _is_split(rho) -> bool:
     """Whether the option ``rho`` (checked) is the strategy ``"split"``."""
     return isinstance(rho, str) and rho == "split"
+
+
+def _check_split_equation(rho, equation) -> None:
+    """``"split"`` (two parameters per contact) is the Alart–Curnier equation's only: the
+    natural map and Fischer–Burmeister's take one (the option check and
+    :func:`prox_newton`, which studies call directly)."""
+    if _is_split(rho) and equation != "alart_curnier":
+        raise InvalidProblemError("rho", "'split' gives the Alart–Curnier equation two "
+                                  f"parameters per contact; equation {equation!r} takes one "
+                                  "('block' or given values)")
 
 
 def _rho_label(rho) -> str:
