@@ -93,13 +93,18 @@ def worker_path() -> Path:
 
 @functools.lru_cache(maxsize=None)
 def siconos_available() -> bool:
-    """True when :func:`siconos_python` exists and imports ``siconos.numerics`` (cached)."""
+    """True when :func:`siconos_python` exists and imports what the worker needs (cached).
+
+    That is ``siconos.numerics`` and ``scipy.sparse``: Siconos 4.4's SWIG typemaps look
+    SciPy's sparse modules up, and a system with ``python3-siconos`` but without
+    ``python3-scipy`` imports Siconos yet fails every job.
+    """
     py = siconos_python()
     if not Path(py).exists():
         return False
     try:
-        done = subprocess.run([py, "-c", "import siconos.numerics"], capture_output=True,
-                              timeout=120)
+        done = subprocess.run([py, "-c", "import scipy.sparse, siconos.numerics"],
+                              capture_output=True, timeout=120)
     except (OSError, subprocess.SubprocessError):
         return False
     return done.returncode == 0
