@@ -90,13 +90,32 @@ def _as_sparse(A, name: str, source: str | None) -> sp.csr_matrix:
             raise
         raise InvalidProblemError(name, f"cannot be converted to a float matrix ({exc})", source) from None
     A.sum_duplicates()
-    # contiguous CSR arrays (scipy keeps a caller's strided ones): compiled kernels read them
-    # as such (socp_cd.solvers.kernels.entry); no copy when they already are
-    A.indptr, A.indices, A.data = (np.ascontiguousarray(x) for x in (A.indptr, A.indices, A.data))
+    # the CSR arrays as compiled kernels read them (kernel_array); no copy when they already are
+    index = _index_dtype(A)
+    A.indptr, A.indices, A.data = (kernel_array(A.indptr, index), kernel_array(A.indices, index),
+                                   kernel_array(A.data, np.float64))
     if not np.all(np.isfinite(A.data)):
         bad = int(np.count_nonzero(~np.isfinite(A.data)))
         raise InvalidProblemError(name, f"contains {bad} NaN/Inf entries", source)
     return A
+
+
+def kernel_array(x, dtype=np.float64) -> np.ndarray:
+    """``x`` as the compiled kernels read it: contiguous, of ``dtype``, writable.
+
+    numba compiles a kernel once per combination of its arguments' types, and an array's
+    type includes its dtype, layout and whether it is read-only (a user's ``np.frombuffer``
+    or memory map; scipy's int64 indices).  One form per array means one compiled version
+    of each kernel: the others took 2-4 times the compile time of a fresh install
+    (session 37).  No copy when ``x`` already has that form.
+    """
+    x = np.ascontiguousarray(x, dtype=dtype)
+    return x if x.flags.writeable else x.copy()
+
+
+def _index_dtype(A) -> type:
+    """The CSR index dtype of the kernels: int32, or int64 when ``A`` is too large for it."""
+    return np.int32 if max(A.nnz, *A.shape) < np.iinfo(np.int32).max else np.int64
 
 
 def csr_of_nonzeros(D) -> sp.csr_matrix:
@@ -125,7 +144,7 @@ def _as_vector(x, name: str, n: int, source: str | None) -> np.ndarray:
         raise InvalidProblemError(name, f"has length {arr.shape[0]}, expected {n}", source)
     if not np.all(np.isfinite(arr)):
         raise InvalidProblemError(name, f"contains {int(np.count_nonzero(~np.isfinite(arr)))} NaN/Inf entries", source)
-    return np.ascontiguousarray(arr)
+    return kernel_array(arr, np.float64)
 
 
 def _check_dim(dim, source):
@@ -150,7 +169,7 @@ def _as_mu(mu, n_contacts: int, source: str | None) -> np.ndarray:
     if np.any(arr < 0):
         i = int(np.flatnonzero(arr < 0)[0])
         raise InvalidProblemError("mu", f"must be >= 0, contact {i} has mu = {arr[i]!r}", source)
-    return np.ascontiguousarray(arr)
+    return kernel_array(arr, np.float64)
 
 
 def _n_contacts(m: int, dim: int, field_name: str, source) -> int:
@@ -405,7 +424,9 @@ class FrictionContactProblem(_ProblemBase):
     :attr:`rank` and :attr:`is_rank_deficient` rather than rejected.
 
     A problem is immutable once built: it may share the caller's arrays (no
-    copy is made when they are already float64), and the quantities derived
+    copy is made when they are already contiguous, writable float64 arrays and
+    int32 CSR indices, the form the compiled kernels are compiled for:
+    :func:`kernel_array`; other forms are copied into it), and the quantities derived
     from them (the error of ``r = 0``, ``||q||``, the dispatcher's unit
     factors and balanced copy, NSGS's block storage) are computed once per
     object.  Changing ``W``, ``q`` or ``mu`` in place afterwards leaves those

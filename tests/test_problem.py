@@ -282,3 +282,30 @@ def test_error_message_does_not_echo_megabytes():
         FrictionContactProblem(W9, ["7" * 2_000_000 + "x"] * 9, MU3)
     assert info.value.field == "q"
     assert len(str(info.value)) < 700 and "characters)" in str(info.value)
+
+
+def test_arrays_held_in_the_kernels_form_whatever_the_caller_gave():
+    # int64 CSR indices and read-only buffers (np.frombuffer, a memory map) are held as int32
+    # and writable copies, so each compiled kernel has one version (numba compiles one per
+    # argument type: the other forms doubled a fresh install's compile time); the caller's
+    # arrays are left as they were, and shared when already in that form
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((6, 6))
+    W = sp.csr_matrix(A @ A.T + 6 * np.eye(6))
+    W.indices, W.indptr = W.indices.astype(np.int64), W.indptr.astype(np.int64)
+    W.data.flags.writeable = False
+    q, mu = rng.standard_normal(6), np.array([0.3, 0.5])
+    for a in (q, mu):
+        a.flags.writeable = False
+    p = FrictionContactProblem(W, q, mu, 3)
+    indptr, indices, data = p.csr_parts
+    assert indptr.dtype == indices.dtype == np.int32
+    for a in (data, p.q, p.mu):
+        assert a.flags.writeable and a.flags.c_contiguous and a.dtype == np.float64
+    assert np.array_equal(p.q, q) and np.array_equal(p.mu, mu)
+    assert np.array_equal(p.W.toarray(), W.toarray())
+    assert W.indices.dtype == np.int64 and not W.data.flags.writeable and not q.flags.writeable
+    q2 = rng.standard_normal(6)                      # already in form: shared, not copied
+    assert FrictionContactProblem(p.W, q2, 0.3, 3).q is q2
+    r = rng.standard_normal(6)
+    assert np.array_equal(p.velocity(r), W @ r + q)

@@ -58,9 +58,10 @@ CHECK = textwrap.dedent('''
             W = p.W.tocsr() if hasattr(p.W, "tocsr") else __import__("scipy.sparse").sparse.csr_matrix(p.W)
             W.indices, W.indptr = W.indices.astype(np.int64), W.indptr.astype(np.int64)
             wide = socp_cd.FrictionContactProblem(W, p.q, p.mu, d)
-            ro = socp_cd.FrictionContactProblem(p.W, p.q.copy(), p.mu, d)
-            for a in (ro.csr_parts[2], ro.q):
+            W_ro, q_ro, mu_ro = p.W.copy(), p.q.copy(), p.mu.copy()
+            for a in (W_ro.data, q_ro, mu_ro):
                 a.flags.writeable = False
+            ro = socp_cd.FrictionContactProblem(W_ro, q_ro, mu_ro, d)
             for x in (wide, ro):
                 for solver in ("auto", "nsgs", "newton", "projection"):
                     socp_cd.solve(x, solver)

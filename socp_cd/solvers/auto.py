@@ -87,6 +87,7 @@ import numpy as np
 
 from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, law_parameters
+from ..problem import kernel_array
 from ..residuals import guard
 from . import checks, clarabel_backend, newton, nsgs, nsgs_route
 from .kernels.cone import siconos_error
@@ -456,7 +457,7 @@ class _Judge:
         self.problem, self.formulation, self.params, self.tol = problem, formulation, params, tol
         self.fast = formulation == "coulomb" and not problem.is_global
         if self.fast:
-            self.q = problem.q
+            self.q = kernel_array(problem.q)        # (the balanced copy's q is read-only)
             self.mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
             self.norm_q = float(np.sqrt(np.dot(self.q, self.q)))
             self.origin = origin(problem)   # (a, b, ||q||) on the dispatcher's balanced copy

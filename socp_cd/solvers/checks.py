@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidProblemError
+from ..problem import kernel_array
 from ..residuals import failed_guard
 from .kernels.cone import LAW_COULOMB, error_parts, relative_error
 from .kernels.dense import csr_matvec_add
@@ -34,7 +35,7 @@ def velocity(problem, r):
     if problem.is_global:
         return problem.velocity(r)
     indptr, indices, data = problem.csr_parts
-    return csr_matvec_add(indptr, indices, data, r, problem.q)
+    return csr_matvec_add(indptr, indices, data, r, kernel_array(problem.q))
 
 
 def _parts(problem, r, u):
@@ -73,7 +74,7 @@ def coulomb_guard(problem, r, u) -> dict:
     compiled call (:func:`~socp_cd.solvers.kernels.scaling.balanced_guard`).
     """
     rec = balanced(problem)
-    finite, out = balanced_guard(r, u, rec.a, rec.b,
+    finite, out = balanced_guard(r, u, kernel_array(rec.a), kernel_array(rec.b),
                                  np.ascontiguousarray(problem.mu, dtype=np.float64), problem.dim,
                                  rec.q_norm)
     return guard_record(finite, out)

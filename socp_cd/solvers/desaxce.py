@@ -70,7 +70,7 @@ import numpy as np
 from ..cones import tangential_norm
 from ..errors import UnsupportedError
 from ..laws import associated_error
-from ..problem import SYMMETRY_RTOL
+from ..problem import SYMMETRY_RTOL, kernel_array
 from ..residuals import error as coulomb_error
 from .anderson import Anderson
 from .conic_data import dense_to_csr
@@ -139,9 +139,7 @@ class DenseSystem:
         """Dense system of a local problem (``W`` in CSR)."""
         indptr, indices, data = problem.csr_parts
         Wd, Ws, Wa, asym, scale, _ = dense_split(indptr, indices, data, problem.m)
-        q = np.ascontiguousarray(problem.q, dtype=np.float64)
-        if not q.flags.writeable:     # (the balanced copy's q) one signature of the kernels
-            q = q.copy()
+        q = kernel_array(problem.q)   # (the balanced copy's q is read-only)
         return cls(Wd, Ws, Wa, float(asym), float(scale), q,
                    np.ascontiguousarray(problem.mu, dtype=np.float64),
                    float(np.sqrt(np.dot(q, q))), problem.dim)

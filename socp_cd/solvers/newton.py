@@ -106,6 +106,7 @@ import scipy.sparse.linalg as spla
 from threadpoolctl import ThreadpoolController
 
 from ..errors import InvalidProblemError, UnsupportedError
+from ..problem import kernel_array
 from .block_storage import block_csr_arrays
 from .kernels import clock
 from .kernels import newton_dense as nd
@@ -378,9 +379,7 @@ class _LocalSystem:
         if given is not None:
             self.q = given[1]
         else:
-            self.q = np.ascontiguousarray(problem.q, dtype=np.float64)
-            if not self.q.flags.writeable:   # (the balanced copy's q is read-only)
-                self.q = self.q.copy()       # one signature of the compiled loop
+            self.q = kernel_array(problem.q)     # (the balanced copy's q is read-only)
         if self.kind == "dense":
             if given is not None:
                 self.W = given[0]
@@ -389,9 +388,7 @@ class _LocalSystem:
                                       self.m, self.m)       # no scipy overhead on tiny W
             else:   # (only with COMPILED_LOOP_MAX_M set below DENSE_MAX_M: the studies'
                 #        session-14 baseline, validation/newton_compiled_lapack.py, auto_chain.py)
-                self.W = np.ascontiguousarray(problem.W.toarray(), dtype=np.float64)
-                if not self.W.flags.writeable:
-                    self.W = self.W.copy()
+                self.W = kernel_array(problem.W.toarray())
             self.J = np.empty((self.m, self.m))
         else:
             self.W = sp.csr_matrix(problem.W, dtype=np.float64)
@@ -1141,8 +1138,7 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
     fstate, istate = nd.new_state(alpha0 * wscale, clock.deadline_after(time_limit))
     r = np.array(r, dtype=np.float64)         # a copy: the caller's r is never written
     best_r = np.empty_like(r)
-    if not mu.flags.writeable:      # one compiled signature: numba types read-only arrays apart
-        mu = mu.copy()
+    mu = kernel_array(mu)
     args = (system.W, system.q, float(system.norm_q), mu, rho_n, rho_t, system.d, float(tol))
     if plain:
         loop = nd.plain_newton_dense
@@ -1478,9 +1474,7 @@ def newton_polish(problem, r, tol, options):
         system = _LocalSystem(problem, "auto", None if cache is None else cache.get("dense"))
         if cache is not None:
             cache["newton_system"] = system
-    mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
-    if not mu.flags.writeable:      # one compiled signature (numba types read-only arrays apart)
-        mu = mu.copy()
+    mu = kernel_array(problem.mu)
     r = np.array(r, dtype=np.float64).reshape(-1)
     with _one_blas_thread(system):
         _, r, its, _, info = prox_newton(

@@ -59,6 +59,7 @@ import time
 import numpy as np
 
 from ..errors import UnsupportedError
+from ..problem import kernel_array
 from . import nsgs_route
 from .kernels import clock
 from .block_storage import problem_blocks
@@ -173,7 +174,7 @@ def nsgs_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         g = np.ascontiguousarray(options["threshold"], dtype=np.float64)
 
     S = problem_blocks(problem)
-    q = np.ascontiguousarray(problem.q, dtype=np.float64)
+    q = kernel_array(problem.q)     # (the balanced copy's q is read-only)
     r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=np.float64).reshape(-1)
     rhoN, rhoT, rhoP, bad = local_parameters(S.diag, S.blocks)
     info = {"local_solver": st["ls_name"], "omega": st["omega"], "ordering": st["ordering"],

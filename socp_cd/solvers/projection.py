@@ -44,6 +44,7 @@ import time
 import numpy as np
 
 from ..errors import InvalidProblemError, UnsupportedError
+from ..problem import kernel_array
 from .kernels.cone import LAW_ASSOCIATED, LAW_COULOMB, LAW_TRESCA
 from .kernels.projection import Step, projection_loop
 from .nsgs_kernels import (STATUS_CONVERGED, STATUS_NAMES, STATUS_TIME_LIMIT, timed_next_block,
@@ -123,7 +124,7 @@ def projection_backend(problem, formulation, *, tol, max_iter=None, r0=None, his
     g = (np.ascontiguousarray(options["threshold"], dtype=np.float64) if formulation == "tresca"
          else np.zeros(nc))
     indptr, indices, data = problem.csr_parts
-    q = np.ascontiguousarray(problem.q, dtype=np.float64)
+    q = kernel_array(problem.q)     # (the balanced copy's q is read-only)
     r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=np.float64).reshape(-1)
     rho = st["rho0"] / mean_diagonal(indptr, indices, data)
     step = Step(st["L"], st["L_min"], st["tau"], st["tau_min"], st["max_retries"])

@@ -11,7 +11,6 @@ that later calls keep their budgets and their timings are the solvers' own.
 """
 from __future__ import annotations
 
-import itertools
 import time
 
 import numpy as np
@@ -30,24 +29,18 @@ AUTO_STAGES = ("nsgs", "newton_trial", "newton_trial_cold", "newton_trial_prox",
 _DONE: list = []
 
 
-def _local(nc, dim, seed, index_dtype=np.int32, readonly=False):
-    """A small local problem with approaching contacts and coupled, well-posed ``W``; its CSR
-    indices of ``index_dtype`` (the kernels are compiled once per index dtype), its ``W``
-    data and ``q`` read-only arrays when ``readonly`` (numba compiles read-only arrays
-    apart: a user's ``np.frombuffer`` or a memory map)."""
+def _local(nc, dim, seed):
+    """A small local problem with approaching contacts and coupled, well-posed ``W``.  (One
+    is enough for every form of the caller's arrays: a problem holds its CSR indices as
+    int32 and its arrays writable whatever it was given, so the kernels have one compiled
+    version each; ``tests/test_warm.py`` checks int64 indices and read-only data.)"""
     rng = np.random.default_rng(seed)
     m = nc * dim
     A = rng.standard_normal((m, m))
     W = sp.csr_matrix(A @ A.T / m + np.eye(m))
-    W.indices = W.indices.astype(index_dtype)
-    W.indptr = W.indptr.astype(index_dtype)
     q = rng.standard_normal(m)
     q[::dim] -= 1.0
-    p = FrictionContactProblem(W, q, 0.3, dim)
-    if readonly:
-        for a in (p.csr_parts[2], p.q):
-            a.flags.writeable = False
-    return p
+    return FrictionContactProblem(W, q, 0.3, dim)
 
 
 def _sparse(dim, seed):
@@ -68,8 +61,7 @@ def warmup(force: bool = False) -> float:
     """Load (or compile) every compiled kernel that :func:`~socp_cd.solve` may reach; returns
     the seconds this call took (0 after the first call in a process, unless ``force``).
 
-    On tiny local problems in 2D and 3D, with both CSR index dtypes and with read-only data:
-    the plain calls of ``auto``, ``nsgs``, ``newton`` and ``projection`` (the compiled
+    On tiny local problems in 2D and 3D: the plain calls of ``auto``, ``nsgs``, ``newton`` and ``projection`` (the compiled
     routes), with a time limit, with ``r0`` and ``max_iter``, Newton's ``history``, each of
     ``auto``'s stages (:data:`AUTO_STAGES`, at a tolerance no stage meets, with and without a
     time limit); the backends' own warm-ups (:func:`socp_cd.solvers.newton.warmup`,
@@ -91,17 +83,16 @@ def warmup(force: bool = False) -> float:
     projection.warmup()
     rng = np.random.default_rng(12345)
     for dim in (2, 3):
-        for dtype, readonly in itertools.product((np.int32, np.int64), (False, True)):
-            p = _local(3, dim, 12345, dtype, readonly)
-            for name in ("auto", "nsgs", "newton", "projection"):
-                solve(p, name)
-                solve(p, name, time_limit=5.0)
-                solve(p, name, r0=np.ones(p.m), max_iter=3)
-            solve(p, "newton", history=True, max_iter=3)
-            solve(_local(1, dim, 1, dtype, readonly))   # one contact: the flat kernel's call
-            for tol in (1e-6, 1e-30):
-                solve(p, "auto", tol=tol, max_iter=3, time_limit=5.0, methods=AUTO_STAGES)
-                solve(p, "auto", tol=tol, max_iter=3, methods=AUTO_STAGES)
+        p = _local(3, dim, 12345)
+        for name in ("auto", "nsgs", "newton", "projection"):
+            solve(p, name)
+            solve(p, name, time_limit=5.0)
+            solve(p, name, r0=np.ones(p.m), max_iter=3)
+        solve(p, "newton", history=True, max_iter=3)
+        solve(_local(1, dim, 1))   # one contact: the flat kernel's call
+        for tol in (1e-6, 1e-30):
+            solve(p, "auto", tol=tol, max_iter=3, time_limit=5.0, methods=AUTO_STAGES)
+            solve(p, "auto", tol=tol, max_iter=3, methods=AUTO_STAGES)
         solve(_local(25, dim, 12347), "newton", tol=1e-30, max_iter=1)
         # (the Python loop's dense steps, the LU either written out or LAPACK's)
         solve(_local(25, dim, 12347), "newton", policy="prox_error", tol=1e-30, max_iter=1)
