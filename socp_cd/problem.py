@@ -89,7 +89,11 @@ def _as_sparse(A, name: str, source: str | None) -> sp.csr_matrix:
         if isinstance(exc, InvalidProblemError):
             raise
         raise InvalidProblemError(name, f"cannot be converted to a float matrix ({exc})", source) from None
-    A.sum_duplicates()
+    if not A.has_canonical_format:
+        # sum_duplicates sorts and sums in place, and A shares the caller's arrays: work on a
+        # copy (the caller's matrix stays as given; a read-only one could not be sorted)
+        A = A.copy()
+        A.sum_duplicates()
     # the CSR arrays as compiled kernels read them (kernel_array); no copy when they already are
     index = _index_dtype(A)
     A.indptr, A.indices, A.data = (kernel_array(A.indptr, index), kernel_array(A.indices, index),
@@ -104,10 +108,11 @@ def kernel_array(x, dtype=np.float64) -> np.ndarray:
     """``x`` as the compiled kernels read it: contiguous, of ``dtype``, writable.
 
     numba compiles a kernel once per combination of its arguments' types, and an array's
-    type includes its dtype, layout and whether it is read-only (a user's ``np.frombuffer``
-    or memory map; scipy's int64 indices).  One form per array means one compiled version
-    of each kernel: the others took 2-4 times the compile time of a fresh install
-    (session 37).  No copy when ``x`` already has that form.
+    type includes its dtype (int32 or int64 CSR indices), its layout and whether it is
+    read-only (a user's ``np.frombuffer`` or memory map, the dispatcher's cached balanced
+    copy).  One form per array means one compiled version of each kernel: compiling the
+    other forms too took a fresh install's warm-up from 163 to 302 s (session 37).  No
+    copy when ``x`` already has that form.
     """
     x = np.ascontiguousarray(x, dtype=dtype)
     return x if x.flags.writeable else x.copy()
@@ -488,7 +493,10 @@ class FrictionContactProblem(_ProblemBase):
         (the scipy matrix is then built on first use of :attr:`W`), ``q`` a finite contiguous float64
         vector of length ``m``, ``mu`` a finite, non-negative contiguous float64
         vector with one entry per contact, ``dim`` 2 or 3.  Data from users or
-        files go through the constructor, which checks all of this.
+        files go through the constructor, which checks all of this.  The arrays are kept as
+        given: in :func:`kernel_array`'s form they reach the kernels' one compiled version
+        (the balanced copy's ``q`` is read-only on purpose, and the backends that run on it
+        pass ``kernel_array(problem.q)``).
         """
         self = cls.__new__(cls)
         self.dim = int(dim)

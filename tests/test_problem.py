@@ -309,3 +309,22 @@ def test_arrays_held_in_the_kernels_form_whatever_the_caller_gave():
     assert FrictionContactProblem(p.W, q2, 0.3, 3).q is q2
     r = rng.standard_normal(6)
     assert np.array_equal(p.velocity(r), W @ r + q)
+
+
+def test_unsorted_duplicates_read_only_csr_leaves_the_callers_matrix_alone():
+    # W given with unsorted columns and a duplicate entry, its arrays read-only: the problem
+    # sums and sorts a copy (scipy's sum_duplicates works in place, on arrays the matrix
+    # object shares with the caller's)
+    data = np.array([1.0, 4.0, 2.0, 0.5, 3.0, 1.0, 2.0])
+    indices = np.array([2, 0, 1, 0, 1, 1, 2], dtype=np.int64)   # row 0 unsorted; row 1: 0, 1, 1
+    indptr = np.array([0, 3, 6, 7], dtype=np.int64)
+    for a in (data, indices, indptr):
+        a.flags.writeable = False
+    W = sp.csr_matrix((data, indices, indptr), shape=(3, 3))
+    before = [a.copy() for a in (W.data, W.indices, W.indptr)]
+    p = FrictionContactProblem(W, [-1.0, 0.0, 0.0], 0.5, 3)
+    assert all(np.array_equal(x, y) for x, y in zip(before, (W.data, W.indices, W.indptr)))
+    assert np.array_equal(p.W.toarray(), W.toarray())
+    indptr_p, indices_p, data_p = p.csr_parts
+    assert indices_p.dtype == np.int32 and p.W.has_canonical_format and data_p.flags.writeable
+    assert np.array_equal(indptr_p, [0, 3, 5, 6])

@@ -54,8 +54,9 @@ CHECK = textwrap.dedent('''
             socp_cd.solve(p, formulation="tresca", threshold=np.full(n, 0.1))
             socp_cd.solve(p, "nsgs", history=True)
             socp_cd.solve(p, "newton", history=True)
-            # CSR indices in int64, and read-only data (a user's buffers)
-            W = p.W.tocsr() if hasattr(p.W, "tocsr") else __import__("scipy.sparse").sparse.csr_matrix(p.W)
+            # CSR indices in int64, and read-only data (a user's buffers; the problem holds
+            # them in the kernels' one form, socp_cd.problem.kernel_array)
+            W = p.W.copy()
             W.indices, W.indptr = W.indices.astype(np.int64), W.indptr.astype(np.int64)
             wide = socp_cd.FrictionContactProblem(W, p.q, p.mu, d)
             W_ro, q_ro, mu_ro = p.W.copy(), p.q.copy(), p.mu.copy()

@@ -74,7 +74,7 @@ def coulomb_guard(problem, r, u) -> dict:
     compiled call (:func:`~socp_cd.solvers.kernels.scaling.balanced_guard`).
     """
     rec = balanced(problem)
-    finite, out = balanced_guard(r, u, kernel_array(rec.a), kernel_array(rec.b),
+    finite, out = balanced_guard(r, u, *rec.kernel_factors,
                                  np.ascontiguousarray(problem.mu, dtype=np.float64), problem.dim,
                                  rec.q_norm)
     return guard_record(finite, out)

@@ -643,8 +643,10 @@ def flat_outcome(numbers, out):
 
 
 #: :func:`nsgs_checked`'s entry point (:mod:`~socp_cd.solvers.kernels.entry`) by the dtype of
-#: ``W``'s CSR index arrays: its other arguments' types are fixed (the problem classes keep
-#: ``data``, ``q`` and ``mu`` contiguous float64 vectors, :func:`run_prepared` makes the rest);
+#: ``W``'s CSR index arrays (int32 unless a matrix is too large for it: the form the problem
+#: classes hold, :func:`socp_cd.problem.kernel_array`): its other arguments' types are fixed
+#: (the problem classes keep ``data``, ``q`` and ``mu`` contiguous, writable float64 vectors,
+#: :func:`run_prepared` makes the rest);
 #: :data:`FLAT_ENTRIES`: :func:`nsgs_checked_flat`'s (public: :func:`socp_cd.solvers.auto.plain`
 #: calls the kernel itself, a Python layer less: 0.1-0.3 µs of a one-contact call)
 _CHECKED = {}

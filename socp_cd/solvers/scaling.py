@@ -57,6 +57,10 @@ class Balanced:
         Siconos' error of ``r = 0`` of the original problem (``u = q``, the
         local free velocity; compiled, equal to the problem's
         :attr:`~socp_cd.problem.FrictionContactProblem.zero_error`).
+    kernel_factors : tuple
+        Writable copies of ``(a, b)``, made once, for the compiled kernels that take the
+        factors (numba compiles a kernel once more for read-only arrays:
+        :func:`socp_cd.problem.kernel_array`); never written.
     """
 
     a: np.ndarray
@@ -65,6 +69,7 @@ class Balanced:
     q_norm: float
     raw_q_norm: float
     zero_error: float
+    kernel_factors: tuple
 
 
 def _compute(problem) -> Balanced:
@@ -80,7 +85,8 @@ def _compute(problem) -> Balanced:
         a, b, _, q2, q_s2 = unit_factors(diag, q, problem.dim)
         q_norm = float(np.sqrt(q2))
         out = Balanced(a, b, None, float(np.sqrt(q_s2)), q_norm,
-                       float(coulomb_zero_error(q, mu, problem.dim, q_norm)))
+                       float(coulomb_zero_error(q, mu, problem.dim, q_norm)),
+                       (a.copy(), b.copy()))
     else:
         indptr, indices, data = problem.csr_parts
         a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(
@@ -88,11 +94,10 @@ def _compute(problem) -> Balanced:
             np.ascontiguousarray(problem.mu, dtype=np.float64), problem.dim)
         q_s.flags.writeable = False
         copy = problem.rescaled(a, b, W_data=data_s, q=q_s)
-        # (writable copies: numba types read-only arrays apart, one more compiled version
-        # of every kernel that takes them)
-        units = (a.copy(), b.copy(), float(q_norm))
+        factors = (a.copy(), b.copy())      # (writable: the kernels' one compiled version)
+        units = factors + (float(q_norm),)
         copy.derived(_ORIGIN, lambda _: units)
-        out = Balanced(a, b, copy, float(q_s_norm), float(q_norm), float(err0))
+        out = Balanced(a, b, copy, float(q_s_norm), float(q_norm), float(err0), factors)
     out.a.flags.writeable = False
     out.b.flags.writeable = False
     return out
@@ -123,7 +128,8 @@ def balanced(problem) -> Balanced:
 
 @dataclass(frozen=True)
 class Scaling:
-    """Unit factors ``r = a r~``, ``u = b u~`` (each of length ``m``)."""
+    """Unit factors ``r = a r~``, ``u = b u~`` (each of length ``m``; from :func:`balance`,
+    the :class:`Balanced` record's ``kernel_factors``, which its methods pass to kernels)."""
 
     a: np.ndarray
     b: np.ndarray
@@ -136,7 +142,7 @@ class Scaling:
         of its :class:`Balanced` record, built once.
         """
         rec = balanced(problem)
-        if self.a is rec.a and self.b is rec.b:
+        if self.a is rec.kernel_factors[0] and self.b is rec.kernel_factors[1]:
             return rec.problem
         return problem.rescaled(self.a, self.b)
 
@@ -165,7 +171,7 @@ class Scaling:
 def balance(problem: FrictionContactProblem) -> Scaling:
     """The :class:`Scaling` of a local problem (the factors of its :class:`Balanced` record)."""
     rec = balanced(problem)
-    return Scaling(rec.a, rec.b, problem.dim)
+    return Scaling(*rec.kernel_factors, problem.dim)
 
 
 __all__ = ["Balanced", "Scaling", "balance", "balanced", "origin"]

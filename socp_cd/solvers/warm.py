@@ -61,19 +61,19 @@ def warmup(force: bool = False) -> float:
     """Load (or compile) every compiled kernel that :func:`~socp_cd.solve` may reach; returns
     the seconds this call took (0 after the first call in a process, unless ``force``).
 
-    On tiny local problems in 2D and 3D: the plain calls of ``auto``, ``nsgs``, ``newton`` and ``projection`` (the compiled
-    routes), with a time limit, with ``r0`` and ``max_iter``, Newton's ``history``, each of
-    ``auto``'s stages (:data:`AUTO_STAGES`, at a tolerance no stage meets, with and without a
-    time limit); the backends' own warm-ups (:func:`socp_cd.solvers.newton.warmup`,
-    ``nsgs``'s, ``projection``'s); a Newton system of more than 60 unknowns (it factorizes
-    with one BLAS thread, whose controller is built on first use); a sparse one of more than
-    ``newton.DENSE_MAX_M`` unknowns through ``newton`` and ``clarabel`` (SuperLU, the
-    Jacobian's block kernels, the Newton polish outside the compiled loop); a global problem
-    through ``auto``, ``newton``, ``clarabel``, ``nsgs`` and ``projection``.  What a spread
-    of solves reaches after it is checked by ``tests/test_warm.py``; a path outside both
-    (another solver's kernels, an option's) may still load or compile on its first call.
-    Call it once before timing solves, or before the first call whose ``time_limit``
-    matters.
+    On tiny local problems in 2D and 3D: the plain calls of ``auto``, ``nsgs``, ``newton``
+    and ``projection`` (the compiled routes), with a time limit, with ``r0`` and
+    ``max_iter``, Newton's ``history``, each of ``auto``'s stages (:data:`AUTO_STAGES`, at a
+    tolerance no stage meets, with and without a time limit); the backends' own warm-ups
+    (:func:`socp_cd.solvers.newton.warmup`, ``nsgs``'s, ``projection``'s); a Newton system
+    of more than 60 unknowns (it factorizes with one BLAS thread, whose controller is built
+    on first use); a sparse one of more than ``newton.DENSE_MAX_M`` unknowns through
+    ``newton`` and ``clarabel`` (SuperLU, the Jacobian's block kernels, the Newton polish
+    outside the compiled loop); a global problem through ``auto``, ``newton``, ``clarabel``,
+    ``nsgs`` and ``projection``.  What a spread of solves reaches after it is checked by
+    ``tests/test_warm.py``; a path outside both (another solver's kernels, an option's) may
+    still load or compile on its first call. Call it once before timing solves, or before
+    the first call whose ``time_limit`` matters.
     """
     if _DONE and not force:
         return 0.0
