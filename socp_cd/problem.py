@@ -111,8 +111,8 @@ def kernel_array(x, dtype=np.float64) -> np.ndarray:
     type includes its dtype (int32 or int64 CSR indices), its layout and whether it is
     read-only (a user's ``np.frombuffer`` or memory map, the dispatcher's cached balanced
     copy).  One form per array means one compiled version of each kernel: compiling the
-    other forms too took a fresh install's warm-up from 163 to 302 s (session 37).  No
-    copy when ``x`` already has that form.
+    other forms too took a fresh install's warm-up from 163-180 s to 286-321 s (session 37,
+    ``validation/compile_cost.py``).  No copy when ``x`` already has that form.
     """
     x = np.ascontiguousarray(x, dtype=dtype)
     return x if x.flags.writeable else x.copy()
