@@ -63,7 +63,9 @@ def capture(problem, time_limit):
 
     newton.spla.splu = spy
     try:
-        socp_cd.solve(problem, solver="newton", time_limit=time_limit)
+        # (SuperLU forced: the default takes the left-looking LU on low-fill patterns, and its
+        # choice factorizes an artificial matrix of the pattern through splu, session 38)
+        socp_cd.solve(problem, solver="newton", time_limit=time_limit, linear_solver="splu")
     finally:
         newton.spla.splu = original
     if not seen:

@@ -37,11 +37,14 @@ alpha_min : float, default 1e-10
     Relative floor of the proximal parameter.
 inner_max_iter : int, default 10
     Newton steps per proximal subproblem.
-linear_solver : {"auto", "dense", "splu"}, default "auto"
-    Newton matrix of the local problem: dense LAPACK LU or SuperLU.  ``"auto"``:
+linear_solver : {"auto", "dense", "splu", "left_looking"}, default "auto"
+    Newton matrix of the local problem: dense LU, SuperLU, or the compiled left-looking
+    sparse LU (:mod:`socp_cd.solvers.sparse_lu`).  ``"auto"``:
     dense when ``m <= DENSE_MAX_M`` and (``m <= DENSE_ALWAYS_M`` or
-    ``nnz(W) >= DENSE_MIN_FILL m²``), else SuperLU (measured in
-    ``validation/results/newton_study.md``).
+    ``nnz(W) >= DENSE_MIN_FILL m²``) (measured in
+    ``validation/results/newton_study.md``), else the sparse LU that
+    :class:`~socp_cd.solvers.sparse_lu.NewtonLU` chooses from the fill of ``W``'s pattern
+    (``validation/results/sparse_lu_choice.md``).
 global_mode : {"auto", "native", "condense"}, default "auto"
     Global problems: Newton on the saddle-point system (``"native"``) or on the
     condensed local problem ``W = Hᵀ M⁻¹ H`` (sparse solves, ``"condense"``).
@@ -108,6 +111,7 @@ from threadpoolctl import ThreadpoolController
 from ..errors import InvalidProblemError, UnsupportedError
 from ..problem import kernel_array
 from .block_storage import block_csr_arrays
+from .sparse_lu import NewtonLU, SingularMatrix
 from .kernels import clock
 from .kernels import newton_dense as nd
 from .kernels.cone import project_cone_stacked, siconos_error
@@ -186,7 +190,8 @@ OPTIONS = {
     "alpha0": "initial proximal parameter relative to the diagonal scale of W (default 0.1)",
     "alpha_min": "relative floor of the proximal parameter (default 1e-10)",
     "inner_max_iter": "Newton steps per proximal subproblem (default 10)",
-    "linear_solver": "'auto' (default), 'dense' (LAPACK LU) or 'splu' (SuperLU)",
+    "linear_solver": "'auto' (default), 'dense' (LAPACK LU), 'splu' (SuperLU) or "
+                     "'left_looking' (the compiled sparse LU)",
     "global_mode": "'auto' (default), 'native' (saddle point) or 'condense'",
     "stall_window": "outer iterations without a 10 % error drop before 'stalled' (default 50)",
     "rho": "parameters of the equation: 'block' (default, one per contact), 'split' "
@@ -321,6 +326,20 @@ class BlockJacobian:
         self.indices, self.indptr, self.shape = P.indices, P.indptr, W.shape
         self.out = np.empty_like(self.blocks)
 
+    def values(self, Dr, Du, alpha):
+        """``J``'s blocks (in ``out``) for the blocks ``Dr``, ``Du`` (nc, d, d) and the
+        proximal ``alpha``; ``out.ravel()[perm]`` is then the CSC data on the pattern
+        ``(indptr, indices)``."""
+        block_jacobian(Dr, Du, self.bptr, self.bcol, self.blocks, alpha, self.out)
+
+    def current(self):
+        """``J`` of the last :meth:`values` as a scipy CSC matrix (stored zeros dropped)."""
+        # (copies: eliminate_zeros rewrites the index arrays in place)
+        J = sp.csc_matrix((self.out.reshape(-1)[self.perm], self.indices.copy(),
+                           self.indptr.copy()), shape=self.shape)
+        J.eliminate_zeros()
+        return J
+
     def matrix(self, Dr, Du, alpha):
         """``J`` for the blocks ``Dr``, ``Du`` (nc, d, d) and the proximal ``alpha``."""
         block_jacobian(Dr, Du, self.bptr, self.bcol, self.blocks, alpha, self.out)
@@ -336,15 +355,16 @@ class BlockJacobian:
 
 def _linear_solver(indptr, indices, m, choice):
     """``(kind, compiled, lapack)`` of a local system of ``m`` unknowns (``W``'s pattern in
-    CSR form) for the option ``linear_solver=choice``: "dense" or "splu" ("auto":
+    CSR form) for the option ``linear_solver=choice``: "dense", "splu", "left_looking" or
+    "sparse" (the sparse LU chosen by :class:`~socp_cd.solvers.sparse_lu.NewtonLU`; "auto":
     dense up to DENSE_ALWAYS_M unknowns, and up to DENSE_MAX_M when the fill is at least
-    DENSE_MIN_FILL); the compiled loop on dense systems of at most COMPILED_LOOP_MAX_M;
+    DENSE_MIN_FILL, else "sparse"); the compiled loop on dense systems of at most COMPILED_LOOP_MAX_M;
     LAPACK's LU (:data:`~.kernels.dense.LAPACK_LU`) above COMPILED_LU_MAX_M unknowns
     when the envelope fraction exceeds COMPILED_LU_MAX_ENVELOPE, else None (written out)."""
     if choice == "auto":
         dense_kind = m <= DENSE_ALWAYS_M or (
             m <= DENSE_MAX_M and int(indptr[-1]) / float(m * m) >= DENSE_MIN_FILL)
-        choice = "dense" if dense_kind else "splu"
+        choice = "dense" if dense_kind else "sparse"
     lapack = None
     if choice == "dense" and m > COMPILED_LU_MAX_M and (
             envelope_fraction(indptr, indices, m) > COMPILED_LU_MAX_ENVELOPE):
@@ -393,6 +413,10 @@ class _LocalSystem:
         else:
             self.W = sp.csr_matrix(problem.W, dtype=np.float64)
             self._jacobian = BlockJacobian(self.W, self.d)
+            jac = self._jacobian
+            self._lu = NewtonLU(jac.indptr, jac.indices, self.m, SPLU_OPTIONS,
+                                "auto" if self.kind == "sparse" else self.kind, block=self.d)
+            self.kind = self._lu.kind
         self.norm_q = problem.q_norm          # cached on the problem
         self.factorizations = 0
         self.rho_cache = {}
@@ -440,10 +464,11 @@ class _LocalSystem:
                 raise _SingularStep("singular Newton matrix")
             dr = sla.lu_solve(lu, -F, check_finite=False)
         else:
-            J = self._jacobian.matrix(Dr, Du, alpha)
+            jac = self._jacobian
+            jac.values(Dr, Du, alpha)
             try:
-                dr = spla.splu(J, **SPLU_OPTIONS).solve(-F)
-            except RuntimeError as exc:
+                dr = self._lu.solve(jac.out.reshape(-1), jac.perm, -F, jac.current)
+            except SingularMatrix as exc:
                 raise _SingularStep(str(exc)) from None
         if not np.all(np.isfinite(dr)):
             raise _SingularStep("non-finite Newton step")
@@ -454,6 +479,17 @@ class _LocalSystem:
 
     def result_extra(self):
         return {}
+
+    def lu_info(self) -> dict:
+        """``info`` entries of the sparse LU: the left-looking LU's refactorizations (the
+        Newton steps factorized with the previous step's pivots)."""
+        lu = getattr(self, "_lu", None)
+        if lu is None or not lu.used_left_looking:
+            return {}
+        info = {"lu_refactorizations": lu.refactorizations}
+        if lu.kind != self.kind:        # (its factors outgrew MAX_GROWTH: SuperLU took over)
+            info["linear_solver"] = f"{self.kind}->{lu.kind}"
+        return info
 
 
 class _GlobalSystem:
@@ -519,6 +555,9 @@ class _GlobalSystem:
     def result_extra(self):
         return {"v": self.v}
 
+    def lu_info(self) -> dict:
+        return {}
+
 
 class _ShiftedSystem:
     """The proximal subproblem of ``base`` (a local or global system) at ``rk``: the same
@@ -563,6 +602,9 @@ class _ShiftedSystem:
 
     def result_extra(self):
         return self.base.result_extra()
+
+    def lu_info(self) -> dict:
+        return self.base.lu_info()
 
 
 # --------------------------------------------------------------------------- the method
@@ -1238,7 +1280,7 @@ def _settings(problem, options, inner_settings=None) -> dict:
                 stall_window=check_int("stall_window", get("stall_window", DEFAULT_STALL_WINDOW),
                                        minimum=0),
                 linear_solver=check_choice("linear_solver", get("linear_solver", "auto"),
-                                           ("auto", "dense", "splu")),
+                                           ("auto", "dense", "splu", "left_looking")),
                 global_mode=check_choice("global_mode", get("global_mode", "auto"),
                                          ("auto", "native", "condense")),
                 rho=rho, policy=policy, equation=equation)
@@ -1299,6 +1341,8 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
     glob = problem if problem.is_global else None
     if glob is not None and (mode == "condense" or (mode == "auto" and problem.m <= CONDENSE_MAX_M)):
         problem = glob.to_local()
+    t0 = time.perf_counter()        # (the system's set-up, e.g. a sparse LU's column order,
+    #                                  counts against time_limit, as entering _one_blas_thread)
     system = (_GlobalSystem(problem) if problem.is_global
               else _LocalSystem(problem, st["linear_solver"]))
     mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
@@ -1310,7 +1354,6 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
         # F(r) = a F~(r~) with the parameter rho b / a (P_K is positively homogeneous)
         d = problem.dim
         st["rho"] = np.ascontiguousarray(st["rho"] * units[1][::d] / units[0][::d])
-    t0 = time.perf_counter()        # (entering _one_blas_thread counts against time_limit)
     as_written = None
     if units is not None:
         def as_written(r, info):
@@ -1335,6 +1378,7 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
     if verbose:
         print(f"newton: {status} after {iters} outer iterations, error {info['internal_error']:.3e}")
     extra = system.result_extra()
+    info.update(system.lu_info())
     if glob is not None:
         info["global_mode"] = "native" if problem.is_global else "condense"
         if not problem.is_global:

@@ -45,8 +45,8 @@ def _local(nc, dim, seed):
 
 def _sparse(dim, seed):
     """A local problem of more than ``newton.DENSE_MAX_M`` unknowns whose ``W`` couples each
-    contact to its neighbours only: the Newton backend's sparse path (SuperLU, the
-    Jacobian's block kernels)."""
+    contact to its neighbours only: the Newton backend's sparse path (the ordering by SuperLU, the
+    Jacobian's block kernels, the compiled left-looking LU its pattern takes)."""
     nc = newton.DENSE_MAX_M // dim + 10
     m = nc * dim
     rng = np.random.default_rng(seed)
@@ -68,7 +68,7 @@ def warmup(force: bool = False) -> float:
     (:func:`socp_cd.solvers.newton.warmup`, ``nsgs``'s, ``projection``'s); a Newton system
     of more than 60 unknowns (it factorizes with one BLAS thread, whose controller is built
     on first use); a sparse one of more than ``newton.DENSE_MAX_M`` unknowns through
-    ``newton`` and ``clarabel`` (SuperLU, the Jacobian's block kernels, the Newton polish
+    ``newton`` and ``clarabel`` (the sparse LU, the Jacobian's block kernels, the Newton polish
     outside the compiled loop); a global problem through ``auto``, ``newton``, ``clarabel``,
     ``nsgs`` and ``projection``.  What a spread of solves reaches after it is checked by
     ``tests/test_warm.py``; a path outside both (another solver's kernels, an option's) may

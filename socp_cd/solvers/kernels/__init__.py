@@ -10,6 +10,8 @@
 * :mod:`.newton_ac` — the Alart–Curnier function and its generalized Jacobian (Newton solver).
 * :mod:`.newton_dense` — the proximal Newton loop on a small dense ``W`` (the
   compiled twin of :func:`socp_cd.solvers.newton.prox_newton`).
+* :mod:`.sparse_lu` — a left-looking sparse LU with threshold partial pivoting (the
+  local Newton matrices of low fill; :class:`socp_cd.solvers.sparse_lu.NewtonLU` chooses it).
 * :mod:`.entry` — a kernel's compiled entry point for fixed argument types (a
   call without numba's per-call type dispatch).
 
