@@ -101,9 +101,7 @@ def lu_factor(n, Ap, Ai, Ax, q, tol, Lp, Li, Lx, Up, Ui, Ux, pinv, xi, pstack, x
             i = Ai[p]
             if mark[i] != k:
                 top = _reach_dfs(i, Lp, Li, top, xi, pstack, pinv, mark, k)
-        for p in range(top, n):
-            x[xi[p]] = 0.0
-        for p in range(Ap[col], Ap[col + 1]):
+        for p in range(Ap[col], Ap[col + 1]):      # (x is zero: each column clears its reach)
             x[Ai[p]] = Ax[p]
         for px in range(top, n):
             j = xi[px]
