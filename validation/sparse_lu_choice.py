@@ -3,8 +3,10 @@
 For every local problem whose Newton matrix is sparse (``m > newton.DENSE_ALWAYS_M`` and not
 dense enough for the dense LU), two measurements:
 
-1. **per factorization**: the Newton matrices of a ``linear_solver="splu"`` run are captured
-   (first, middle and last step); each is factorized and solved by SuperLU (``splu`` with
+1. **per factorization**: the Newton steps of a ``linear_solver="splu"`` run are captured
+   (first, middle and last step); each step's matrix, as the Newton path hands it to each LU
+   (SuperLU: stored zeros dropped; the left-looking LU: the full block pattern), is
+   factorized and solved by SuperLU (``splu`` with
    ``newton.SPLU_OPTIONS``, ordering each matrix) and by the left-looking LU
    (:mod:`socp_cd.solvers.kernels.sparse_lu`, the column order computed once on the full
    pattern by :func:`socp_cd.solvers.sparse_lu.column_order`), with its pivot search and as
@@ -77,13 +79,14 @@ def best_of(f, n):
 
 
 def capture(p):
-    """The Newton matrices (CSC) of a SuperLU run of ``p``, and its sparse system."""
-    mats, systems = [], []
+    """The Newton steps of a SuperLU run of ``p``: their Jacobian blocks ``(Dr, Du, alpha)``,
+    and its sparse system."""
+    steps, systems = [], []
     orig = newton._LocalSystem.direction
 
     def spy(self, r, Dr, Du, alpha, F, strict=False):
         if not self.compiled and self.kind != "dense":
-            mats.append(self._jacobian.matrix(Dr, Du, alpha).copy())
+            steps.append((Dr.copy(), Du.copy(), alpha))
             systems.append(self)
         return orig(self, r, Dr, Du, alpha, F, strict)
 
@@ -92,41 +95,43 @@ def capture(p):
         socp_cd.solve(p, "newton", tol=1e-8, linear_solver="splu", time_limit=30)
     finally:
         newton._LocalSystem.direction = orig
-    return mats, (systems[0] if systems else None)
+    return steps, (systems[0] if systems else None)
 
 
 def per_factorization(p):
-    mats, system = capture(p)
-    if not mats:
+    """Per captured step: the matrix as the Newton path gives it to each LU (the left-looking
+    one: its values on the full block pattern, stored zeros kept; SuperLU: ``current()``,
+    stored zeros dropped), factorized and solved by both."""
+    steps, system = capture(p)
+    if not steps:
         return None, []
     jac = system._jacobian
     n = p.m
-    choice = sparse_lu.NewtonLU(jac.indptr, jac.indices, n, newton.SPLU_OPTIONS, "left_looking")
+    # one left-looking LU on the full pattern, its column order computed once, as in a solve
+    lu = sparse_lu.NewtonLU(jac.indptr, jac.indices, n, newton.SPLU_OPTIONS, "left_looking")
     rows = []
-    for tag, J in (("first", mats[0]), ("middle", mats[len(mats) // 2]), ("last", mats[-1])):
-        J = J.tocsc()
-        J.sort_indices()
-        b = np.random.default_rng(0).standard_normal(n)
-        ident = np.arange(J.nnz, dtype=np.int64)
-        lu = sparse_lu.NewtonLU(jac.indptr, jac.indices, n, newton.SPLU_OPTIONS, "left_looking")
-        # (the left-looking LU on J's own pattern, its column order from the full pattern)
-        lu.Ap, lu.Ai = J.indptr.astype(np.int64), J.indices.astype(np.int64)
-        lu.Bx = np.empty(J.nnz)
-        x_ll = lu.solve(J.data, ident, b)
-        x_su = spla.splu(J, **newton.SPLU_OPTIONS).solve(b)
+    b = np.random.default_rng(0).standard_normal(n)
+    for tag, args in (("first", steps[0]), ("middle", steps[len(steps) // 2]),
+                      ("last", steps[-1])):
+        jac.values(*args)
+        vals = jac.out.reshape(-1).copy()
+        J = jac.current()
 
         def fresh():
             lu.valid = False        # (a factorization with the pivot search)
-            lu.solve(J.data, ident, b)
+            return lu.solve(vals, jac.perm, b)
 
+        x_ll = fresh()
+        x_su = spla.splu(J, **newton.SPLU_OPTIONS).solve(b)
         t_ll = best_of(fresh, 5)
-        lu.solve(J.data, ident, b)
-        t_re = best_of(lambda: lu.solve(J.data, ident, b), 5)     # (refactorizations)
-        assert lu.refactorizations >= 5
+        lu.solve(vals, jac.perm, b)
+        before = lu.refactorizations
+        t_re = best_of(lambda: lu.solve(vals, jac.perm, b), 5)     # (refactorizations)
+        assert lu.refactorizations == before + 5
         t_su = best_of(lambda: spla.splu(J, **newton.SPLU_OPTIONS).solve(b), 5)
         res = lambda x: float(np.linalg.norm(J @ x - b) / np.linalg.norm(b))  # noqa: E731
         rows.append((tag, J.nnz, t_ll, t_re, t_su, res(x_ll), res(x_su)))
-    return choice.flops / n, rows
+    return lu.flops / n, rows
 
 
 def whole(p):
