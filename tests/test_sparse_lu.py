@@ -158,10 +158,11 @@ def test_choice_follows_the_fill():
     np.testing.assert_array_equal(lu.q, np.arange(n))
     x = _solve(lu, A, np.ones(n))
     np.testing.assert_allclose(A @ x, np.ones(n), atol=1e-12)
-    # a full pattern: many entries per row, SuperLU without computing the ordering
+    # a full pattern: many entries per row, SuperLU whatever the flop count (the ordering
+    # computed all the same: SuperLU factorizes in it)
     F = sp.csc_matrix(np.ones((60, 60)) + 60 * np.eye(60))
     _, lu = _lu(F, "auto")
-    assert lu.kind == "splu" and lu.flops is None
+    assert lu.kind == "splu" and lu.flops > 0 and sorted(lu.q) == list(range(60))
     # an arrow-and-band pattern of few entries per row but heavy fill: SuperLU by the flops
     m = 400
     rng = np.random.default_rng(0)
@@ -241,7 +242,9 @@ def test_kernel_solve_matches_dense_inverse():
 
 
 def test_refactorization_reuses_the_pivots():
-    A, lu = _lu(_random(90, 0.06, 7))
+    # (a dominant diagonal: the pivots pass the threshold again after the values change,
+    # whatever the column order; with diag=1 they did in COLAMD's order, not in MMD's)
+    A, lu = _lu(_random(90, 0.06, 7, diag=5.0))
     b = np.random.default_rng(7).standard_normal(90)
     _solve(lu, A, b)
     B = A.copy()
@@ -271,3 +274,98 @@ def test_refactorization_falls_back_on_a_bad_pivot():
     assert (lu.factorizations, lu.refactorizations) == (2, 0)
     assert np.linalg.norm(B @ x - b) <= 1e-10 * np.linalg.norm(b)
     assert not np.any(lu.x)
+
+
+def _symmetric_pattern(n, seed, diag=4.0):
+    """A random matrix of symmetric pattern (values unsymmetric), ``diag`` on its diagonal."""
+    rng = np.random.default_rng(seed)
+    S = sp.random(n, n, density=0.04, random_state=rng, format="csc")
+    P = (S + S.T).tocsc()
+    P.data = rng.uniform(-1.0, 1.0, P.nnz)
+    return (P + diag * sp.identity(n)).tocsc()
+
+
+def _spy_splu(monkeypatch):
+    calls = []
+    original = spla.splu
+
+    def spy(A, **kw):
+        calls.append((A.copy(), kw))
+        return original(A, **kw)
+
+    monkeypatch.setattr(sparse_lu.spla, "splu", spy)
+    return calls
+
+
+def test_superlu_factorizes_in_the_solve_order(monkeypatch):
+    """Kind "splu": each matrix goes to SuperLU permuted into the order computed once
+    (``A[q][:, q]``, ``permc_spec="NATURAL"``, stored zeros kept), and the solution is
+    mapped back."""
+    A, lu = _lu(_symmetric_pattern(120, 3), "splu")
+    assert lu.kind == "splu" and sorted(lu.q) == list(range(120))
+    A.data[::7] = 0.0           # stored zeros (a separated contact's rows)
+    A.setdiag(4.0)
+    calls = _spy_splu(monkeypatch)
+    b = np.random.default_rng(3).standard_normal(120)
+    for _ in range(2):
+        x = _solve(lu, A, b)
+        np.testing.assert_allclose(A @ x, b, atol=1e-12 * np.abs(b).max())
+    assert len(calls) == 2
+    for M, kw in calls:
+        assert kw["permc_spec"] == "NATURAL" and M.nnz == A.nnz
+        np.testing.assert_array_equal(M.toarray(), A.toarray()[lu.q][:, lu.q])
+    assert not lu.reorder_each
+
+
+def test_superlu_orders_each_matrix_after_fill_growth(monkeypatch):
+    """When an ordered factorization stores more than SPLU_FILL_GROWTH times the ordering's
+    own, the later matrices go to SuperLU as they are, with its per-call ordering (COLAMD)."""
+    A, lu = _lu(_symmetric_pattern(120, 4), "splu")
+    monkeypatch.setattr(sparse_lu, "SPLU_FILL_GROWTH", 1e-3)
+    calls = _spy_splu(monkeypatch)
+    b = np.ones(120)
+    x1 = _solve(lu, A, b)
+    assert lu.reorder_each                  # (the first step's factors still used)
+    x2 = _solve(lu, A, b)
+    for x in (x1, x2):
+        np.testing.assert_allclose(A @ x, b, atol=1e-12)
+    assert [kw["permc_spec"] for _, kw in calls] == ["NATURAL", newton.SPLU_OPTIONS["permc_spec"]]
+
+
+def test_superlu_orders_each_matrix_without_the_knob(monkeypatch):
+    """SPLU_ORDER_ONCE = False: session 38's path (no ordering computed, SuperLU orders)."""
+    monkeypatch.setattr(sparse_lu, "SPLU_ORDER_ONCE", False)
+    A, lu = _lu(_symmetric_pattern(80, 5), "splu")
+    assert lu.q is None and lu.flops is None
+    calls = _spy_splu(monkeypatch)
+    x = _solve(lu, A, np.ones(80))
+    np.testing.assert_allclose(A @ x, np.ones(80), atol=1e-12)
+    assert calls[0][1]["permc_spec"] == newton.SPLU_OPTIONS["permc_spec"]
+
+
+def test_the_ordering_is_minimum_degree_on_a_plus_at():
+    """The order of a symmetric pattern (a 2D grid: the contact network of a deposit) fills
+    less than COLAMD's order of AᵀA, the reason for :data:`sparse_lu.ORDERING`."""
+    g = 40
+    T = sp.diags([-np.ones(g - 1), 4 * np.ones(g), -np.ones(g - 1)], [-1, 0, 1])
+    A = (sp.kron(sp.identity(g), T) + sp.kron(sp.diags([np.ones(g - 1)] * 2, [-1, 1]),
+                                               -sp.identity(g))).tocsc()
+    A.sort_indices()
+    n = g * g
+    q, flops, nnz, stored = sparse_lu.column_order(A.indptr, A.indices, n, newton.SPLU_OPTIONS)
+    assert sorted(q) == list(range(n)) and stored > 0
+    colamd = spla.splu(A, permc_spec="COLAMD", diag_pivot_thresh=0.1,
+                       options={"SymmetricMode": True})
+    assert nnz < 0.8 * (colamd.L.nnz + colamd.U.nnz)
+
+
+def test_newton_reports_the_reordering(monkeypatch):
+    """Newton with SuperLU: the solution as with the left-looking LU, and ``info`` says when
+    SuperLU went back to ordering each matrix."""
+    p = manufactured(60, 3, 0.4, seed=6)
+    a = socp_cd.solve(p, "newton", tol=1e-10, linear_solver="splu")
+    assert a.converged and "splu_reordered" not in a.info
+    monkeypatch.setattr(sparse_lu, "SPLU_FILL_GROWTH", 1e-3)
+    b = socp_cd.solve(p, "newton", tol=1e-10, linear_solver="splu")
+    assert b.converged and b.info["splu_reordered"] is True
+    np.testing.assert_allclose(a.r, b.r, rtol=1e-6, atol=1e-9 * np.abs(a.r).max())

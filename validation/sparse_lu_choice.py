@@ -98,17 +98,27 @@ def capture(p):
     return steps, (systems[0] if systems else None)
 
 
+def captured(p, choice):
+    """``(steps, jac, lu)``: :func:`capture`'s steps, the run's block Jacobian and one
+    :class:`~socp_cd.solvers.sparse_lu.NewtonLU` of kind ``choice`` on its full pattern
+    (the order computed once, as in a solve); None on the dense path."""
+    steps, system = capture(p)
+    if not steps:
+        return None
+    jac = system._jacobian
+    return steps, jac, sparse_lu.NewtonLU(jac.indptr, jac.indices, p.m, newton.SPLU_OPTIONS,
+                                          choice)
+
+
 def per_factorization(p):
     """Per captured step: the matrix as the Newton path gives it to each LU (the left-looking
     one: its values on the full block pattern, stored zeros kept; SuperLU: ``current()``,
     stored zeros dropped), factorized and solved by both."""
-    steps, system = capture(p)
-    if not steps:
+    got = captured(p, "left_looking")
+    if got is None:
         return None, []
-    jac = system._jacobian
+    steps, jac, lu = got
     n = p.m
-    # one left-looking LU on the full pattern, its column order computed once, as in a solve
-    lu = sparse_lu.NewtonLU(jac.indptr, jac.indices, n, newton.SPLU_OPTIONS, "left_looking")
     rows = []
     b = np.random.default_rng(0).standard_normal(n)
     for tag, args in (("first", steps[0]), ("middle", steps[len(steps) // 2]),

@@ -182,7 +182,10 @@ CONDENSE_MAX_M = 600
 #: from Newton runs (``validation/results/newton_splu_options.md``): held out, local,
 #: factorization time x0.95 (geometric mean; x0.85 on the 30 captures of 1 ms or more,
 #: worst x1.16), fill x0.97, the same solve residuals, no failures; the minimum-degree
-#: ordering on ``A + Aᵀ`` was slower (x1.09, up to x1.8).
+#: ordering on ``A + Aᵀ`` was slower (x1.09, up to x1.8) *computed on each call*.  The local
+#: sparse path orders once per solve instead (:mod:`socp_cd.solvers.sparse_lu`: minimum
+#: degree of ``A + Aᵀ``, each matrix handed to SuperLU in that order); these settings'
+#: ``permc_spec`` is what the global saddle-point matrix and the local path's fallback use.
 SPLU_OPTIONS = types.MappingProxyType({"permc_spec": "COLAMD", "diag_pivot_thresh": 0.1,
                                        "options": {"SymmetricMode": True}})
 #: solver-specific options (the common ones are in :mod:`socp_cd.solvers.options`)
@@ -478,11 +481,17 @@ class _LocalSystem:
 
     def lu_info(self) -> dict:
         """``info`` entries of the sparse LU: the left-looking LU's refactorizations (the
-        Newton steps factorized with the previous step's pivots)."""
+        Newton steps factorized with the previous step's pivots); ``splu_reordered`` when
+        SuperLU went from the solve's ordering to ordering each matrix
+        (:data:`~socp_cd.solvers.sparse_lu.SPLU_FILL_GROWTH`)."""
         lu = getattr(self, "_lu", None)
-        if lu is None or not lu.used_left_looking:
+        if lu is None:
             return {}
+        if not lu.used_left_looking:
+            return {"splu_reordered": True} if lu.reorder_each else {}
         info = {"lu_refactorizations": lu.refactorizations}
+        if lu.reorder_each:
+            info["splu_reordered"] = True
         if lu.kind != self.kind:        # (its factors outgrew MAX_GROWTH: SuperLU took over)
             info["linear_solver"] = f"{self.kind}->{lu.kind}"
         return info

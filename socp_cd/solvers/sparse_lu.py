@@ -2,15 +2,17 @@
 
 The Newton matrix ``J = Dr + Du (W + alpha I)`` of a local problem keeps ``W``'s block
 pattern through a solve (only its values change; a separated contact's rows lose their
-off-diagonal entries).  :class:`NewtonLU` orders the columns once per solve on that pattern
-(SuperLU's COLAMD, ``SymmetricMode``, on the pattern with a dominant diagonal) and counts the
-floating-point operations of that factorization.  Where they are few per row (contact
-networks of low connectivity: capsule and sphere piles, box stacks, 2D flows; not the
-Kapla tower nor a dense 2D deposit, whose LU fills), every Newton step is factorized by the
-compiled left-looking LU of :mod:`socp_cd.solvers.kernels.sparse_lu` in that order, which has
-no per-call set-up and no supernode bookkeeping; elsewhere by SuperLU, ordering each matrix
-afresh, as before.  Measured in ``validation/sparse_lu_choice.py``
-(``validation/results/sparse_lu_choice.md``).
+off-diagonal entries).  :class:`NewtonLU` orders that pattern once per solve, symmetrically
+(rows and columns alike, so the diagonal stays on the diagonal): the minimum-degree
+ordering of ``A + Aᵀ`` (SuperLU's ``MMD_AT_PLUS_A`` with ``SymmetricMode`` and a preference
+for diagonal pivots, SuperLU's documented setting for matrices of symmetric pattern), and
+counts the floating-point operations of that factorization.  Where they are few per row
+(contact networks of low connectivity: capsule and sphere piles, box stacks, 2D flows; not
+the Kapla tower nor a dense 2D deposit, whose LU fills), every Newton step is factorized by
+the compiled left-looking LU of :mod:`socp_cd.solvers.kernels.sparse_lu` in that order,
+which has no per-call set-up and no supernode bookkeeping; elsewhere by SuperLU on the
+matrix permuted into that order (``permc_spec="NATURAL"``: no ordering per step).
+Measured in ``validation/sparse_lu_choice.py`` (``validation/results/sparse_lu_choice.md``).
 """
 from __future__ import annotations
 
@@ -24,14 +26,31 @@ from .kernels import sparse_lu as kernel
 #: factorization of the full pattern costs at most this many multiply-adds per row
 #: (measured: validation/results/sparse_lu_choice.md)
 LEFT_LOOKING_MAX_FLOPS_PER_ROW = 200.0
-#: patterns of more stored entries per row go to SuperLU without computing the ordering
-#: (the choice's own cost: SuperLU on the full pattern of the Kapla tower, 68 entries per
-#: row, took a third of a whole Newton solve; the patterns the left-looking LU won on have
-#: 1-13 entries per row, validation/results/sparse_lu_choice.md)
+#: patterns of more stored entries per row go to SuperLU whatever the ordering's flop count
+#: (the patterns the left-looking LU won on have 1-13 entries per row, the Kapla tower 68,
+#: validation/results/sparse_lu_choice.md; until session 38 the ordering was not computed
+#: for them, SuperLU ordering each matrix itself: with SPLU_ORDER_ONCE it is, once)
 SPLU_ROW_ENTRIES = 40
 #: its pivoting: the diagonal entry when at least this share of the column's largest
 #: candidate (SuperLU's ``diag_pivot_thresh`` of ``newton.SPLU_OPTIONS``)
 PIVOT_THRESHOLD = 0.1
+#: SuperLU's ordering of the pattern, computed once per solve (``permc_spec``; session 39:
+#: ``"MMD_AT_PLUS_A"``, the minimum degree of ``A + Aᵀ``, against session 38's ``"COLAMD"``
+#: of ``AᵀA``: fill x0.62-0.67 on the 2D deposits' patterns, x0.94-0.95 on the capsule
+#: piles', validation/results/splu_ordering.md)
+ORDERING = "MMD_AT_PLUS_A"
+#: (a study knob) True: SuperLU factorizes each Newton matrix permuted into the solve's
+#: ordering, with no ordering of its own; False: each matrix as it is, ordered by SuperLU on
+#: each call with the caller's ``splu_options`` (session 38's path)
+SPLU_ORDER_ONCE = True
+#: ... and when one of those factorizations stores more than this many times what SuperLU
+#: stored for the ordering's own factorization of the pattern (``SuperLU.nnz``; pivots far
+#: off the diagonal: a minimum-degree order of ``A + Aᵀ`` assumes
+#: diagonal pivots, COLAMD's order of ``AᵀA`` bounds the fill of any row pivoting), the
+#: later steps of the solve go back to SuperLU ordering each matrix with COLAMD (the
+#: Kapla tower's last Newton matrix: 743 000 entries in MMD's order against 505 000 in
+#: COLAMD's, validation/results/splu_ordering.md)
+SPLU_FILL_GROWTH = 1.5
 #: the factors' room grows (doubling) up to this many times the ordering's fill, then the
 #: solves go to SuperLU (no huge allocation when pivoting departs far from the diagonal)
 MAX_GROWTH = 16
@@ -53,15 +72,18 @@ def factor_flops(L, U) -> int:
 
 
 def column_order(indptr, indices, n, splu_options):
-    """``(q, flops, nnz_lu)``: SuperLU's column order of the CSC pattern ``(indptr, indices)``
-    with ones off the diagonal and ``n + 1`` on it (nonsingular: diagonally dominant), the
-    multiply-adds and the stored entries of that factorization."""
+    """``(q, flops, nnz_lu, stored)``: SuperLU's column order (:data:`ORDERING`, the other
+    settings from ``splu_options``) of the CSC pattern ``(indptr, indices)`` with ones off
+    the diagonal and ``n + 1`` on it (nonsingular: diagonally dominant, so the pivots stay
+    on the diagonal and the order is symmetric), the multiply-adds and the entries of that
+    factorization's ``L + U``, and what SuperLU stored for it (``SuperLU.nnz``, its
+    supernodes' storage: the measure :data:`SPLU_FILL_GROWTH` compares with)."""
     data = np.ones(indices.shape[0])
     P = sp.csc_matrix((data, indices.copy(), indptr.copy()), shape=(n, n))
     P = (P + sp.identity(n, format="csc") * float(n + 1)).tocsc()
-    lu = spla.splu(P, **splu_options)
+    lu = spla.splu(P, **dict(splu_options, permc_spec=ORDERING))
     q = np.argsort(lu.perm_c).astype(np.int64)
-    return q, factor_flops(lu.L, lu.U), int(lu.L.nnz + lu.U.nnz)
+    return q, factor_flops(lu.L, lu.U), int(lu.L.nnz + lu.U.nnz), int(lu.nnz)
 
 
 def _block_diagonal(indptr, indices, n, block) -> bool:
@@ -77,7 +99,9 @@ class NewtonLU:
 
     ``kind`` is ``"left_looking"`` or ``"splu"`` (chosen at construction, see the module
     docstring); :meth:`solve` takes the matrix as its values (``vals[perm]`` is the CSC data
-    on the pattern) and, for SuperLU, the matrix itself from ``matrix()``.
+    on the pattern) and, for SuperLU without :data:`SPLU_ORDER_ONCE`, the matrix itself
+    from ``matrix()``.  ``splu_options``: SuperLU's settings (its ``permc_spec`` is used
+    only without :data:`SPLU_ORDER_ONCE`; the ordering is :data:`ORDERING`).
     """
 
     def __init__(self, indptr, indices, n, splu_options, choice="auto", block=1):
@@ -89,23 +113,30 @@ class NewtonLU:
         self.used_left_looking = False
         self.Ap = np.ascontiguousarray(indptr, dtype=np.int64)
         self.Ai = np.ascontiguousarray(indices, dtype=np.int64)
-        if choice == "splu":
-            self.kind, self.flops = "splu", None
-            return
-        if choice == "auto" and self.Ai.shape[0] > SPLU_ROW_ENTRIES * n:
-            self.kind, self.flops = "splu", None    # (no ordering computed: see the constant)
+        #: SuperLU's input in the solve's order (:meth:`_order_for_splu`), made on first use
+        self._permuted = None
+        #: set when an ordered SuperLU factorization outgrew SPLU_FILL_GROWTH: from then on
+        #: SuperLU orders each matrix itself
+        self.reorder_each = False
+        self.q, self.flops, self.nnz_lu, self.stored = None, None, None, None
+        # SuperLU chosen without the flop count: forced, or a pattern of more than
+        # SPLU_ROW_ENTRIES entries per row (the left-looking LU would fill it)
+        splu_now = choice == "splu" or (choice == "auto"
+                                        and self.Ai.shape[0] > SPLU_ROW_ENTRIES * n)
+        if splu_now and not SPLU_ORDER_ONCE:
+            self.kind = "splu"
             return
         if block > 1 and _block_diagonal(self.Ap, self.Ai, n, block):
             # uncoupled contacts (no fill beyond each diagonal block): the natural order
-            q, flops, nnz_lu = np.arange(n, dtype=np.int64), 0, self.Ai.shape[0]
+            # (no fill test: pivoting stays within the diagonal blocks)
+            q, flops, nnz_lu, stored = np.arange(n, dtype=np.int64), 0, self.Ai.shape[0], None
         else:
-            q, flops, nnz_lu = column_order(self.Ap, self.Ai, n, splu_options)
-        self.flops = flops
-        if choice == "auto" and flops > LEFT_LOOKING_MAX_FLOPS_PER_ROW * n:
+            q, flops, nnz_lu, stored = column_order(self.Ap, self.Ai, n, splu_options)
+        self.q, self.flops, self.nnz_lu, self.stored = q, flops, nnz_lu, stored
+        if splu_now or (choice == "auto" and flops > LEFT_LOOKING_MAX_FLOPS_PER_ROW * n):
             self.kind = "splu"
             return
         self.kind = "left_looking"
-        self.q = q
         nnz = self.Ai.shape[0]
         self.Bx = np.empty(nnz)
         #: whether the factors hold a factorization of the pattern (refactorizations try
@@ -123,6 +154,39 @@ class NewtonLU:
         self.mark = np.empty(n, np.int64)
         self.work = np.empty(n)
 
+    def _order_for_splu(self, perm):
+        """SuperLU's input in the order ``q``: the pattern of ``A[q][:, q]`` and, for each of
+        its entries, the index into ``vals`` of the matrix's values (``perm`` composed with
+        the permutation of the CSC entries), with SuperLU's settings for a matrix already
+        ordered."""
+        n, q = self.n, self.q
+        ids = sp.csc_matrix((np.arange(1, self.Ai.shape[0] + 1, dtype=np.float64),
+                             self.Ai, self.Ap), shape=(n, n))
+        B = ids[q][:, q].tocsc()
+        B.sort_indices()
+        gather = np.asarray(perm, dtype=np.int64)[B.data.astype(np.int64) - 1]
+        options = dict(self.splu_options, permc_spec="NATURAL")
+        self._permuted = (perm, gather, B.indices, B.indptr, options)
+
+    def _splu_ordered(self, vals, perm, b):
+        """``J^{-1} b`` by SuperLU on ``J[q][:, q]`` (stored zeros kept: the ordering was
+        made for the full pattern)."""
+        if self._permuted is None or self._permuted[0] is not perm:
+            self._order_for_splu(perm)
+        _, gather, indices, indptr, options = self._permuted
+        n, q = self.n, self.q
+        A = sp.csc_matrix((vals[gather], indices, indptr), shape=(n, n))
+        try:
+            lu = spla.splu(A, **options)
+        except RuntimeError as exc:
+            raise SingularMatrix(str(exc)) from None
+        if self.stored is not None and lu.nnz > SPLU_FILL_GROWTH * self.stored:
+            self.reorder_each = True        # (this step's factors are used all the same)
+        y = lu.solve(np.asarray(b, dtype=np.float64)[q])
+        out = np.empty(n)
+        out[q] = y
+        return out
+
     def _allocate(self, capacity):
         self.Li = np.empty(capacity, np.int64)
         self.Lx = np.empty(capacity)
@@ -133,6 +197,8 @@ class NewtonLU:
         """``J^{-1} b``; ``matrix()`` builds ``J`` for SuperLU.  Raises
         :class:`SingularMatrix` when ``J`` has no LU (a zero pivot column)."""
         if self.kind == "splu":
+            if SPLU_ORDER_ONCE and self.q is not None and not self.reorder_each:
+                return self._splu_ordered(vals, perm, b)
             try:
                 return spla.splu(matrix(), **self.splu_options).solve(b)
             except RuntimeError as exc:
@@ -162,4 +228,5 @@ class NewtonLU:
 
 
 __all__ = ["NewtonLU", "SingularMatrix", "column_order", "factor_flops",
-           "LEFT_LOOKING_MAX_FLOPS_PER_ROW", "SPLU_ROW_ENTRIES", "PIVOT_THRESHOLD", "MAX_GROWTH"]
+           "LEFT_LOOKING_MAX_FLOPS_PER_ROW", "SPLU_ROW_ENTRIES", "PIVOT_THRESHOLD", "MAX_GROWTH",
+           "ORDERING", "SPLU_ORDER_ONCE", "SPLU_FILL_GROWTH"]

@@ -2,11 +2,12 @@
 
 The Newton matrices of the local problem (``J = Dr + Du (W + alpha I)``) of a few hundred
 to a few thousand contacts have little fill once their columns are ordered (an ordering
-computed once per solve, e.g. SuperLU's COLAMD): ``nnz(L + U)`` is 1–2 ``nnz(J)``.  At that
-fill SuperLU's supernodal machinery and its per-call set-up dominate (1 ms for an 888-unknown
-matrix of 9 000 entries), where the left-looking method does the same factorization with the
-work proportional to its floating-point operations (Gilbert & Peierls 1988; the algorithm of
-Davis' CSparse ``cs_lu``, the factorization KLU uses for circuit matrices of this kind):
+computed once per solve, e.g. SuperLU's minimum degree of ``A + Aᵀ``): ``nnz(L + U)`` is
+1–2 ``nnz(J)``.  At that fill SuperLU's supernodal machinery and its per-call set-up
+dominate (1 ms for an 888-unknown matrix of 9 000 entries), where the left-looking method
+does the same factorization with the work proportional to its floating-point operations
+(Gilbert & Peierls 1988; the algorithm of Davis' CSparse ``cs_lu``, the factorization KLU
+uses for circuit matrices of this kind):
 
 for each column ``k`` of ``A Q``: the sparse triangular solve ``x = L \\ A[:, q_k]`` on the
 columns of ``L`` reached from the column's pattern (a depth-first search, in topological
