@@ -33,7 +33,12 @@ import scipy.sparse as sp
 import socp_cd
 from socp_cd.bench import evalset
 from socp_cd.data import shared_problems, shared_problems_dir
-from socp_cd.solvers import newton
+from socp_cd.solvers import newton, sparse_lu
+
+# session 16's path, where SuperLU gets the assembled matrix and orders it on each call: since
+# session 39 SuperLU's default input is built from the block values in the solve's order,
+# and ``BlockJacobian.current`` (what this study swaps) is not called at all
+sparse_lu.SPLU_ORDER_ONCE = False
 
 OUT = Path(__file__).resolve().parent / "results"
 
@@ -67,7 +72,8 @@ def timed(p, repeats, time_limit):
 def install(fn):
     """SuperLU's matrix of the sparse path built by ``fn(self, Dr, Du, alpha)``.  (Since
     session 38 the path calls ``BlockJacobian.values`` and hands ``current`` to the sparse
-    LU, which calls it for SuperLU only: the solves here force ``linear_solver="splu"``.)"""
+    LU, which calls it for SuperLU only: the solves here force ``linear_solver="splu"``,
+    and session 38's SuperLU path, ``sparse_lu.SPLU_ORDER_ONCE = False``, set at import.)"""
     def values(self, Dr, Du, alpha):
         self.last_args = (Dr, Du, alpha)
         VALUES(self, Dr, Du, alpha)

@@ -7,7 +7,10 @@ dense enough for the dense LU), two measurements:
    (first, middle and last step); each step's matrix, as the Newton path hands it to each LU
    (SuperLU: stored zeros dropped; the left-looking LU: the full block pattern), is
    factorized and solved by SuperLU (``splu`` with
-   ``newton.SPLU_OPTIONS``, ordering each matrix) and by the left-looking LU
+   ``newton.SPLU_OPTIONS``, ordering each matrix: session 38's SuperLU path; since session 39
+   SuperLU gets the matrices in the solve's one order instead, measured by
+   ``validation/splu_ordering.py``, and the threshold was not re-derived against it) and by
+   the left-looking LU
    (:mod:`socp_cd.solvers.kernels.sparse_lu`, the column order computed once on the full
    pattern by :func:`socp_cd.solvers.sparse_lu.column_order`), with its pivot search and as
    a refactorization with the pivots of the previous call (what the Newton steps after the
@@ -16,8 +19,9 @@ dense enough for the dense LU), two measurements:
    (``LEFT_LOOKING_MAX_FLOPS_PER_ROW``).
 2. **whole solves**: ``solve(p, "newton", tol=1e-8)`` with ``linear_solver="splu"`` and with
    the default (``"auto"``: NewtonLU's choice), min of 3 wall times after a warm-up call
-   (where the choice is SuperLU, on the tune problems only: the two runs differ by the
-   choice's own cost).
+   (where the choice is SuperLU, on the tune problems only: in session 38 the two runs
+   differed by the choice's own cost; since session 39 forced SuperLU computes the ordering
+   too, so they are the same path).
 
 Split: ``tune`` (the threshold was read off these: shared/'s sparse local problems and the
 first 1 000-grain deposit step) and ``holdout`` (the other simulation steps, never looked at

@@ -36,8 +36,8 @@ SPLU_ROW_ENTRIES = 40
 PIVOT_THRESHOLD = 0.1
 #: SuperLU's ordering of the pattern, computed once per solve (``permc_spec``; session 39:
 #: ``"MMD_AT_PLUS_A"``, the minimum degree of ``A + Aᵀ``, against session 38's ``"COLAMD"``
-#: of ``AᵀA``: fill x0.62-0.67 on the 2D deposits' patterns, x0.94-0.95 on the capsule
-#: piles', validation/results/splu_ordering.md)
+#: of ``AᵀA``: fill x0.56-0.67 on the 2D deposits' patterns, x0.94-0.95 on the capsule
+#: piles', x0.77 on the Kapla tower's, validation/results/splu_ordering.md)
 ORDERING = "MMD_AT_PLUS_A"
 #: (a study knob) True: SuperLU factorizes each Newton matrix permuted into the solve's
 #: ordering, with no ordering of its own; False: each matrix as it is, ordered by SuperLU on
@@ -52,7 +52,8 @@ SPLU_ORDER_ONCE = True
 #: COLAMD's, validation/results/splu_ordering.md)
 SPLU_FILL_GROWTH = 1.5
 #: the factors' room grows (doubling) up to this many times the ordering's fill, then the
-#: solves go to SuperLU (no huge allocation when pivoting departs far from the diagonal)
+#: solves go to SuperLU ordering each matrix with COLAMD (no huge allocation when pivoting
+#: departs far from the diagonal)
 MAX_GROWTH = 16
 
 
@@ -72,12 +73,31 @@ def factor_flops(L, U) -> int:
 
 
 def column_order(indptr, indices, n, splu_options):
-    """``(q, flops, nnz_lu, stored)``: SuperLU's column order (:data:`ORDERING`, the other
-    settings from ``splu_options``) of the CSC pattern ``(indptr, indices)`` with ones off
-    the diagonal and ``n + 1`` on it (nonsingular: diagonally dominant, so the pivots stay
-    on the diagonal and the order is symmetric), the multiply-adds and the entries of that
-    factorization's ``L + U``, and what SuperLU stored for it (``SuperLU.nnz``, its
-    supernodes' storage: the measure :data:`SPLU_FILL_GROWTH` compares with)."""
+    """SuperLU's order of a CSC pattern, and the cost of factorizing in it.
+
+    The pattern gets ones off the diagonal and ``n + 1`` on it (nonsingular: diagonally
+    dominant, so the pivots stay on the diagonal and the order is symmetric).
+
+    Parameters
+    ----------
+    indptr, indices : ndarray
+        The CSC pattern (``n x n``).
+    n : int
+    splu_options : mapping
+        SuperLU's settings; its ``permc_spec`` is replaced by :data:`ORDERING`.
+
+    Returns
+    -------
+    q : ndarray of int64
+        The order: column (and row) ``k`` of the ordered matrix is ``q[k]``.
+    flops : int
+        Multiply-adds of that factorization (:func:`factor_flops`).
+    nnz_lu : int
+        Entries of its ``L + U``.
+    stored : int
+        What SuperLU stored for it (``SuperLU.nnz``, its supernodes' storage: the
+        measure :data:`SPLU_FILL_GROWTH` compares with).
+    """
     data = np.ones(indices.shape[0])
     P = sp.csc_matrix((data, indices.copy(), indptr.copy()), shape=(n, n))
     P = (P + sp.identity(n, format="csc") * float(n + 1)).tocsc()
@@ -169,13 +189,16 @@ class NewtonLU:
         self._permuted = (perm, gather, B.indices, B.indptr, options)
 
     def _splu_ordered(self, vals, perm, b):
-        """``J^{-1} b`` by SuperLU on ``J[q][:, q]`` (stored zeros kept: the ordering was
-        made for the full pattern)."""
+        """``J^{-1} b`` by SuperLU on ``J[q][:, q]``, its stored zeros dropped (the order,
+        made for the full pattern, holds for any sub-pattern: a separated contact's rows are
+        empty off the diagonal, and SuperLU then fills less)."""
         if self._permuted is None or self._permuted[0] is not perm:
             self._order_for_splu(perm)
         _, gather, indices, indptr, options = self._permuted
         n, q = self.n, self.q
-        A = sp.csc_matrix((vals[gather], indices, indptr), shape=(n, n))
+        # (copies: eliminate_zeros rewrites the index arrays in place)
+        A = sp.csc_matrix((vals[gather], indices.copy(), indptr.copy()), shape=(n, n))
+        A.eliminate_zeros()
         try:
             lu = spla.splu(A, **options)
         except RuntimeError as exc:
@@ -193,14 +216,36 @@ class NewtonLU:
         self.Ui = np.empty(capacity, np.int64)
         self.Ux = np.empty(capacity)
 
+    def _matrix(self, vals, perm):
+        """``J`` as a scipy CSC matrix, its stored zeros dropped (for SuperLU's own order)."""
+        A = sp.csc_matrix((vals[perm], self.Ai.copy(), self.Ap.copy()), shape=(self.n, self.n))
+        A.eliminate_zeros()
+        return A
+
     def solve(self, vals, perm, b, matrix=None):
-        """``J^{-1} b``; ``matrix()`` builds ``J`` for SuperLU.  Raises
-        :class:`SingularMatrix` when ``J`` has no LU (a zero pivot column)."""
+        """``J^{-1} b``.
+
+        Parameters
+        ----------
+        vals, perm : ndarray
+            ``J``'s values: ``vals[perm]`` is its CSC data on the pattern.
+        b : ndarray
+        matrix : callable, optional
+            Builds ``J`` as a scipy matrix for SuperLU when it orders the matrix itself
+            (without :data:`SPLU_ORDER_ONCE`, or after :data:`SPLU_FILL_GROWTH`); default:
+            from ``vals`` and ``perm``, stored zeros dropped.
+
+        Raises
+        ------
+        SingularMatrix
+            When ``J`` has no LU (a zero pivot column).
+        """
         if self.kind == "splu":
             if SPLU_ORDER_ONCE and self.q is not None and not self.reorder_each:
                 return self._splu_ordered(vals, perm, b)
+            J = matrix() if matrix is not None else self._matrix(vals, perm)
             try:
-                return spla.splu(matrix(), **self.splu_options).solve(b)
+                return spla.splu(J, **self.splu_options).solve(b)
             except RuntimeError as exc:
                 raise SingularMatrix(str(exc)) from None
         out = np.empty(self.n)
@@ -222,7 +267,9 @@ class NewtonLU:
             if status == kernel.SINGULAR:
                 raise SingularMatrix("singular Newton matrix (no nonzero pivot)")
             if 2 * self.Li.shape[0] > self.max_capacity:
-                self.kind = "splu"      # (the ordering no longer fits these matrices)
+                # (the ordering no longer fits these matrices, whose pivots left the
+                # diagonal: SuperLU orders each one itself, as after SPLU_FILL_GROWTH)
+                self.kind, self.reorder_each = "splu", True
                 return self.solve(vals, perm, b, matrix)
             self._allocate(2 * self.Li.shape[0])    # FULL_L / FULL_U: more room, again
 
