@@ -379,3 +379,30 @@ def test_newton_reports_the_reordering(monkeypatch):
     b = socp_cd.solve(p, "newton", tol=1e-10, linear_solver="splu")
     assert b.converged and b.info["splu_reordered"] is True
     np.testing.assert_allclose(a.r, b.r, rtol=1e-6, atol=1e-9 * np.abs(a.r).max())
+
+
+def test_the_polish_counts_its_set_up_in_its_time_limit(monkeypatch):
+    """``newton_polish``'s ``time_limit`` bounds the whole call: the system's set-up (here an
+    ordering made slow) leaves the Newton loop only what remains."""
+    import time
+    p = manufactured(150, 3, 0.4, seed=6)
+    real_order, seen = sparse_lu.column_order, []
+
+    def slow_order(*args):
+        time.sleep(0.3)
+        return real_order(*args)
+
+    real_loop = newton.prox_newton
+
+    def spy(*args, **kw):
+        seen.append(kw["time_limit"])
+        return real_loop(*args, **kw)
+
+    monkeypatch.setattr(sparse_lu, "column_order", slow_order)
+    monkeypatch.setattr(newton, "prox_newton", spy)
+    r, info = newton.newton_polish(p, np.zeros(p.m), 1e-8,
+                                   {"max_iter": 30, "law": "coulomb", "time_limit": 0.2})
+    assert seen == [1e-9]                    # the set-up took the whole budget
+    newton.newton_polish(p, np.zeros(p.m), 1e-8, {"max_iter": 30, "law": "coulomb",
+                                                  "time_limit": 5.0})
+    assert 4.0 < seen[-1] < 4.71              # 5 s minus the 0.3 s set-up (and some)
