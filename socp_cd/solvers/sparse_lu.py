@@ -12,7 +12,9 @@ the Kapla tower nor a dense 2D deposit, whose LU fills), every Newton step is fa
 the compiled left-looking LU of :mod:`socp_cd.solvers.kernels.sparse_lu` in that order,
 which has no per-call set-up and no supernode bookkeeping; elsewhere by SuperLU on the
 matrix permuted into that order (``permc_spec="NATURAL"``: no ordering per step).
-Measured in ``validation/sparse_lu_choice.py`` (``validation/results/sparse_lu_choice.md``).
+Measured in ``validation/sparse_lu_choice.py`` (the choice, session 38:
+``validation/results/sparse_lu_choice.md``) and ``validation/splu_ordering.py`` (the
+ordering, session 39: ``validation/results/splu_ordering.md``).
 """
 from __future__ import annotations
 
@@ -44,12 +46,12 @@ ORDERING = "MMD_AT_PLUS_A"
 #: each call with the caller's ``splu_options`` (session 38's path)
 SPLU_ORDER_ONCE = True
 #: ... and when one of those factorizations stores more than this many times what SuperLU
-#: stored for the ordering's own factorization of the pattern (``SuperLU.nnz``; pivots far
-#: off the diagonal: a minimum-degree order of ``A + Aᵀ`` assumes
-#: diagonal pivots, COLAMD's order of ``AᵀA`` bounds the fill of any row pivoting), the
-#: later steps of the solve go back to SuperLU ordering each matrix with COLAMD (the
-#: Kapla tower's last Newton matrix: 743 000 entries in MMD's order against 505 000 in
-#: COLAMD's, validation/results/splu_ordering.md)
+#: stored for the ordering's own factorization of the pattern (``SuperLU.nnz``), the later
+#: steps of the solve go back to SuperLU ordering each matrix with COLAMD: pivots far off
+#: the diagonal fill a minimum-degree order of ``A + Aᵀ``, which assumes diagonal pivots,
+#: while COLAMD's order of ``AᵀA`` bounds the fill of any row pivoting (the Kapla tower's
+#: last Newton matrix: 746 000 entries in MMD's order against 505 000 in COLAMD's; the
+#: deposits stay within x1.1 of the pattern's, validation/results/splu_ordering.md)
 SPLU_FILL_GROWTH = 1.5
 #: the factors' room grows (doubling) up to this many times the ordering's fill, then the
 #: solves go to SuperLU ordering each matrix with COLAMD (no huge allocation when pivoting
