@@ -195,7 +195,8 @@ def main(argv=None) -> int:
              f"`other`: the left-looking LU or the dense path, where only the left-looking "
              f"LU's order changed): {summary(wratios)}", "",
              "## Per factorization (factorize + one solve; min of 5)", "", *fact, "",
-             f"## Whole Newton solves (min and median of {args.repeats}, interleaved)", "", *whl, ""]
+             f"## Whole Newton solves (min and median of {args.repeats}, interleaved)", "",
+             *whl, ""]
     with open(args.out + ".md", "w") as fh:
         fh.write("\n".join(lines))
     print("\n".join(lines[:8]))
