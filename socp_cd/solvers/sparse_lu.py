@@ -74,6 +74,25 @@ def factor_flops(L, U) -> int:
     return int(below[U.indices[above]].sum())
 
 
+def csc_without_zeros(data, indices, indptr, n):
+    """The ``n x n`` CSC matrix ``(data, indices, indptr)`` with its stored zeros dropped
+    (a separated contact's rows off the diagonal), on copies of the index arrays
+    (``eliminate_zeros`` rewrites them in place)."""
+    A = sp.csc_matrix((data, indices.copy(), indptr.copy()), shape=(n, n))
+    A.eliminate_zeros()
+    return A
+
+
+def entry_positions(P):
+    """Where scipy put the entries of a matrix: ``P`` holds ``1, 2, ..., nnz`` (the entries'
+    numbers, from 1 so none is an explicit zero) after a conversion or a permutation;
+    returns ``(positions, indices, indptr)`` of ``P`` as a sorted CSC matrix, entry ``p``
+    of which is entry ``positions[p]`` of the numbered array."""
+    P = P.tocsc()
+    P.sort_indices()
+    return P.data.astype(np.int64) - 1, P.indices, P.indptr
+
+
 def column_order(indptr, indices, n, splu_options):
     """SuperLU's order of a CSC pattern, and the cost of factorizing in it.
 
@@ -184,11 +203,10 @@ class NewtonLU:
         n, q = self.n, self.q
         ids = sp.csc_matrix((np.arange(1, self.Ai.shape[0] + 1, dtype=np.float64),
                              self.Ai, self.Ap), shape=(n, n))
-        B = ids[q][:, q].tocsc()
-        B.sort_indices()
-        gather = np.asarray(perm, dtype=np.int64)[B.data.astype(np.int64) - 1]
+        positions, indices, indptr = entry_positions(ids[q][:, q])
+        gather = np.asarray(perm, dtype=np.int64)[positions]
         options = dict(self.splu_options, permc_spec="NATURAL")
-        self._permuted = (perm, gather, B.indices, B.indptr, options)
+        self._permuted = (perm, gather, indices, indptr, options)
 
     def _splu_ordered(self, vals, perm, b):
         """``J^{-1} b`` by SuperLU on ``J[q][:, q]``, its stored zeros dropped (the order,
@@ -198,11 +216,8 @@ class NewtonLU:
             self._order_for_splu(perm)
         _, gather, indices, indptr, options = self._permuted
         n, q = self.n, self.q
-        # (copies: eliminate_zeros rewrites the index arrays in place)
-        A = sp.csc_matrix((vals[gather], indices.copy(), indptr.copy()), shape=(n, n))
-        A.eliminate_zeros()
         try:
-            lu = spla.splu(A, **options)
+            lu = spla.splu(csc_without_zeros(vals[gather], indices, indptr, n), **options)
         except RuntimeError as exc:
             raise SingularMatrix(str(exc)) from None
         if self.stored is not None and lu.nnz > SPLU_FILL_GROWTH * self.stored:
@@ -217,12 +232,6 @@ class NewtonLU:
         self.Lx = np.empty(capacity)
         self.Ui = np.empty(capacity, np.int64)
         self.Ux = np.empty(capacity)
-
-    def _matrix(self, vals, perm):
-        """``J`` as a scipy CSC matrix, its stored zeros dropped (for SuperLU's own order)."""
-        A = sp.csc_matrix((vals[perm], self.Ai.copy(), self.Ap.copy()), shape=(self.n, self.n))
-        A.eliminate_zeros()
-        return A
 
     def solve(self, vals, perm, b, matrix=None):
         """``J^{-1} b``.
@@ -245,7 +254,8 @@ class NewtonLU:
         if self.kind == "splu":
             if SPLU_ORDER_ONCE and self.q is not None and not self.reorder_each:
                 return self._splu_ordered(vals, perm, b)
-            J = matrix() if matrix is not None else self._matrix(vals, perm)
+            J = (matrix() if matrix is not None
+                 else csc_without_zeros(vals[perm], self.Ai, self.Ap, self.n))
             try:
                 return spla.splu(J, **self.splu_options).solve(b)
             except RuntimeError as exc:
@@ -276,6 +286,7 @@ class NewtonLU:
             self._allocate(2 * self.Li.shape[0])    # FULL_L / FULL_U: more room, again
 
 
-__all__ = ["NewtonLU", "SingularMatrix", "column_order", "factor_flops",
+__all__ = ["NewtonLU", "SingularMatrix", "column_order", "factor_flops", "csc_without_zeros",
+           "entry_positions",
            "LEFT_LOOKING_MAX_FLOPS_PER_ROW", "SPLU_ROW_ENTRIES", "PIVOT_THRESHOLD", "MAX_GROWTH",
            "ORDERING", "SPLU_ORDER_ONCE", "SPLU_FILL_GROWTH"]
