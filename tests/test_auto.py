@@ -1022,7 +1022,7 @@ def test_newton_first_knob_routes_dense_small_problems_and_leaves_the_chain_afte
             == [(s["method"], s["iterations"]) for s in without.info["path"]])
     assert res.converged == without.converged and np.array_equal(res.r, without.r)
     # with the knob set, the plain call (auto.plain) goes through route, which declines
-    assert auto._small_plan(3) is False and auto.plain(dense, 1e-12, None, 0.0) is None
+    assert auto.small_plan(3) is False and auto.plain(dense, 1e-12, None, 0.0) is None
 
 
 def test_newton_first_knob_keeps_the_hand_off_after_a_refused_retry(monkeypatch):

@@ -43,7 +43,7 @@ def _both(p, r0, tol, max_iter=200, time_limit=None, rho="block", policy="prox",
     settings = settings or COLD
     out = []
     for compiled in (False, True):       # True: the twin, or UnsupportedError
-        system = nt._LocalSystem(p, "auto")
+        system = nt.LocalSystem(p, "auto")
         mu = np.ascontiguousarray(p.mu, dtype=np.float64)
         out.append(nt.prox_newton(system, mu, np.array(r0, dtype=np.float64), tol=tol,
                                   max_iter=max_iter, time_limit=time_limit, history=False,
@@ -70,7 +70,7 @@ def _shared(name):
 
 def test_dispatch_rules():
     p = manufactured(3, 3, 0.5, seed=0)
-    system = nt._LocalSystem(p, "auto")
+    system = nt.LocalSystem(p, "auto")
     assert system.compiled and p.m <= nt.COMPILED_LOOP_MAX_M
     mu = np.ascontiguousarray(p.mu)
     with pytest.raises(UnsupportedError):      # the twin keeps no history
@@ -82,16 +82,16 @@ def test_dispatch_rules():
     big = manufactured(25, 3, 0.5, seed=0)
     indptr, indices, _ = big.csr_parts
     assert envelope_fraction(indptr, indices, big.m) < 0.3
-    system = nt._LocalSystem(big, "auto")
+    system = nt.LocalSystem(big, "auto")
     assert system.compiled and system.lapack is None
     rng = np.random.default_rng(0)
     A = rng.standard_normal((big.m, big.m))
     full = FrictionContactProblem(A @ A.T + np.eye(big.m), big.q, big.mu, 3)
-    system = nt._LocalSystem(full, "auto")
+    system = nt.LocalSystem(full, "auto")
     assert system.compiled and system.lapack is not None
-    assert not nt._LocalSystem(p, "splu").compiled
+    assert not nt.LocalSystem(p, "splu").compiled
     huge = manufactured(210, 3, 0.5, seed=0)       # m = 630 > DENSE_MAX_M
-    assert not nt._LocalSystem(huge, "dense").compiled
+    assert not nt.LocalSystem(huge, "dense").compiled
 
 
 @pytest.mark.parametrize("name", SMALL_SHARED)
@@ -127,7 +127,7 @@ def test_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu, m,
         p = manufactured(nc, dim, mu, structure=structure, mix=mix, seed=seed)
         assert bool(p.is_rank_deficient) == (structure == "redundant")
         if lapack or m > nt.COMPILED_LU_MAX_M:
-            assert (nt._LocalSystem(p, "auto").lapack is not None) == (
+            assert (nt.LocalSystem(p, "auto").lapack is not None) == (
                 lapack or structure == "redundant")
         a, b = _both(p, np.zeros(p.m), 1e-10)
         _assert_equal(a, b)
@@ -248,8 +248,8 @@ def test_project_cone_stacked_equals_reference():
 
 def test_diag_blocks_of_dense_and_sparse_w_agree():
     p = manufactured(7, 3, 0.5, seed=3)
-    dense = nt._LocalSystem(p, "dense").diag_blocks()
-    sparse = nt._LocalSystem(p, "splu").diag_blocks()
+    dense = nt.LocalSystem(p, "dense").diag_blocks()
+    sparse = nt.LocalSystem(p, "splu").diag_blocks()
     W = p.W.toarray()
     np.testing.assert_array_equal(dense, sparse)
     np.testing.assert_array_equal(dense[4], W[12:15, 12:15])
@@ -261,7 +261,7 @@ def test_block_rho_kernel_equals_numpy_reference():
         p = manufactured(11, dim, 0.5, contact_scale=1e6, seed=dim)
         W = p.W.toarray()
         W[:dim, :dim] = 0.0                        # a contact with a zero block: the floor
-        system = nt._LocalSystem(FrictionContactProblem(W, p.q, p.mu, dim), "dense")
+        system = nt.LocalSystem(FrictionContactProblem(W, p.q, p.mu, dim), "dense")
         rho_n, rho_t, ref = nt._rho(system.diag_blocks(), dim, "block")
         rho = np.empty(11)
         assert block_rho_dense(system.W, dim, rho) == pytest.approx(ref, rel=1e-14)
@@ -274,7 +274,7 @@ def test_projected_error_kernel_equals_the_three_calls():
     from socp_cd.solvers.kernels.newton_dense import projected_error
     for dim in (2, 3):
         p = manufactured(6, dim, 0.7, contact_scale=1e3, seed=10 + dim)
-        system = nt._LocalSystem(p, "dense")
+        system = nt.LocalSystem(p, "dense")
         rng = np.random.default_rng(dim)
         mu = np.ascontiguousarray(p.mu, dtype=np.float64)
         for r in (np.zeros(p.m), rng.standard_normal(p.m), 1e6 * rng.standard_normal(p.m)):
@@ -530,7 +530,7 @@ def test_twin_on_a_rank_deficient_w_ordered_to_a_small_envelope():
         indptr, indices, _ = p.csr_parts
         assert p.is_rank_deficient and p.m > nt.COMPILED_LU_MAX_M
         assert envelope_fraction(indptr, indices, p.m) <= nt.COMPILED_LU_MAX_ENVELOPE
-        assert nt._LocalSystem(p, "auto").lapack is None
+        assert nt.LocalSystem(p, "auto").lapack is None
         _assert_equal(*_both(p, np.zeros(p.m), 1e-10))
         _assert_equal(*_both(p, np.zeros(p.m), 1e-10, policy="plain"))
         res = socp_cd.solve(p, "newton", tol=1e-8)

@@ -170,7 +170,7 @@ def test_no_path_of_a_natural_map_solve_runs_the_alart_curnier_kernel(monkeypatc
     if policy == "prox_error":
         from socp_cd.solvers.scaling import balanced
         rec = balanced(p)
-        out = newton.prox_error_runs(newton._LocalSystem(rec.problem, "dense"), rec.problem.mu,
+        out = newton.prox_error_runs(newton.LocalSystem(rec.problem, "dense"), rec.problem.mu,
                                      np.zeros(p.m), tol=1e-30, max_iter=200, alpha_min=1e-10,
                                      stall_window=1, time_limit=None, history=history,
                                      written=newton.origin(rec.problem),
@@ -185,8 +185,8 @@ def test_the_compiled_loop_takes_the_natural_map_not_given_rho_values():
     kw = dict(tol=1e-8, max_iter=5, alpha0=0.1, alpha_min=1e-10, inner_max_iter=10,
               stall_window=50, time_limit=None, history=False, compiled=True,
               equation="natural_map")
-    out = newton.prox_newton(newton._LocalSystem(p, "dense"), p.mu, np.zeros(p.m), **kw)
+    out = newton.prox_newton(newton.LocalSystem(p, "dense"), p.mu, np.zeros(p.m), **kw)
     assert out[4]["equation"] == "natural_map"
     with pytest.raises(UnsupportedError):
-        newton.prox_newton(newton._LocalSystem(p, "dense"), p.mu, np.zeros(p.m),
+        newton.prox_newton(newton.LocalSystem(p, "dense"), p.mu, np.zeros(p.m),
                            rho=np.ones(p.n_contacts), **kw)

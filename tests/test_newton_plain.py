@@ -108,14 +108,14 @@ def test_plain_iterates_running_off_along_the_null_space_are_not_reported():
 def test_shifted_system_is_the_proximal_subproblem():
     """The subproblem of ``policy="prox_error"``: ``u_s = W r + q + s (r - rk)``, Newton matrix
     ``Dr + Du (W + diag(s))``, diagonal blocks ``W_ii + diag(s_i)`` (a per-unknown shift)."""
-    from socp_cd.solvers.newton import _LocalSystem, _ShiftedSystem     # noqa: PLC2701
+    from socp_cd.solvers.newton import LocalSystem, _ShiftedSystem     # noqa: PLC2701
     rng = np.random.default_rng(3)
     nc, d = 4, 3
     m = nc * d
     A = rng.standard_normal((m, m))
     W = A @ A.T + np.eye(m)
     p = FrictionContactProblem(W, rng.standard_normal(m), 0.5, d)
-    base = _LocalSystem(p, "dense")
+    base = LocalSystem(p, "dense")
     s, rk, r = rng.uniform(0.1, 2.0, m), rng.standard_normal(m), rng.standard_normal(m)
     sub = _ShiftedSystem(base, s, rk, 1.0, base.diag_blocks())
     assert np.allclose(sub.start(r), W @ r + p.q + s * (r - rk))

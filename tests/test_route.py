@@ -1282,11 +1282,11 @@ def test_plain_call_reads_the_hand_offs_knobs_as_they_are_set(monkeypatch):
 
 
 def test_the_plain_calls_plan_reads_only_the_knobs_whose_setting_drops_it():
-    # every module-level name in upper case that auto._small_plan reads is a knob whose
+    # every module-level name in upper case that auto.small_plan reads is a knob whose
     # setting (and deletion) empties the plans: a knob missing from _PLAN_KNOBS would leave a
     # stale plan in use
     from socp_cd.solvers import auto
-    read = {n for n in auto._small_plan.__code__.co_names if n.isupper() and n[0] != "_"}
+    read = {n for n in auto.small_plan.__code__.co_names if n.isupper() and n[0] != "_"}
     assert read and read <= auto._PLAN_KNOBS
 
 

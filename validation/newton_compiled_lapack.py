@@ -50,7 +50,7 @@ def _box_stacks():
 
 def lu_table(stacks):
     rows, seen = [], set()
-    with nt._blas_controller().limit(limits=1, user_api="blas"):
+    with nt.one_blas_thread():
         for f, p in stacks:
             if p.m <= 60 or p.m in seen:
                 continue

@@ -62,7 +62,7 @@ def min_time(f, repeats):
 
 
 def _warm_run(p, r0):
-    system = nt._LocalSystem(p, "dense")
+    system = nt.LocalSystem(p, "dense")
     mu = np.ascontiguousarray(p.mu, dtype=np.float64)
     return nt.prox_newton(system, mu, r0.copy(), tol=1e-2 * TOL, max_iter=30,
                           alpha0=nt.WARM_ALPHA0, alpha_min=1e-10, inner_max_iter=10,

@@ -130,7 +130,7 @@ def main(argv=None) -> int:
     for _ in range(1000):
         socp_cd.solve(copy.copy(p0), time_limit=1.0)
     fresh = lambda: copy.copy(p0)           # noqa: E731
-    plan = auto._small_plan(3)              # (the plan auto.plain reads)
+    plan = auto.small_plan(3)              # (the plan auto.plain reads)
     indptr, indices, data = p0.csr_parts
     q, mu = p0.q, p0.mu
     m = q.shape[0]

@@ -86,7 +86,7 @@ def capture(p):
     """The Newton steps of a SuperLU run of ``p``: their Jacobian blocks ``(Dr, Du, alpha)``,
     and its sparse system."""
     steps, systems = [], []
-    orig = newton._LocalSystem.direction
+    orig = newton.LocalSystem.direction
 
     def spy(self, r, Dr, Du, alpha, F, strict=False):
         if not self.compiled and self.kind != "dense":
@@ -94,11 +94,11 @@ def capture(p):
             systems.append(self)
         return orig(self, r, Dr, Du, alpha, F, strict)
 
-    newton._LocalSystem.direction = spy
+    newton.LocalSystem.direction = spy
     try:
         socp_cd.solve(p, "newton", tol=1e-8, linear_solver="splu", time_limit=30)
     finally:
-        newton._LocalSystem.direction = orig
+        newton.LocalSystem.direction = orig
     return steps, (systems[0] if systems else None)
 
 
@@ -109,7 +109,7 @@ def captured(p, choice):
     steps, system = capture(p)
     if not steps:
         return None
-    jac = system._jacobian
+    jac = system.jacobian
     return steps, jac, sparse_lu.NewtonLU(jac.indptr, jac.indices, p.m, newton.SPLU_OPTIONS,
                                           choice)
 
@@ -187,7 +187,7 @@ def main(argv=None) -> int:
         if fpr is None:
             print(name, "no sparse Newton matrix", flush=True)
             continue
-        choice = newton._LocalSystem(p, "auto").kind      # (NewtonLU's choice, or "dense")
+        choice = newton.LocalSystem(p, "auto").kind      # (NewtonLU's choice, or "dense")
         for tag, nnz, t_ll, t_re, t_su, r_ll, r_su in rows:
             lines.append(f"| {split} | {name} | {p.m} | {fpr:.0f} | {choice} | {tag} | {nnz} | "
                          f"{t_ll * 1e3:.3f} | {t_re * 1e3:.3f} | {t_su * 1e3:.3f} | "

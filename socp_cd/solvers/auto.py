@@ -711,7 +711,7 @@ def plain(problem, tol, time_limit, t0):
     dim = problem.dim
     plan = _PLANS.get(dim)
     if plan is None:
-        plan = _small_plan(dim)
+        plan = small_plan(dim)
     nc = problem.mu.shape[0]
     if plan is False or nc > plan[0] or nc == 0 or nc > nsgs_route.MAX_CONTACTS:
         # a study's knobs (or a bad value, which route reports), a larger problem, or one
@@ -730,7 +730,7 @@ def plain(problem, tol, time_limit, t0):
         if left < _MIN_STAGE_LIMIT:
             left = _MIN_STAGE_LIMIT
     # the flat kernel's call (run_prepared's, within its bounds: nc <= MAX_CONTACTS above,
-    # NSGS's sweep cap <= options.MAX_ITER, checked by _small_plan, the compiled clock
+    # NSGS's sweep cap <= options.MAX_ITER, checked by small_plan, the compiled clock
     # above): the kernel boxes the five numbers judged here, not its stats tuple, and writes
     # r~, r, u and the stats into one array (a row of it costs less than a slice). Called
     # here, not through a function of nsgs_route: 0.3 µs of a 5 µs call
@@ -759,16 +759,16 @@ def plain(problem, tol, time_limit, t0):
                           time_limit, t0)
 
 
-#: :func:`plain`'s small call in dimension ``d``, prepared once (:func:`_small_plan`); emptied
+#: :func:`plain`'s small call in dimension ``d``, prepared once (:func:`small_plan`); emptied
 #: when one of :data:`_PLAN_KNOBS` is set (:class:`_Knobs`)
 _PLANS = {}
-#: the knobs :func:`_small_plan` reads
+#: the knobs :func:`small_plan` reads
 _PLAN_KNOBS = frozenset({"SMALL_NC", "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS",
                          "HANDOFF_WORK", "HANDOFF_PREDICT", "PREDICT_MAX_M", "STAGE_SHARE",
                          "NEWTON_FIRST_BLOCKS"})
 
 
-def _small_plan(dim):
+def small_plan(dim):
     """:func:`plain`'s small call in dimension ``dim`` from the knobs as they are, recorded in
     :data:`_PLANS`: ``(SMALL_NC, PREDICT_MAX_M, handoff, settings with the prediction window,
     settings without, the NSGS stage's share of the budget)`` (the settings
@@ -1320,4 +1320,4 @@ __all__ = ["auto_backend", "route", "plain", "features", "stage_order", "SPEC", 
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
-           "TIGHTEN_FROM_SEED"]
+           "TIGHTEN_FROM_SEED", "small_plan"]

@@ -280,14 +280,20 @@ def _blas_controller():
     return ThreadpoolController()
 
 
+def one_blas_thread():
+    """Context limiting BLAS to one thread (what the Newton factorizations above
+    :data:`SINGLE_THREAD_MIN_M` run under; the studies time LAPACK under it too)."""
+    return _blas_controller().limit(limits=1, user_api="blas")
+
+
 def _one_blas_thread(system):
-    """Context limiting BLAS to one thread (a no-op for tiny systems and compiled ones with
-    the written-out LU: no BLAS)."""
+    """:func:`one_blas_thread` for ``system``'s factorizations (a no-op for tiny systems and
+    compiled ones with the written-out LU: no BLAS)."""
     m = system.m
     if m < SINGLE_THREAD_MIN_M or (getattr(system, "compiled", False)
                                    and getattr(system, "lapack", None) is None):
         return contextlib.nullcontext()
-    return _blas_controller().limit(limits=1, user_api="blas")
+    return one_blas_thread()
 
 
 class _SingularStep(Exception):
@@ -377,13 +383,34 @@ def compiled_written_out(problem) -> bool:
     return compiled and lapack is None
 
 
-class _LocalSystem:
-    """Newton steps of the local problem ``u = W r + q``."""
+class LocalSystem:
+    """Newton steps of the local problem ``u = W r + q``.
+
+    The object :func:`prox_newton` iterates with (public for the studies and tests that
+    inspect a run's linear algebra).
+
+    Parameters
+    ----------
+    problem : FrictionContactProblem
+        A local problem (read through its cached ``csr_parts``, ``q`` and ``q_norm``).
+    linear_solver : {"auto", "dense", "splu", "left_looking"}
+        The LU of the Newton matrices (see the ``linear_solver`` option in :data:`OPTIONS`).
+    dense : tuple, optional
+        ``(W, q)`` of ``problem`` already formed (float64, C-contiguous, writeable; used as
+        they are on the compiled dense path) by a caller that has them, e.g. the De Saxcé
+        loop handing its iterate to :func:`newton_polish`.
+
+    Attributes
+    ----------
+    kind : str
+        ``"dense"``, ``"splu"`` or ``"left_looking"``: the LU in use.
+    jacobian : BlockJacobian
+        The sparse Newton matrix on ``W``'s block pattern (sparse kinds only).
+    factorizations : int
+        LU factorizations so far.
+    """
 
     def __init__(self, problem, linear_solver, dense=None):
-        """``dense``: ``(W, q)`` of ``problem`` already formed (float64, C-contiguous,
-        writeable; used as they are on the compiled dense path) by a caller that has
-        them, e.g. the De Saxcé loop handing its iterate to :func:`newton_polish`."""
         indptr, indices, data = problem.csr_parts      # no scipy matrix needed on the dense path
         self.d, self.m = problem.dim, problem.m
         #: dense system: compiled mat-vecs and solves (and the compiled loop); the LU of
@@ -407,8 +434,8 @@ class _LocalSystem:
             self.J = np.empty((self.m, self.m))
         else:
             self.W = sp.csr_matrix(problem.W, dtype=np.float64)
-            self._jacobian = BlockJacobian(self.W, self.d)
-            jac = self._jacobian
+            self.jacobian = BlockJacobian(self.W, self.d)
+            jac = self.jacobian
             self._lu = NewtonLU(jac.indptr, jac.indices, self.m, SPLU_OPTIONS,
                                 "auto" if self.kind == "sparse" else self.kind, block=self.d)
             self.kind = self._lu.kind
@@ -459,7 +486,7 @@ class _LocalSystem:
                 raise _SingularStep("singular Newton matrix")
             dr = sla.lu_solve(lu, -F, check_finite=False)
         else:
-            jac = self._jacobian
+            jac = self.jacobian
             jac.values(Dr, Du, alpha)
             try:
                 dr = self._lu.solve(jac.out.reshape(-1), jac.perm, -F, jac.current)
@@ -491,8 +518,13 @@ class _LocalSystem:
         return info
 
 
-class _GlobalSystem:
-    """Newton steps on the saddle-point system ``M v = H r + f``, ``u = Hᵀ v + w``."""
+class GlobalSystem:
+    """Newton steps on the saddle-point system ``M v = H r + f``, ``u = Hᵀ v + w``.
+
+    The global counterpart of :class:`LocalSystem` (same methods), for a
+    ``GlobalFrictionContactProblem`` that is not condensed; each Newton matrix is
+    factorized by SuperLU with :data:`SPLU_OPTIONS`.
+    """
 
     kind = "splu-global"
 
@@ -530,7 +562,7 @@ class _GlobalSystem:
         return self.HT @ self.v + self.w
 
     def direction(self, r, Dr, Du, alpha, F, strict=False):
-        """As :meth:`_LocalSystem.direction` (``strict`` unused: SuperLU's own test)."""
+        """As :meth:`LocalSystem.direction` (``strict`` unused: SuperLU's own test)."""
         self.factorizations += 1
         ind, ptr = self._bsr_index
         shape = (self.m, self.m)
@@ -756,7 +788,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
 
     Parameters
     ----------
-    system : _LocalSystem or _GlobalSystem
+    system : LocalSystem or GlobalSystem
         Supplies ``u`` from ``r`` and the Newton directions.
     mu : ndarray (nc,)
     r : ndarray (m,)
@@ -1009,7 +1041,7 @@ def error_prox(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_li
     subproblem that met its tolerance; ``alpha × PROX_FAIL_GROWTH`` after one that did not,
     within ``[alpha_min s̄, 1e8 s̄]``.  So it falls with the error: near a solution the
     subproblems tend to the law itself, far from one they are strongly regularized.  On a
-    global system ``s̄`` is the estimate of :meth:`_GlobalSystem.diag_blocks`
+    global system ``s̄`` is the estimate of :meth:`GlobalSystem.diag_blocks`
     (``Hᵀ diag(M)⁻¹ H``).
 
     ``written``: ``(a, b, ||q||)`` (:func:`~socp_cd.solvers.scaling.origin`) when ``system``
@@ -1342,8 +1374,8 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
         problem = glob.to_local()
     t0 = time.perf_counter()        # (the system's set-up, e.g. a sparse LU's column order,
     #                                  counts against time_limit, as entering _one_blas_thread)
-    system = (_GlobalSystem(problem) if problem.is_global
-              else _LocalSystem(problem, st["linear_solver"]))
+    system = (GlobalSystem(problem) if problem.is_global
+              else LocalSystem(problem, st["linear_solver"]))
     mu = np.ascontiguousarray(problem.mu, dtype=np.float64)
     r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=np.float64).reshape(-1)
     # on the dispatcher's balanced copy: its own measure, Siconos' error as written
@@ -1504,7 +1536,7 @@ def newton_polish(problem, r, tol, options):
     :func:`socp_cd.solvers.polish.associated_polish`), ``options.get("cache")``
     a dict kept by the caller across calls (holds the Newton system of
     ``problem``, formed once; a caller that has ``W`` and ``q`` as dense arrays
-    may put them there as ``cache["dense"] = (W, q)``, see :class:`_LocalSystem`).
+    may put them there as ``cache["dense"] = (W, q)``, see :class:`LocalSystem`).
     Returns the best iterate (never worse than ``r``) and ``{"iterations",
     "error"}`` (Siconos' error of the returned ``r``);
     ``options.get("time_limit")`` (seconds) bounds the call: the system's set-up (on the
@@ -1517,7 +1549,7 @@ def newton_polish(problem, r, tol, options):
     cache = options.get("cache")
     system = None if cache is None else cache.get("newton_system")
     if system is None:
-        system = _LocalSystem(problem, "auto", None if cache is None else cache.get("dense"))
+        system = LocalSystem(problem, "auto", None if cache is None else cache.get("dense"))
         if cache is not None:
             cache["newton_system"] = system
     limit = options.get("time_limit")
@@ -1764,4 +1796,5 @@ __all__ = ["newton_backend", "trial_constants", "continued_runs", "compiled_writ
            "newton_polish", "resolve_polish", "POLISH_NAMES", "WARM_ALPHA0", "COLD_ALPHA0",
            "velocity_relative_error", "POLICIES", "EQUATIONS", "warmup", "DEFAULT_MAX_ITER",
            "DEFAULT_STALL_WINDOW", "OPTIONS", "SPEC", "route", "ROUTE_MAX_M",
-           "ROUTE_MIN_TIME_LIMIT", "ROUTE_TIMED_WORK"]
+           "ROUTE_MIN_TIME_LIMIT", "ROUTE_TIMED_WORK", "LocalSystem", "GlobalSystem",
+           "one_blas_thread"]
