@@ -19,13 +19,7 @@ $(STAMP): $(VPY) pyproject.toml
 demo: $(STAMP)
 	$(VENV)/bin/socp-cd demo --data $(SHARED)
 
-# the kernels are compiled into numba's cache first, by two processes starting on different
-# kernels (socp_cd.solvers.warm.warmup_parallel): the test workers then load them instead of
-# compiling the same ones side by side (a few seconds when the cache is already warm)
-WARM_JOBS ?= 2
-
 test: $(STAMP)
-	$(VPY) -m socp_cd.solvers.warm --jobs $(WARM_JOBS)
 	$(VPY) -m pytest $(PYTEST_ARGS) tests
 
 bench: $(STAMP)

@@ -9,12 +9,9 @@ would have compiled inside a timed call.
 from __future__ import annotations
 
 import json
-import re
 import subprocess
 import sys
 import textwrap
-
-import pytest
 
 import socp_cd
 
@@ -101,38 +98,3 @@ def test_warmup_is_public_and_forced_on_request():
     assert "warmup" in socp_cd.__all__
     socp_cd.warmup()
     assert socp_cd.warmup() == 0.0 and socp_cd.warmup(force=True) > 0.0
-
-
-def test_warmup_runs_every_part_in_the_order_given(monkeypatch):
-    from socp_cd.solvers import warm
-    calls = []
-    monkeypatch.setattr(warm, "_PART_CALLS", {name: (lambda name=name: calls.append(name))
-                                              for name in warm.PARTS})
-    order = warm.PARTS[1:] + warm.PARTS[:1]
-    assert warm.warmup(force=True, order=order) >= 0.0
-    assert calls == list(order) and sorted(calls) == sorted(warm.PARTS)
-
-
-def test_parallel_warmup_checks_jobs_and_reports_a_process_past_its_time():
-    from socp_cd.solvers import warm
-    for bad in (0, -1, 1.5, "2"):
-        with pytest.raises(ValueError, match="jobs"):
-            warm.warmup_parallel(bad)
-    # (a process killed at its deadline is a failure, not a silent partial cache)
-    with pytest.raises(RuntimeError, match="process 0: timeout"):
-        warm.warmup_parallel(1, timeout=0.01)
-
-
-def test_parallel_warmup_runs_from_the_command_line():
-    out = subprocess.run([sys.executable, "-m", "socp_cd.solvers.warm", "--jobs", "2"],
-                         capture_output=True, text=True, timeout=900)
-    assert out.returncode == 0, out.stderr[-2000:]
-    lines = out.stdout.strip().splitlines()
-    assert lines[-1].startswith("warm-up, 2 processes:")
-    # (each process ran every part, starting at a different one)
-    firsts = sorted(line.split(": ")[1].split()[0] for line in lines[:-1])
-    assert firsts == ["newton", "nsgs"]
-    assert all(len(re.findall(r"\d s\b", line)) == 4 for line in lines[:-1])
-    bad = subprocess.run([sys.executable, "-m", "socp_cd.solvers.warm", "--jobs", "0"],
-                         capture_output=True, text=True, timeout=60)
-    assert bad.returncode == 2 and "--jobs must be at least 1" in bad.stderr

@@ -57,8 +57,30 @@ def _sparse(dim, seed):
     return FrictionContactProblem(band, q, 0.3, dim)
 
 
-def _solves():
-    """The solves of :func:`warmup` (every solver and stage, local and global, 2D and 3D)."""
+def warmup(force: bool = False) -> float:
+    """Load (or compile) every compiled kernel that :func:`~socp_cd.solve` may reach; returns
+    the seconds this call took (0 after the first call in a process, unless ``force``).
+
+    On tiny local problems in 2D and 3D: the plain calls of ``auto``, ``nsgs``, ``newton``
+    and ``projection`` (the compiled routes), with a time limit, with ``r0`` and
+    ``max_iter``, Newton's ``history``, each of ``auto``'s stages (:data:`AUTO_STAGES`, at a
+    tolerance no stage meets, with and without a time limit); the backends' own warm-ups
+    (:func:`socp_cd.solvers.newton.warmup`, ``nsgs``'s, ``projection``'s); a Newton system
+    of more than 60 unknowns (it factorizes with one BLAS thread, whose controller is built
+    on first use); a sparse one of more than ``newton.DENSE_MAX_M`` unknowns through
+    ``newton`` and ``clarabel`` (the sparse LU, the Jacobian's block kernels, the Newton polish
+    outside the compiled loop); a global problem through ``auto``, ``newton``, ``clarabel``,
+    ``nsgs`` and ``projection``.  What a spread of solves reaches after it is checked by
+    ``tests/test_warm.py``; a path outside both (another solver's kernels, an option's) may
+    still load or compile on its first call. Call it once before timing solves, or before
+    the first call whose ``time_limit`` matters.
+    """
+    if _DONE and not force:
+        return 0.0
+    t0 = time.perf_counter()
+    newton.warmup()
+    nsgs.warmup()
+    projection.warmup()
     rng = np.random.default_rng(12345)
     for dim in (2, 3):
         p = _local(3, dim, 12345)
@@ -84,114 +106,8 @@ def _solves():
                                          rng.standard_normal(2 * dim), 0.3, dim)
         for name in ("auto", "newton", "clarabel", "nsgs", "projection"):
             solve(g, name, tol=1e-6, max_iter=3)
-
-
-#: the parts of :func:`warmup`, in its order: the backends' own warm-ups, then the solves
-PARTS = ("newton", "nsgs", "projection", "solves")
-_PART_CALLS = {"newton": newton.warmup, "nsgs": nsgs.warmup, "projection": projection.warmup,
-               "solves": _solves}
-
-
-def warmup(force: bool = False, order=None) -> float:
-    """Load (or compile) every compiled kernel that :func:`~socp_cd.solve` may reach; returns
-    the seconds this call took (0 after the first call in a process, unless ``force``).
-
-    On tiny local problems in 2D and 3D: the plain calls of ``auto``, ``nsgs``, ``newton``
-    and ``projection`` (the compiled routes), with a time limit, with ``r0`` and
-    ``max_iter``, Newton's ``history``, each of ``auto``'s stages (:data:`AUTO_STAGES`, at a
-    tolerance no stage meets, with and without a time limit); the backends' own warm-ups
-    (:func:`socp_cd.solvers.newton.warmup`, ``nsgs``'s, ``projection``'s); a Newton system
-    of more than 60 unknowns (it factorizes with one BLAS thread, whose controller is built
-    on first use); a sparse one of more than ``newton.DENSE_MAX_M`` unknowns through
-    ``newton`` and ``clarabel`` (the sparse LU, the Jacobian's block kernels, the Newton polish
-    outside the compiled loop); a global problem through ``auto``, ``newton``, ``clarabel``,
-    ``nsgs`` and ``projection``.  What a spread of solves reaches after it is checked by
-    ``tests/test_warm.py``; a path outside both (another solver's kernels, an option's) may
-    still load or compile on its first call. Call it once before timing solves, or before
-    the first call whose ``time_limit`` matters.
-
-    ``order``: the parts (:data:`PARTS`) in another order (:func:`warmup_parallel`'s
-    processes); every part is run whatever the order.
-    """
-    if _DONE and not force:
-        return 0.0
-    t0 = time.perf_counter()
-    for name in PARTS if order is None else order:
-        _PART_CALLS[name]()
     _DONE.append(True)
     return time.perf_counter() - t0
 
 
-def warmup_parallel(jobs: int = 2, timeout: float = 3600.0) -> float:
-    """Fill numba's on-disk cache from ``jobs`` fresh processes at once; returns seconds.
-
-    A fresh install compiles for minutes (``validation/results/compile_cost_s37.md``): most
-    of it in a few large kernels (the NSGS loop, the compiled Newton loops).  Process ``k``
-    runs :func:`warmup` with :data:`PARTS` rotated by ``k``, so that the processes start on
-    different kernels; each saves what it compiled, and a kernel another process has saved
-    by the time this one reaches it is loaded, not compiled again.  Every process runs every
-    part, so the cache is complete when they end.  ``make test`` runs it (2 jobs) before the
-    test workers, which would otherwise compile the same kernels side by side.
-
-    Raises
-    ------
-    RuntimeError
-        A process failed (its exit code) or ran past ``timeout`` seconds (killed).
-    """
-    import subprocess
-    import sys
-    if not isinstance(jobs, int) or jobs < 1:
-        raise ValueError(f"jobs must be a positive integer, got {jobs!r}")
-    t0 = time.perf_counter()
-    procs = [subprocess.Popen([sys.executable, "-m", "socp_cd.solvers.warm", "--start", str(k)])
-             for k in range(jobs)]
-    failed = []
-    try:
-        for k, proc in enumerate(procs):
-            left = max(timeout - (time.perf_counter() - t0), 0.0)
-            try:
-                code = proc.wait(timeout=left)
-            except subprocess.TimeoutExpired:
-                code = "timeout"
-            if code != 0:
-                failed.append(f"process {k}: {code}")
-    finally:
-        for proc in procs:
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
-    if failed:
-        raise RuntimeError("parallel warm-up failed: " + ", ".join(failed))
-    return time.perf_counter() - t0
-
-
-def _main(argv=None) -> int:
-    import argparse
-    ap = argparse.ArgumentParser(prog="python -m socp_cd.solvers.warm",
-                                 description="compile socp_cd's kernels into numba's cache")
-    ap.add_argument("--jobs", type=int, default=None,
-                    help="processes filling the cache at once (warmup_parallel)")
-    ap.add_argument("--start", type=int, default=0,
-                    help="(one process) the part of PARTS to start from")
-    a = ap.parse_args(argv)
-    if a.jobs is not None:
-        if a.jobs < 1:
-            ap.error("--jobs must be at least 1")
-        print(f"warm-up, {a.jobs} processes: {warmup_parallel(a.jobs):.1f} s", flush=True)
-    else:
-        k = a.start % len(PARTS)
-        spent = []
-        for name in PARTS[k:] + PARTS[:k]:
-            t0 = time.perf_counter()
-            _PART_CALLS[name]()
-            spent.append(f"{name} {time.perf_counter() - t0:.1f} s")
-        _DONE.append(True)
-        print(f"warm-up process {a.start}: " + ", ".join(spent), flush=True)
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(_main())
-
-
-__all__ = ["warmup", "warmup_parallel", "AUTO_STAGES", "PARTS"]
+__all__ = ["warmup", "AUTO_STAGES"]
