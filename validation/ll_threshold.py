@@ -25,7 +25,6 @@ import argparse
 import glob
 import os
 import sys
-import time
 
 import numpy as np
 import scipy.sparse as sp
@@ -34,11 +33,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.dirname(HERE))
 
-import socp_cd  # noqa: E402
 from socp_cd.bench.reports import emit  # noqa: E402
 from socp_cd.io import read_problem  # noqa: E402
 from socp_cd.solvers import newton, sparse_lu  # noqa: E402
-from sparse_lu_choice import SHARED, problem_list  # noqa: E402
+from sparse_lu_choice import SHARED, interleaved_solves, problem_list  # noqa: E402
 
 
 def problems():
@@ -64,19 +62,11 @@ def flops_per_row(p):
 
 def whole(p, repeats):
     """``{ls: (min time, status, error, steps, refactorizations)}`` for both LUs."""
-    for ls in ("left_looking", "splu"):
-        socp_cd.solve(p, "newton", tol=1e-8, linear_solver=ls, time_limit=30)
-    times = {"left_looking": [], "splu": []}
-    last = {}
-    for _ in range(repeats):
-        for ls in ("left_looking", "splu"):
-            t = time.perf_counter()
-            r = socp_cd.solve(p, "newton", tol=1e-8, linear_solver=ls, time_limit=30)
-            times[ls].append(time.perf_counter() - t)
-            last[ls] = r
-    return {ls: (min(times[ls]), last[ls].status, last[ls].error,
-                 last[ls].info.get("newton_steps"), last[ls].info.get("lu_refactorizations"))
-            for ls in times}
+    runs = interleaved_solves(p, {ls: ({"linear_solver": ls}, {})
+                                  for ls in ("left_looking", "splu")}, repeats)
+    return {ls: (min(ts), r.status, r.error, r.info.get("newton_steps"),
+                 r.info.get("lu_refactorizations"))
+            for ls, (ts, r) in runs.items()}
 
 
 def main(argv=None) -> int:

@@ -32,6 +32,7 @@ before the threshold was fixed).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import glob
 import os
 import sys
@@ -80,6 +81,42 @@ def best_of(f, n):
         f()
         ts.append(time.perf_counter() - t)
     return min(ts)
+
+
+@contextlib.contextmanager
+def sparse_lu_knobs(values):
+    """``sparse_lu``'s module knobs set to ``values`` (a mapping) inside the block, restored
+    after it."""
+    before = {k: getattr(sparse_lu, k) for k in values}
+    for k, v in values.items():
+        setattr(sparse_lu, k, v)
+    try:
+        yield
+    finally:
+        for k, v in before.items():
+            setattr(sparse_lu, k, v)
+
+
+def interleaved_solves(p, variants, repeats):
+    """Whole ``solve(p, "newton", tol=1e-8, time_limit=30)`` runs of each variant,
+    interleaved: one untimed call per variant, then ``repeats`` rounds of one timed call
+    each (the solve alone is timed).
+
+    ``variants``: ``{tag: (solve keyword arguments, sparse_lu knobs)}``.  Returns
+    ``{tag: (wall times, the last round's result)}``.
+    """
+    for kwargs, values in variants.values():
+        with sparse_lu_knobs(values):
+            socp_cd.solve(p, "newton", tol=1e-8, time_limit=30, **kwargs)
+    times = {tag: [] for tag in variants}
+    last = {}
+    for _ in range(repeats):
+        for tag, (kwargs, values) in variants.items():
+            with sparse_lu_knobs(values):
+                t = time.perf_counter()
+                last[tag] = socp_cd.solve(p, "newton", tol=1e-8, time_limit=30, **kwargs)
+                times[tag].append(time.perf_counter() - t)
+    return {tag: (times[tag], last[tag]) for tag in variants}
 
 
 def capture(p):

@@ -35,7 +35,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 
 import numpy as np
 import scipy.sparse.linalg as spla
@@ -44,33 +43,22 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.dirname(HERE))
 
-import socp_cd  # noqa: E402
 from socp_cd.io import read_problem  # noqa: E402
 from socp_cd.solvers import newton, sparse_lu  # noqa: E402
-from sparse_lu_choice import best_of, captured, problem_list  # noqa: E402
+from sparse_lu_choice import (best_of, captured, interleaved_solves, problem_list,  # noqa: E402
+                              sparse_lu_knobs)
 
 #: session 38's knobs
 OLD = {"ORDERING": "COLAMD", "SPLU_ORDER_ONCE": False}
-
-
-def knobs(values):
-    """Set ``sparse_lu``'s knobs to ``values``; returns the previous ones."""
-    before = {k: getattr(sparse_lu, k) for k in values}
-    for k, v in values.items():
-        setattr(sparse_lu, k, v)
-    return before
 
 
 def orders(jac, n):
     """``{ordering: (nnz(L + U), flops per row)}`` of the full pattern."""
     out = {}
     for name in ("COLAMD", "MMD_AT_PLUS_A"):
-        before = knobs({"ORDERING": name})
-        try:
+        with sparse_lu_knobs({"ORDERING": name}):
             _, flops, nnz, _ = sparse_lu.column_order(jac.indptr, jac.indices, n,
                                                       newton.SPLU_OPTIONS)
-        finally:
-            knobs(before)
         out[name] = (nnz, flops / n)
     return out
 
@@ -85,11 +73,8 @@ def per_factorization(p):
     n = p.m
     # (the ordered path on every matrix, its fill beside it: the fallback of
     # SPLU_FILL_GROWTH is what the whole solves measure)
-    before = knobs({"SPLU_FILL_GROWTH": float("inf")})
-    try:
+    with sparse_lu_knobs({"SPLU_FILL_GROWTH": float("inf")}):
         return orders(jac, n), _factor_rows(p, steps, jac, lu)
-    finally:
-        knobs(before)
 
 
 def _factor_rows(p, steps, jac, lu):
@@ -116,30 +101,10 @@ def _factor_rows(p, steps, jac, lu):
 def whole(p, repeats):
     """``{"old": row, "new": row}``, row ``(min time, median time, status, error, steps,
     LU)`` of ``repeats`` interleaved solves after a warm-up call each."""
-    out = {}
-    for tag, values in (("old", OLD), ("new", {})):
-        before = knobs(values)
-        try:
-            socp_cd.solve(p, "newton", tol=1e-8, time_limit=30)
-        finally:
-            knobs(before)
-    res = {"old": [], "new": []}
-    times = {"old": [], "new": []}
-    for _ in range(repeats):
-        for tag, values in (("old", OLD), ("new", {})):
-            before = knobs(values)
-            try:
-                t = time.perf_counter()
-                r = socp_cd.solve(p, "newton", tol=1e-8, time_limit=30)
-                times[tag].append(time.perf_counter() - t)
-                res[tag].append(r)
-            finally:
-                knobs(before)
-    for tag in ("old", "new"):
-        r = res[tag][-1]
-        out[tag] = (min(times[tag]), float(np.median(times[tag])), r.status, r.error,
-                    r.info.get("newton_steps"), r.info.get("linear_solver"))
-    return out
+    runs = interleaved_solves(p, {"old": ({}, OLD), "new": ({}, {})}, repeats)
+    return {tag: (min(ts), float(np.median(ts)), r.status, r.error,
+                  r.info.get("newton_steps"), r.info.get("linear_solver"))
+            for tag, (ts, r) in runs.items()}
 
 
 def main(argv=None) -> int:
