@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ast
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -301,35 +302,57 @@ def test_no_import_cycles():
     assert not cycles, f"import cycles: {cycles}"
 
 
-#: the layers of ARCHITECTURE.md (bottom to top): exact module names, or ``pkg.*`` for every
-#: module of a package.  A module in none of them fails the test (a new module must be placed).
-LAYERS = [
-    ["socp_cd.errors"],
-    ["socp_cd.cones", "socp_cd.residuals", "socp_cd.faceted", "socp_cd.laws"],
-    ["socp_cd.problem", "socp_cd.io", "socp_cd.io.*", "socp_cd.data"],
-    ["socp_cd.solvers.kernels", "socp_cd.solvers.kernels.*", "socp_cd.solvers.local_solvers",
-     "socp_cd.solvers.nsgs_kernels"],
-    ["socp_cd.solvers.spec", "socp_cd.solvers.options", "socp_cd.solvers.result",
-     "socp_cd.solvers.conic_data", "socp_cd.solvers.block_storage", "socp_cd.solvers.anderson",
-     "socp_cd.solvers.polish", "socp_cd.solvers.desaxce", "socp_cd.condensation",
-     "socp_cd.solvers.nsgs_route", "socp_cd.solvers.scaling", "socp_cd.solvers.checks",
-     "socp_cd.solvers.sparse_lu"],
-    ["socp_cd.solvers.nsgs", "socp_cd.solvers.newton", "socp_cd.solvers.clarabel_backend",
-     "socp_cd.solvers.cvxpy_backend", "socp_cd.solvers.proxsuite_backend", "socp_cd.solvers.auto",
-     "socp_cd.solvers.projection"],
-    ["socp_cd.solvers.table", "socp_cd.solvers.registry", "socp_cd.solvers",
-     "socp_cd.solvers.warm"],
-    ["socp_cd.dynamics", "socp_cd.dynamics.*"],
-    ["socp_cd.scenes", "socp_cd.scenes.*", "socp_cd.granular", "socp_cd.granular.*",
-     "socp_cd.bench", "socp_cd.bench.*", "socp_cd.cli", "socp_cd.demo", "socp_cd"],
-]
+#: ARCHITECTURE.md, whose layer table this test reads (the doc and the check cannot drift apart)
+ARCHITECTURE = Path(__file__).resolve().parent.parent / "ARCHITECTURE.md"
+
+
+def _module_names(path: str) -> list[str]:
+    """Dotted names of one entry of the table's *modules* column (a path under ``socp_cd/``):
+    ``x/`` is the package and everything in it, ``x/__init__.py`` the package alone."""
+    if path.endswith("/"):
+        assert (PKG / path / "__init__.py").is_file(), f"ARCHITECTURE.md names no package {path}"
+        base = "socp_cd." + path[:-1].replace("/", ".")
+        return [base, base + ".*"]
+    assert path.endswith(".py") and (PKG / path).is_file(), f"ARCHITECTURE.md names no module {path}"
+    parts = path[:-3].split("/")
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return [".".join(["socp_cd", *parts])]
+
+
+def _architecture_layers() -> list[list[str]]:
+    """The layers of ARCHITECTURE.md's table, bottom to top: exact module names, or ``pkg.*``
+    for every module of a package (``solvers/{a,b}.py`` expands to both)."""
+    layers = []
+    for line in ARCHITECTURE.read_text().splitlines():
+        row = re.match(r"\| (\d+)\. [^|]*\|([^|]*)\|", line)
+        if not row:
+            continue
+        assert int(row.group(1)) == len(layers), f"layer rows out of order at: {line[:40]}"
+        names = []
+        for entry in re.findall(r"`([^`]+)`", row.group(2)):
+            brace = re.fullmatch(r"(.*)\{([^}]*)\}(.*)", entry)
+            paths = ([brace.group(1) + x + brace.group(3) for x in brace.group(2).split(",")]
+                     if brace else [entry])
+            for path in paths:
+                names.extend(_module_names(path))
+        layers.append(names)
+    assert len(layers) >= 8, "ARCHITECTURE.md's layer table was not found"
+    return layers
+
+
+LAYERS = _architecture_layers()
+
+
+def _in(module: str, name: str) -> bool:
+    """Whether ``module`` is the table's entry ``name`` (exact, or ``pkg.*``)."""
+    return module == name or (name.endswith(".*") and module.startswith(name[:-1]))
 
 
 def _layer(module):
     for k, names in enumerate(LAYERS):
-        for name in names:
-            if module == name or (name.endswith(".*") and module.startswith(name[:-1])):
-                return k
+        if any(_in(module, name) for name in names):
+            return k
     return None
 
 
@@ -338,6 +361,8 @@ def test_imports_point_down_the_layers_of_architecture_md():
     graph = _imports()
     unplaced = sorted(m for m in graph if _layer(m) is None)
     assert not unplaced, f"modules in no layer of ARCHITECTURE.md: {unplaced}"
+    twice = sorted(m for m in graph if sum(any(_in(m, n) for n in names) for names in LAYERS) > 1)
+    assert not twice, f"modules in more than one layer of ARCHITECTURE.md: {twice}"
     upward = sorted({f"{m} (layer {_layer(m)}) -> {d} (layer {_layer(d)})"
                      for m, edges in graph.items() for tgt, names in edges
                      for d in _resolve(graph, tgt, names) if d != m and _layer(d) > _layer(m)})
