@@ -33,6 +33,13 @@ incline, ``examples/box_stack_incline_below.toml``) and ``pile3d-20`` (20 sphere
 ``validation/evalset_sim_fresh/`` (see :func:`fresh_runs`): a check of ``auto`` on simulation
 dumps after its rules were chosen (``validation/fresh_draw.py --collections``).
 
+``--kinds`` builds scenes of kinds no other collection has (session 41, after every rule of
+``auto`` was chosen) into ``validation/evalset_sim_kinds/`` (see :func:`kinds_runs`): a
+masonry wall of 3D boxes, a heavy block on light spheres (mass ratio ~1e5), a sphere pile of
+two materials (μ 0.02 … 1.5), the Kapla tower of ``examples/``, a 2D hopper discharge and
+Moreau's talus of hexagons; ``--kinds --tune`` other sizes and seeds of the same kinds into
+``validation/evalset_sim_kinds_tune/``, the ones a rule may be chosen on.
+
 ``--tune`` builds *other* scenes of the same kinds into
 ``validation/evalset_sim_tune/`` (1 500 disks with packing seed 11, 250
 spheres with seed 2): the simulation problems ``auto``'s rules may be chosen
@@ -119,10 +126,14 @@ def main(argv=None) -> int:
     mode.add_argument("--small", action="store_true", help="small 3D collections (see above)")
     mode.add_argument("--fresh", action="store_true",
                       help="scenes no session had run, for a check after the fact (see above)")
+    mode.add_argument("--kinds", action="store_true",
+                      help="scene kinds no other collection has (session 41, see above)")
     ap.add_argument("--only", nargs="*", default=None)
     args = ap.parse_args(argv)
     if args.out is None and args.fresh:
         args.out = HERE / "evalset_sim_fresh"
+    if args.out is None and args.kinds:
+        args.out = HERE / ("evalset_sim_kinds_tune" if args.tune else "evalset_sim_kinds")
     if args.out is None:
         args.out = HERE / ("evalset_sim_small_tune" if args.small and args.tune
                            else "evalset_sim_tune" if args.tune
@@ -134,6 +145,8 @@ def main(argv=None) -> int:
         return build(runs, args)
     if args.fresh:
         return build(fresh_runs(args.out), args)
+    if args.kinds:
+        return build(kinds_runs(args.out, args.tune), args)
     table = QUICK if args.quick else TUNE if args.tune else FULL
     for name, (n, steps, every) in table.items():
         scene = args.out / f"{name}.toml"
@@ -212,6 +225,161 @@ def fresh_runs(out: Path) -> list:
         scene.write_text(text)
         every = 100 if name.startswith(("pile", "deposit")) else 50
         runs.append((name, scene, 1000 if name.startswith("boxes") else None, every))
+    return runs
+
+
+KINDS_HEADER = """\
+# {what} (validation/build_sim_collections.py --kinds, session 41).
+[scene]
+name = "{name}"
+dim = {dim}
+mu = {mu}
+restitution = 0.0
+
+[simulation]
+h = {h}
+theta = 0.5
+steps = {steps}
+solver = "nsgs"
+tol = 1e-6
+max_iter = 3000
+record_every = 50
+"""
+FLOOR_3D = """
+[[obstacles]]
+shape = "plane"
+point = [0, 0, 0]
+normal = [0, 0, 1]
+"""
+#: name -> (what, dim, mu, h, steps, dump every, the scene's obstacles and generators)
+KINDS = {
+    "wall3d-27": ("A masonry wall of 27 boxes in running bond on a rough floor", 3, 0.6, 2e-3,
+                  300, 50, FLOOR_3D + """
+[[generate]]
+kind = "wall"
+origin = [0, 0, 0]
+rows = 6
+columns = 5
+body = { shape = "box", size = [0.2, 0.1, 0.1], density = 2000.0 }
+"""),
+    "massratio3d-60": ("A block of 2.5e7 kg/m3 (mass ratio ~1e5 to a grain) dropped on 60 light "
+                       "spheres", 3, 0.5, 2e-3, 800, 50, FLOOR_3D + """mu = 0.8
+
+[[generate]]
+kind = "random_packing"
+lo = [-0.08, -0.08, 0.02]
+hi = [0.08, 0.08, 0.7]
+count = 60
+seed = 41
+radius_range = [0.015, 0.025]
+body = { shape = "sphere", radius = 0.02, density = 2500.0 }
+
+[[generate]]
+kind = "stack"
+base = [0, 0, 0.8]
+count = 1
+body = { shape = "box", size = [0.12, 0.12, 0.06], density = 2.5e7 }
+"""),
+    "mixedmu3d-160": ("A pile of 160 spheres of two materials, mu 0.02 (ice) to 1.5 (rubber)",
+                      3, 0.5, 2e-3, 800, 50, """
+[[materials]]
+pair = ["ice", "ice"]
+mu = 0.02
+[[materials]]
+pair = ["rubber", "rubber"]
+mu = 1.5
+[[materials]]
+pair = ["ice", "rubber"]
+mu = 0.3
+[[materials]]
+pair = ["ice", "floor"]
+mu = 0.05
+[[materials]]
+pair = ["rubber", "floor"]
+mu = 1.2
+""" + FLOOR_3D + """material = "floor"
+
+[[generate]]
+kind = "random_packing"
+lo = [-0.12, -0.12, 0.05]
+hi = [0.12, 0.12, 0.5]
+count = 80
+seed = 43
+radius_range = [0.015, 0.025]
+body = { shape = "sphere", radius = 0.02, density = 2500.0, material = "ice" }
+
+[[generate]]
+kind = "random_packing"
+lo = [-0.12, -0.12, 0.55]
+hi = [0.12, 0.12, 1.0]
+count = 80
+seed = 47
+radius_range = [0.015, 0.025]
+body = { shape = "sphere", radius = 0.02, density = 2500.0, material = "rubber" }
+"""),
+    "hopper2d-400": ("A 2D hopper discharging 400 disks", 2, 0.4, 1e-3, 1500, 100, """
+[[obstacles]]
+shape = "line"
+point = [0, -0.6]
+normal = [0, 1]
+
+[[generate]]
+kind = "hopper"
+outlet = [0, 0]
+opening = 0.12
+count = 400
+seed = 53
+body = { shape = "disk", radius = 0.01, density = 2000.0 }
+"""),
+}
+
+
+#: ``--kinds --tune``: the same kinds, other sizes and seeds (the scenes a rule may be chosen
+#: on; ``--kinds`` alone stays held out): name -> (the ``--kinds`` scene, replacements)
+KINDS_TUNE = {
+    "wall3d-tune-14": ("wall3d-27", (("rows = 6", "rows = 4"), ("columns = 5", "columns = 4"))),
+    "wall3d-tune-36": ("wall3d-27", (("rows = 6", "rows = 8"),)),
+    "massratio3d-tune-40": ("massratio3d-60", (("count = 60", "count = 40"), ("seed = 41", "seed = 61"),
+                                               ("density = 2.5e7", "density = 2.5e6"))),
+    "mixedmu3d-tune-100": ("mixedmu3d-160", (("count = 80", "count = 50"), ("seed = 43", "seed = 63"),
+                                             ("seed = 47", "seed = 67"))),
+    "hopper2d-tune-250": ("hopper2d-400", (("count = 400", "count = 250"), ("seed = 53", "seed = 73"))),
+}
+
+
+def kinds_runs(out: Path, tune: bool = False) -> list:
+    """The ``--kinds`` collections (session 41): ``(name, scene file, steps, dump every)`` of
+    :data:`KINDS`, the Kapla tower of ``examples/`` (1 000 steps) and Moreau's talus of 200
+    hexagons (``examples/talus_2d.toml``); with ``tune`` the :data:`KINDS_TUNE` scenes, Kapla
+    towers of 8 and 16 levels and a talus of 120 hexagons with another seed."""
+    runs = []
+    scenes = {name: (KINDS_HEADER.format(what=what, name=name, dim=dim, mu=mu, h=h, steps=steps)
+                     + body, steps, every)
+              for name, (what, dim, mu, h, steps, every, body) in KINDS.items()}
+    if tune:
+        tuned = {}
+        for name, (base, swaps) in KINDS_TUNE.items():
+            text, steps, every = scenes[base]
+            for old, new in swaps:
+                assert old in text, (name, old)
+                text = text.replace(old, new)
+            tuned[name] = (text.replace(f'name = "{base}"', f'name = "{name}"'), steps, every)
+        scenes = tuned
+    for name, (text, steps, every) in scenes.items():
+        scene = out / f"{name}.toml"
+        scene.write_text(text)
+        runs.append((name, scene, steps, every))
+    kapla = (EXAMPLES / "kapla_tower.toml").read_text()
+    talus = (EXAMPLES / "talus_2d.toml").read_text()
+    examples = ((("kapla3d-tune-16", kapla.replace("levels = 12", "levels = 8"), 1000, 100),
+                 ("kapla3d-tune-32", kapla.replace("levels = 12", "levels = 16"), 1000, 100),
+                 ("talus2d-tune-120", talus.replace("count = 200", "count = 120")
+                  .replace("seed = 3", "seed = 17"), 3000, 300)) if tune else
+                (("kapla3d-24", kapla, 1000, 100), ("talus2d-200", talus, 3000, 300)))
+    for name, text, steps, every in examples:
+        scene = out / f"{name}.toml"
+        scene.write_text(text)
+        runs.append((name, scene, steps, every))
     return runs
 
 
