@@ -1116,3 +1116,72 @@ def test_prox_early_knob_puts_the_prox_stage_after_the_first_newton_stage(monkey
     assert names[first + 1] == "newton_prox_error" and names.count("newton_prox_error") == 1
     res = socp_cd.solve(p, tol=1e-30, time_limit=0.5)
     assert [s["method"] for s in res.info["path"]].count("newton_prox_error") <= 1
+
+
+def _block_pattern_problem(pairs, n_bodies, seed=0, dim=3):
+    """A local problem ``W = H M⁻¹ Hᵀ`` of contacts between the bodies of ``pairs`` (6 degrees
+    of freedom per body, unit mass; contact ``k`` touches bodies ``pairs[k]``)."""
+    rng = np.random.default_rng(seed)
+    nc = len(pairs)
+    H = np.zeros((dim * nc, 6 * n_bodies))
+    for k, (a, b) in enumerate(pairs):
+        for body, sign in ((a, 1.0), (b, -1.0)):
+            H[dim * k:dim * k + dim, 6 * body:6 * body + 6] = sign * rng.standard_normal((dim, 6))
+    W = H @ H.T
+    q = rng.standard_normal(dim * nc)
+    q[::dim] -= 1.0
+    return FrictionContactProblem(W, q, 0.5, dim)
+
+
+def test_contact_redundancy_reads_contacts_between_the_same_two_bodies():
+    # a chain of bodies: one contact per neighbouring pair, then four per pair (box faces)
+    chain = [(i, i + 1) for i in range(30)]
+    assert auto.contact_redundancy(_block_pattern_problem(chain, 31)) == 0.0
+    faces = [pair for pair in chain for _ in range(4)]
+    assert auto.contact_redundancy(_block_pattern_problem(faces, 31)) == 1.0
+    mixed = chain[:15] + [pair for pair in chain[15:] for _ in range(4)]
+    assert auto.contact_redundancy(_block_pattern_problem(mixed, 31)) == pytest.approx(60 / 75)
+    # a dense W (every contact coupled to every contact) says nothing: not counted
+    assert auto.contact_redundancy(_local(20, 3, 1)) == 0.0
+    assert auto.contact_redundancy(_local(1, 3, 1)) == 0.0
+
+
+def test_redundant_contacts_start_with_the_fixed_point(monkeypatch):
+    chain = [(i, i + 1) for i in range(40)]
+    faces = _block_pattern_problem([pair for pair in chain for _ in range(3)], 41)
+    spheres = _block_pattern_problem(chain * 1 + [(i, i + 2) for i in range(39)]
+                                     + [(i, i + 3) for i in range(38)], 41)
+    assert faces.n_contacts > auto.SMALL_NC and spheres.n_contacts > auto.SMALL_NC
+
+    def names(p):
+        return [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
+    assert auto.features(faces, "coulomb")["redundancy"] == 1.0
+    assert names(faces)[:3] == ["clarabel_first", "nsgs_probe", "newton"]
+    assert names(faces).count("clarabel") == 1              # the full stage later, as before
+    assert names(spheres)[:2] == ["nsgs_probe", "newton"]        # no redundancy: as before
+    monkeypatch.setattr(auto, "REDUNDANT_SHARE", None)           # off
+    assert names(faces)[:2] == ["nsgs_probe", "newton"]
+    assert auto.features(faces, "coulomb")["redundancy"] is None
+    # the answer is judged as any other: the fixed point's stage meets tol on this problem
+    monkeypatch.setattr(auto, "REDUNDANT_SHARE", 0.9)
+    res = socp_cd.solve(faces, "auto", tol=1e-8)
+    assert res.converged and res.info["path"][0]["method"] == "clarabel_first"
+    assert socp_cd.error(faces, res.r) <= 1e-8
+    # the first stage stops after REDUNDANT_FIRST_ITER outer iterations of the fixed point
+    monkeypatch.setattr(auto, "REDUNDANT_FIRST_ITER", 1)
+    first = socp_cd.solve(faces, "auto", tol=1e-30, time_limit=5.0).info["path"][0]
+    assert first["method"] == "clarabel_first" and first["iterations"] <= 1
+
+
+def test_contact_redundancy_kernel_equals_its_numpy_reference():
+    rng = np.random.default_rng(7)
+    for trial in range(40):
+        n_bodies = int(rng.integers(3, 30))
+        nc = int(rng.integers(2, 60))
+        pairs = [tuple(rng.choice(n_bodies, 2, replace=False)) for _ in range(nc // 2)]
+        pairs = [pairs[int(k)] for k in rng.integers(0, len(pairs), nc)] if pairs else [(0, 1)] * nc
+        p = _block_pattern_problem(pairs, n_bodies, seed=trial, dim=int(rng.choice([2, 3])))
+        ref = auto.contact_redundancy(p, compiled=False)
+        assert auto.contact_redundancy(p) == ref
+    for p in (_local(20, 3, 1), _local(1, 2, 1), _local(7, 2, 3)):      # full rows; one contact
+        assert auto.contact_redundancy(p) == auto.contact_redundancy(p, compiled=False) == 0.0

@@ -92,6 +92,7 @@ from ..residuals import guard
 from . import checks, clarabel_backend, newton, nsgs, nsgs_route
 from .kernels.cone import siconos_error
 from .kernels.dense import csr_matvec_add
+from .kernels.patterns import KEY_MULTIPLIER, pattern_redundancy
 from .kernels.scaling import GUARD_KEYS, balanced_guard, origin_error
 from .nsgs_route import (ERROR, GUARD_VALUE, INTERNAL_ERROR, MU_MAX, START_ERROR, SWEEPS,
                          ZERO_ERROR, guard_record, scaling_record)
@@ -134,6 +135,23 @@ NEWTON_FIRST_STALL = 2
 HIGH_MU = 1.0
 #: share of the remaining time budget a stage receives (the last stage: all)
 STAGE_SHARE = 0.5
+#: 3D local problems of more than SMALL_NC contacts, at least this share of which couple to
+#: exactly the contacts another contact couples to (:func:`contact_redundancy`: several
+#: contact points between the same two bodies, box faces), run the Clarabel fixed point first
+#: (None: off).  Walls and towers of boxes at rest: ``q`` is off the range of the singular
+#: ``W`` by 1e-7 ... 1e-6 (gaps), so which corner of a face opens is decided at that scale;
+#: the interior point finds it where the Newton stages stall near ``tol`` or are refused by
+#: the units guard.  Session 41, tune (``build_sim_collections.py --kinds --tune``, 1 s):
+#: solved 24 -> 31 of 33, lost 1; formulations/auto.md, "Redundant contacts: the fixed
+#: point first"
+REDUNDANT_SHARE = 0.9
+#: ... that stage (``"clarabel_first"``) stops after this many outer iterations of the fixed
+#: point (on the tune walls and towers it solves in 1 or 2: 29 of 32; 3 took 10; on the Kapla
+#: tower's manufactured cases, which it does not solve, a stage of half a 10 s budget made 17
+#: at 1.7 s each); when it misses ``tol`` its iterate is not the seed (as ``newton_first``'s):
+#: the chain after it starts as without it (Newton from its iterate at 4e-6 failed on a Kapla
+#: case Newton solves from zero in 1.2 s)
+REDUNDANT_FIRST_ITER = 2
 #: 2D local problems with more contacts than this run the Clarabel fixed point right after
 #: the NSGS probe, before Newton (granular deposits: ``validation/results/auto_order2d_tune.md``)
 LARGE_2D_NC = 1000
@@ -303,19 +321,20 @@ _STAGES = {
     "nsgs_mid": (nsgs.SPEC, {}),
     "nsgs_rest": (nsgs.SPEC, {}),
     "clarabel": (clarabel_backend.SPEC, {}),
+    "clarabel_first": (clarabel_backend.SPEC, {}),     # + REDUNDANT_FIRST_ITER (first)
     "clarabel_qp": (clarabel_backend.SPEC, {}),
 }
 #: stages started cold unless the best iterate's error is at most WARM_MAX: the De
 #: Saxcé fixed point's first shift from a far iterate (4e-4, 7e-3) cost accuracy on the
 #: tune split, from a close one (4e-6) it helped (formulations/auto.md)
-COLD_STAGES = ("clarabel", "clarabel_qp")
+COLD_STAGES = ("clarabel", "clarabel_first", "clarabel_qp")
 WARM_MAX = 1e-5
 #: stages that cannot stop within a short time limit: Clarabel reads the clock between
 #: interior-point iterations, and one iteration (or its set-up) of a large problem can take
 #: seconds (a 7 177-contact 2D deposit: 3.6 s against a 0.05 s limit). Under a time budget,
 #: such a stage does not start again when its earlier run in this call took longer than
 #: all the time left (the refused stage's retry overran a 1 s budget by 4 s)
-SLOW_TO_STOP = ("clarabel", "clarabel_qp")
+SLOW_TO_STOP = ("clarabel", "clarabel_first", "clarabel_qp")
 #: ... and, before its first run in a call, such a stage does not start (after the first stage)
 #: with less than this share of the budget left (0: off): its set-up and first iteration are
 #: not interruptible (Kapla tower, 1710 unknowns: the fixed point started with 0.03 s of a 1 s
@@ -349,9 +368,55 @@ OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'newton_plain', 'newton_plain_cold', "
                "'newton_plain_cold_split', 'newton_trial', 'newton_trial_cold', 'newton_trial_prox', 'newton_cold_alt', 'newton_prox_error', "
                "'nsgs', 'nsgs_probe', "
-               "'clarabel', 'clarabel_qp' (default: chosen from the problem's features)",
+               "'clarabel', 'clarabel_first', 'clarabel_qp' (default: chosen from the problem's features)",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
 }
+
+
+def contact_redundancy(problem, compiled: bool = True) -> float:
+    """Share of the contacts of a local problem whose coupling pattern looks like another's.
+
+    Contact ``i`` *couples* to contact ``j`` when ``W`` stores a block ``W_ij`` (the two share
+    a body).  Several contact points between the same two bodies (the corners of a box's face
+    on another) couple to the same contacts; no two contacts of a sphere pile do.  A pattern
+    is read from the first row of the contact in ``W``'s CSR form by its signature: the
+    number of stored entries and the first, middle and last column, mixed into one key.
+    Equal patterns have equal signatures; unequal ones rarely do (sphere piles: 0–0.2, box
+    walls and towers: 1.0).  A contact coupled to every contact (a full row: a dense ``W``)
+    is not counted.  ``O(n_contacts)``: no pass over the entries of ``W``.
+
+    Parameters
+    ----------
+    problem : FrictionContactProblem
+    compiled : bool
+        True: the compiled kernel (:func:`~.kernels.patterns.pattern_redundancy`); False:
+        this NumPy reference (the same keys and share; ``tests/test_auto.py``).
+
+    Returns
+    -------
+    float
+        In ``[0, 1]``; 0 for fewer than two contacts or a contact with an empty row.
+    """
+    indptr, indices, _ = problem.csr_parts
+    d, nc = problem.dim, problem.n_contacts
+    if compiled:
+        return pattern_redundancy(indptr, indices, nc, d)
+    if nc < 2:
+        return 0.0
+    starts = indptr[0:nc * d:d].astype(np.int64)
+    ends = indptr[1:nc * d + 1:d].astype(np.int64)
+    lengths = ends - starts
+    if np.any(lengths <= 0):
+        return 0.0
+    mult = np.uint64(KEY_MULTIPLIER)
+    key = lengths.astype(np.uint64)
+    for part in (indices[starts], indices[(starts + ends) // 2], indices[ends - 1]):
+        key = key * mult + part.astype(np.uint64)
+    counted = lengths < nc * d       # a full row says nothing about the contact's bodies
+    if np.count_nonzero(counted) < 2:
+        return 0.0
+    _, inverse, repeats = np.unique(key[counted], return_inverse=True, return_counts=True)
+    return float(np.count_nonzero(repeats[inverse] > 1)) / nc
 
 
 def features(problem, formulation) -> dict:
@@ -361,17 +426,21 @@ def features(problem, formulation) -> dict:
     -------
     dict
         ``dim``, ``n_contacts``, ``global``, ``mu_max``, ``frictionless``
-        (every ``mu = 0``) and ``structurally_rank_deficient`` (global problems
+        (every ``mu = 0``), ``structurally_rank_deficient`` (global problems
         with more contact unknowns than degrees of freedom, ``m > n``: then
         ``W = Hᵀ M⁻¹ H`` is singular; None for local problems, whose rank is not
-        tested).
+        tested) and ``redundancy`` (:func:`contact_redundancy`, for 3D local problems of
+        more than :data:`SMALL_NC` contacts when :data:`REDUNDANT_SHARE` is on; else None).
     """
     mu = problem.mu
     mu_max = float(mu.max()) if mu.shape[0] else 0.0
     glob = problem.is_global
+    large3 = (not glob and problem.dim == 3 and problem.n_contacts > SMALL_NC
+              and REDUNDANT_SHARE is not None)
     return {"dim": problem.dim, "n_contacts": problem.n_contacts, "global": glob,
             "mu_max": mu_max, "frictionless": formulation == "frictionless" or mu_max == 0.0,
-            "structurally_rank_deficient": (problem.m > problem.n_dofs) if glob else None}
+            "structurally_rank_deficient": (problem.m > problem.n_dofs) if glob else None,
+            "redundancy": contact_redundancy(problem) if large3 else None}
 
 
 def _small_local(feats) -> bool:
@@ -439,6 +508,11 @@ def stage_order(problem, formulation, feats) -> tuple:
         # at 5 s, sgm 2.7 -> 0.74 s)
         return (probe + (("clarabel", "coulomb"), ("newton", "coulomb")) + plain
                 + (("nsgs", "coulomb"), ("newton", "coulomb")))
+    if (feats.get("redundancy") is not None and REDUNDANT_SHARE is not None
+            and feats["redundancy"] >= REDUNDANT_SHARE):
+        # redundant contacts (box faces): the fixed point first ("Redundant contacts")
+        return ((("clarabel_first", "coulomb"),) + probe + (("newton", "coulomb"),) + plain
+                + (("nsgs", "coulomb"), ("clarabel", "coulomb"), ("newton", "coulomb")))
     early = ((("newton_prox_error", "coulomb"),) if PROX_EARLY and not feats["global"]
              else ())
     return (probe + (("newton", "coulomb"),) + early + plain + middle
@@ -958,7 +1032,8 @@ def _route_info(dim, nc, x, method, seconds, status) -> dict:
              "time": seconds, "error": x[INTERNAL_ERROR], "status": status}
     return {"path": [stage],
             "features": {"dim": dim, "n_contacts": nc, "global": False, "mu_max": x[MU_MAX],
-                         "frictionless": False, "structurally_rank_deficient": None},
+                         "frictionless": False, "structurally_rank_deficient": None,
+                         "redundancy": None},
             "best_stage": 0, "guard": guard_record(x), "scaling": scaling_record(x),
             "route": "compiled"}
 
@@ -1045,6 +1120,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     iterations, status, message = 0, "max_iter", ""
     version, ran = 0, set()       # version: bumped whenever the seed (the start) changes
     after_far_probe = False       # the previous stage was a probe that ended far from tol
+    # best_err without the iterates of a newton_first or clarabel_first that missed tol (they
+    # are not the seed, and a probe after them is judged as without them)
+    chain_err = best_err
     stage_tol = tol               # the stages' target: tightened after a guard refusal
     knobs = _small_knobs()
     handoff = (_handoff_cap(problem, max_iter) if methods is None and _small_local(feats)
@@ -1190,6 +1268,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 stage_max_iter = _small_cap(max_iter)
                 if knobs[1] is not None:
                     opts["stall_window"] = knobs[1]
+            elif method == "clarabel_first":
+                stage_max_iter = (REDUNDANT_FIRST_ITER if max_iter is None
+                                  else min(max_iter, REDUNDANT_FIRST_ITER))
             elif method == "newton_first":
                 stage_max_iter = (NEWTON_FIRST_STEPS if max_iter is None
                                   else min(max_iter, NEWTON_FIRST_STEPS))
@@ -1237,7 +1318,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         tried = tried or method == "newton_trial"
         if method == "nsgs_probe" or (FAR_NSGS_COLD and methods is None
                                       and method in ("nsgs", "nsgs_mid", "nsgs_rest")):
-            after_far_probe = not min(err, best_err) <= WARM_MAX
+            after_far_probe = not min(err, chain_err) <= WARM_MAX
         elif method == "newton_trial":
             pass        # a trial hands the NSGS stages' verdict on to the next stage
         elif method not in COLD_STAGES or err < best_err:
@@ -1248,14 +1329,16 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                      "error": err, "status": st})
         iterations += its
         bests.append(min(err, best_err))
+        if method not in ("newton_first", "clarabel_first") or err <= tol:
+            chain_err = min(chain_err, err)
         if history and res is not None and res.history:
             hist.extend(res.history)
         if err < best_err:
             best_r, best_err, best_stage = r, err, k
             best_v = res.v if (res is not None and target is problem) else None
-        if err < seed_score and (method != "newton_first" or err <= tol):
-            # (the rank is at least the error: else no gain; a newton_first that missed tol
-            # is not the seed: the chain after it starts as without it)
+        if err < seed_score and (method not in ("newton_first", "clarabel_first") or err <= tol):
+            # (the rank is at least the error: else no gain; a newton_first or clarabel_first
+            # that missed tol is not the seed: the chain after it starts as without it)
             score = _seed_score(judge, r, err, tol)
             if score < seed_score:
                 seed_r, seed_err, seed_score, seed_stage = r, err, score, k
@@ -1312,7 +1395,7 @@ SPEC = SolverSpec(
     inner_settings="not applicable (rejected)", check=check, route=route,
     plain=plain)
 
-__all__ = ["auto_backend", "route", "plain", "features", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
+__all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "stage_order", "SPEC", "OPTIONS", "HIGH_MU",
            "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS", "HANDOFF_WORK", "TRIAL_STEPS",
            "TRIAL_STALL", "HANDOFF_PREDICT",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
@@ -1320,4 +1403,4 @@ __all__ = ["auto_backend", "route", "plain", "features", "stage_order", "SPEC", 
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
-           "TIGHTEN_FROM_SEED", "small_plan"]
+           "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "small_plan"]

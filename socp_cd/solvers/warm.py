@@ -17,14 +17,14 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..problem import FrictionContactProblem, GlobalFrictionContactProblem
-from . import newton, nsgs, projection
+from . import auto, newton, nsgs, projection
 from .registry import solve
 
 #: the stages of ``solver="auto"`` run one by one (its ``methods`` option): the general path
 #: of each, on top of the plain calls' compiled routes
 AUTO_STAGES = ("nsgs", "newton_trial", "newton_trial_cold", "newton_trial_prox", "newton",
                "newton_plain", "newton_plain_cold", "newton_plain_cold_split", "newton_cold_alt",
-               "newton_prox_error", "nsgs_probe", "clarabel", "clarabel_qp")
+               "newton_prox_error", "nsgs_probe", "clarabel", "clarabel_first", "clarabel_qp")
 
 _DONE: list = []
 
@@ -69,7 +69,7 @@ def warmup(force: bool = False) -> float:
     of more than 60 unknowns (it factorizes with one BLAS thread, whose controller is built
     on first use); a sparse one of more than ``newton.DENSE_MAX_M`` unknowns through
     ``newton`` and ``clarabel`` (the sparse LU, the Jacobian's block kernels, the Newton polish
-    outside the compiled loop); a global problem through ``auto``, ``newton``, ``clarabel``,
+    outside the compiled loop) and ``auto``'s redundancy feature; a global problem through ``auto``, ``newton``, ``clarabel``,
     ``nsgs`` and ``projection``.  What a spread of solves reaches after it is checked by
     ``tests/test_warm.py``; a path outside both (another solver's kernels, an option's) may
     still load or compile on its first call. Call it once before timing solves, or before
@@ -97,6 +97,7 @@ def warmup(force: bool = False) -> float:
         # (the Python loop's dense steps, the LU either written out or LAPACK's)
         solve(_local(25, dim, 12347), "newton", policy="prox_error", tol=1e-30, max_iter=1)
         big = _sparse(dim, 12348)
+        auto.contact_redundancy(big)      # (auto's feature on problems of more than SMALL_NC contacts)
         solve(big, "newton", tol=1e-30, max_iter=2)
         solve(big, "newton", policy="prox_error", tol=1e-30, max_iter=1)   # (auto's last resort)
         # (Clarabel's Newton polish of a system the compiled loop does not take)
