@@ -1146,31 +1146,80 @@ def test_contact_redundancy_reads_contacts_between_the_same_two_bodies():
     assert auto.contact_redundancy(_local(1, 3, 1)) == 0.0
 
 
-def test_redundant_contacts_start_with_the_fixed_point(monkeypatch):
+def _faces_and_spheres():
+    """Two large 3D local problems: three contacts per neighbouring pair of a chain of bodies
+    (box faces: redundant), and one contact per pair of three chains' pairs (not)."""
     chain = [(i, i + 1) for i in range(40)]
     faces = _block_pattern_problem([pair for pair in chain for _ in range(3)], 41)
-    spheres = _block_pattern_problem(chain * 1 + [(i, i + 2) for i in range(39)]
+    spheres = _block_pattern_problem(chain + [(i, i + 2) for i in range(39)]
                                      + [(i, i + 3) for i in range(38)], 41)
     assert faces.n_contacts > auto.SMALL_NC and spheres.n_contacts > auto.SMALL_NC
+    return faces, spheres
+
+
+def test_redundant_contacts_run_the_fixed_point_after_the_probe(monkeypatch):
+    faces, spheres = _faces_and_spheres()
 
     def names(p):
         return [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
     assert auto.features(faces, "coulomb")["redundancy"] == 1.0
-    assert names(faces)[:3] == ["clarabel_first", "nsgs_probe", "newton"]
-    assert names(faces).count("clarabel") == 1              # the full stage later, as before
-    assert names(spheres)[:2] == ["nsgs_probe", "newton"]        # no redundancy: as before
+    default = names(spheres)
+    assert default[:2] == ["nsgs_probe", "newton"] and "clarabel_first" not in default
+    # the default chain with clarabel_first after the probe (high friction too)
+    assert names(faces) == default[:1] + ["clarabel_first"] + default[1:]
+    hi = _block_pattern_problem([(i, i + 1) for i in range(40) for _ in range(3)], 41)
+    hi.mu[:] = 2.0
+    hi_default = [m for m, _ in auto.stage_order(hi, "coulomb", {**auto.features(hi, "coulomb"),
+                                                                 "redundancy": 0.0})]
+    assert names(hi) == hi_default[:1] + ["clarabel_first"] + hi_default[1:]
     monkeypatch.setattr(auto, "REDUNDANT_SHARE", None)           # off
-    assert names(faces)[:2] == ["nsgs_probe", "newton"]
+    assert names(faces) == default
     assert auto.features(faces, "coulomb")["redundancy"] is None
-    # the answer is judged as any other: the fixed point's stage meets tol on this problem
     monkeypatch.setattr(auto, "REDUNDANT_SHARE", 0.9)
-    res = socp_cd.solve(faces, "auto", tol=1e-8)
-    assert res.converged and res.info["path"][0]["method"] == "clarabel_first"
-    assert socp_cd.error(faces, res.r) <= 1e-8
+    # a plain call (the compiled route runs the probe) and the general path take one path
+    plain = socp_cd.solve(faces, "auto", tol=1e-8)
+    general = socp_cd.solve(faces, "auto", tol=1e-8, max_iter=10 ** 6)
+    steps = [[s["method"] for s in res.info["path"]] for res in (plain, general)]
+    assert steps[0] == steps[1] and steps[0][:2] == ["nsgs_probe", "clarabel_first"]
+    assert plain.converged and socp_cd.error(faces, plain.r) <= 1e-8
+    assert plain.info["features"]["redundancy"] == 1.0
     # the first stage stops after REDUNDANT_FIRST_ITER outer iterations of the fixed point
     monkeypatch.setattr(auto, "REDUNDANT_FIRST_ITER", 1)
-    first = socp_cd.solve(faces, "auto", tol=1e-30, time_limit=5.0).info["path"][0]
-    assert first["method"] == "clarabel_first" and first["iterations"] <= 1
+    path = socp_cd.solve(faces, "auto", tol=1e-30, time_limit=5.0).info["path"]
+    assert path[1]["method"] == "clarabel_first" and path[1]["iterations"] <= 1
+
+
+def test_a_missed_clarabel_first_hands_nothing_on(monkeypatch):
+    """The chain after a clarabel_first that misses tol runs as without it: the next stages get
+    the same start (its iterate is not the seed, and does not count in the far-probe rule)."""
+    faces, _ = _faces_and_spheres()
+    seen = []
+    near = socp_cd.solve(faces, "clarabel", tol=1e-10).r * (1 + 1e-6)
+    assert 1e-12 < socp_cd.error(faces, near) < auto.WARM_MAX       # near, within WARM_MAX
+
+    a, _ = contact_scales(faces)
+    near_balanced = near / a                           # (stages see the balanced copy)
+
+    def fake_first(problem, formulation, **kw):       # a stage that ends near, but misses tol
+        return SolverResult(r=near_balanced.copy(), status="max_iter", iterations=2)
+
+    def newton_spy(problem, formulation, *, r0=None, **kw):
+        seen.append(None if r0 is None else np.array(r0))
+        return SolverResult(r=np.zeros(problem.m), status="stalled", iterations=1)
+    monkeypatch.setitem(auto._STAGES, "clarabel_first",
+                        (SolverSpec("first", fake_first, ("coulomb",)), {}))
+    monkeypatch.setitem(auto._STAGES, "newton",
+                        (SolverSpec("spy", newton_spy, ("coulomb",), global_native=("coulomb",)), {}))
+    def newton_start(share):
+        monkeypatch.setattr(auto, "REDUNDANT_SHARE", share)
+        seen.clear()
+        res = socp_cd.solve(faces, "auto", tol=1e-14, max_iter=50)
+        assert ("clarabel_first" in [s["method"] for s in res.info["path"]]) == (share is not None)
+        return seen[0]
+    without, after_first = newton_start(None), newton_start(0.9)
+    assert (without is None) == (after_first is None)
+    assert without is None or np.array_equal(without, after_first)
+    assert after_first is None or not np.allclose(after_first, near_balanced)
 
 
 def test_contact_redundancy_kernel_equals_its_numpy_reference():
@@ -1185,3 +1234,19 @@ def test_contact_redundancy_kernel_equals_its_numpy_reference():
         assert auto.contact_redundancy(p) == ref
     for p in (_local(20, 3, 1), _local(1, 2, 1), _local(7, 2, 3)):      # full rows; one contact
         assert auto.contact_redundancy(p) == auto.contact_redundancy(p, compiled=False) == 0.0
+
+
+def test_contact_redundancy_kernel_and_reference_on_index_types_and_empty_rows():
+    from types import SimpleNamespace
+
+    def csr(rows, dim, dtype):
+        indptr = np.zeros(len(rows) + 1, dtype=dtype)
+        indptr[1:] = np.cumsum([len(r) for r in rows])
+        return SimpleNamespace(csr_parts=(indptr, np.array([c for r in rows for c in r], dtype=dtype),
+                                          None), dim=dim, n_contacts=len(rows) // dim)
+    rows = [[0, 1, 2, 3], [0], [1], [0, 1, 2, 3], [0], [1], [4, 5], [4], [5]]   # dim 3, 3 contacts
+    for dtype in (np.int32, np.int64):
+        p = csr(rows, 3, dtype)
+        assert auto.contact_redundancy(p) == auto.contact_redundancy(p, compiled=False) == 2 / 3
+        empty = csr(rows[:3] + [[], [0], [1]] + rows[6:], 3, dtype)        # an empty first row
+        assert auto.contact_redundancy(empty) == auto.contact_redundancy(empty, compiled=False) == 0.0

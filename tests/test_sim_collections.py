@@ -24,6 +24,19 @@ def script():
         sys.path.remove(str(VALIDATION))
 
 
+def test_every_kinds_scene_loads(script, tmp_path):
+    from socp_cd.scenes import load_simulation
+    (tmp_path / "held").mkdir()
+    (tmp_path / "tune").mkdir()
+    runs = script.kinds_runs(tmp_path / "held") + script.kinds_runs(tmp_path / "tune", tune=True)
+    assert len(runs) == 14
+    for name, scene, steps, every in runs:
+        spec, sim = load_simulation(scene)
+        assert len(spec.bodies) > 0 and sim.h > 0 and steps > every > 0, name
+        # each scene says which it is (the examples' keep their own names)
+        assert spec.name in (name, "KaplaTower", "Talus2D"), (name, spec.name)
+
+
 def test_kinds_and_their_tune_scenes_are_apart(script, tmp_path):
     (tmp_path / "held").mkdir()
     (tmp_path / "tune").mkdir()

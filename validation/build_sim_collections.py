@@ -119,7 +119,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", type=Path, default=None,
                     help="output directory (default validation/evalset_sim, with --tune "
-                         "validation/evalset_sim_tune)")
+                         "validation/evalset_sim_tune; --kinds: validation/evalset_sim_kinds, "
+                         "with --tune validation/evalset_sim_kinds_tune)")
     mode = ap.add_mutually_exclusive_group()
     mode.add_argument("--quick", action="store_true")
     ap.add_argument("--tune", action="store_true", help="the tuning scenes (see above)")

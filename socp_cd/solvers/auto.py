@@ -29,7 +29,10 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   :data:`PROBE_SWEEPS` sweeps first (then Newton starts afresh unless the probe
   came within :data:`WARM_MAX`); 2D local problems of more than
   :data:`LARGE_2D_NC` contacts run the fixed point right after the probe, before
-  Newton; larger or global problems: Newton, then — ordered by friction
+  Newton; 3D local ones whose contacts come in groups between the same two bodies
+  (:func:`contact_redundancy` at least :data:`REDUNDANT_SHARE`: box faces) run a short
+  fixed point (``"clarabel_first"``, at most :data:`REDUNDANT_FIRST_ITER` outer iterations)
+  right after the probe, then the chain as without it; larger or global problems: Newton, then — ordered by friction
   range and dimension — NSGS and the fixed point, then Newton again from the
   best iterate when an earlier stage improved it.  When the order runs out without
   meeting ``tol`` on the exact law, *rounds* of :data:`ROUND` follow from the best iterate
@@ -348,6 +351,9 @@ ALWAYS_COLD = ("newton_plain_cold", "newton_plain_cold_split", "newton_trial_col
                "newton_trial_prox", "newton_cold_alt", "newton_prox_error")
 #: the hand-off's cold trials (run only after a failed first trial, on m <= COLD_MAX_M)
 _COLD_TRIALS = ("newton_trial_cold", "newton_trial_prox")
+#: first stages whose iterate, when it misses ``tol``, is not the seed (the chain after them
+#: runs as without them)
+_FIRST_STAGES = ("newton_first", "clarabel_first")
 #: stages of the Newton method: a refused answer of one is retried as ``"newton"`` (warm)
 _NEWTON_FAMILY = tuple(name for name, (spec, _) in _STAGES.items() if spec is newton.SPEC)
 #: stages with their own stall window (:data:`PLAIN_STALL`, :data:`PLAIN_STALL_LARGE`) and,
@@ -368,7 +374,9 @@ OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'newton_plain', 'newton_plain_cold', "
                "'newton_plain_cold_split', 'newton_trial', 'newton_trial_cold', 'newton_trial_prox', 'newton_cold_alt', 'newton_prox_error', "
                "'nsgs', 'nsgs_probe', "
-               "'clarabel', 'clarabel_first', 'clarabel_qp' (default: chosen from the problem's features)",
+               "'clarabel', 'clarabel_first' (the fixed point stopped after REDUNDANT_FIRST_ITER outer "
+               "iterations; its iterate is not the seed when it misses tol), 'clarabel_qp' "
+               "(default: chosen from the problem's features)",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
 }
 
@@ -388,6 +396,7 @@ def contact_redundancy(problem, compiled: bool = True) -> float:
     Parameters
     ----------
     problem : FrictionContactProblem
+        A local problem (read: ``csr_parts``, ``dim``, ``n_contacts``).
     compiled : bool
         True: the compiled kernel (:func:`~.kernels.patterns.pattern_redundancy`); False:
         this NumPy reference (the same keys and share; ``tests/test_auto.py``).
@@ -435,12 +444,19 @@ def features(problem, formulation) -> dict:
     mu = problem.mu
     mu_max = float(mu.max()) if mu.shape[0] else 0.0
     glob = problem.is_global
-    large3 = (not glob and problem.dim == 3 and problem.n_contacts > SMALL_NC
-              and REDUNDANT_SHARE is not None)
     return {"dim": problem.dim, "n_contacts": problem.n_contacts, "global": glob,
             "mu_max": mu_max, "frictionless": formulation == "frictionless" or mu_max == 0.0,
             "structurally_rank_deficient": (problem.m > problem.n_dofs) if glob else None,
-            "redundancy": contact_redundancy(problem) if large3 else None}
+            "redundancy": _redundancy_feature(problem)}
+
+
+def _redundancy_feature(problem):
+    """:func:`features`' ``redundancy``: :func:`contact_redundancy` of a 3D local problem of
+    more than :data:`SMALL_NC` contacts while :data:`REDUNDANT_SHARE` is on, else None."""
+    if (problem.is_global or problem.dim != 3 or problem.n_contacts <= SMALL_NC
+            or REDUNDANT_SHARE is None):
+        return None
+    return contact_redundancy(problem)
 
 
 def _small_local(feats) -> bool:
@@ -460,6 +476,14 @@ def _newton_first(problem) -> bool:
     nc, d = problem.mu.shape[0], problem.dim
     return (NEWTON_FIRST_MIN_NC < nc <= SMALL_NC
             and int(problem.csr_parts[0][-1]) >= blocks * nc * d * d)
+
+
+def _redundant(feats) -> bool:
+    """Whether the large 3D local problem of ``feats`` (:func:`features`) has redundant contacts
+    (:func:`contact_redundancy` at least :data:`REDUNDANT_SHARE`): its chain runs
+    ``"clarabel_first"`` after the probe."""
+    share = feats.get("redundancy")
+    return share is not None and REDUNDANT_SHARE is not None and share >= REDUNDANT_SHARE
 
 
 def stage_order(problem, formulation, feats) -> tuple:
@@ -508,14 +532,12 @@ def stage_order(problem, formulation, feats) -> tuple:
         # at 5 s, sgm 2.7 -> 0.74 s)
         return (probe + (("clarabel", "coulomb"), ("newton", "coulomb")) + plain
                 + (("nsgs", "coulomb"), ("newton", "coulomb")))
-    if (feats.get("redundancy") is not None and REDUNDANT_SHARE is not None
-            and feats["redundancy"] >= REDUNDANT_SHARE):
-        # redundant contacts (box faces): the fixed point first ("Redundant contacts")
-        return ((("clarabel_first", "coulomb"),) + probe + (("newton", "coulomb"),) + plain
-                + (("nsgs", "coulomb"), ("clarabel", "coulomb"), ("newton", "coulomb")))
+    # redundant contacts (box faces): a short run of the fixed point right after the probe,
+    # then the chain as without it ("Redundant contacts: the fixed point first")
+    first = ((("clarabel_first", "coulomb"),) if _redundant(feats) else ())
     early = ((("newton_prox_error", "coulomb"),) if PROX_EARLY and not feats["global"]
              else ())
-    return (probe + (("newton", "coulomb"),) + early + plain + middle
+    return (probe + first + (("newton", "coulomb"),) + early + plain + middle
             + (("newton", "coulomb"),))
 
 
@@ -915,13 +937,15 @@ def _stage_outcome(problem, out, method, handoff, tol, max_iter, time_limit, t0)
         stop = met = True
     else:
         stop, met = _stop_test(problem, out, tol, lo)
+    # (features' redundancy: on the probe's problems, more than SMALL_NC contacts)
+    redundancy = _redundancy_feature(problem) if method == "nsgs_probe" else None
     if stop:
         return (SolverResult.of_local(vectors[1], vectors[2], "converged", x[ERROR], sweeps,
                                       LazyInfo((_route_info, problem.dim, nc, x, method, t,
-                                                status)),
+                                                status, redundancy)),
                                       "nsgs met tol", x[ZERO_ERROR] <= tol),
                 x[GUARD_VALUE], None)
-    info = _route_info(problem.dim, nc, x, method, t, status)
+    info = _route_info(problem.dim, nc, x, method, t, status, redundancy)
     trials = []
     if (handoff[0] and not met and problem.m <= nsgs_route.TRIAL_MAX_M
             and _handoff_cap(problem, max_iter) is not None
@@ -1024,16 +1048,17 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
     return done
 
 
-def _route_info(dim, nc, x, method, seconds, status) -> dict:
+def _route_info(dim, nc, x, method, seconds, status, redundancy=None) -> dict:
     """``result.info`` of :func:`route`'s result: the stage ``method`` (its ``status``,
     ``seconds``) from the compiled call's stats tuple ``x``
-    (:data:`~socp_cd.solvers.nsgs_route.STATS`) on a problem of ``nc`` contacts."""
+    (:data:`~socp_cd.solvers.nsgs_route.STATS`) on a problem of ``nc`` contacts
+    (``redundancy``: :func:`features`' value, None on the small chain's problems)."""
     stage = {"method": method, "formulation": "coulomb", "iterations": int(x[SWEEPS]),
              "time": seconds, "error": x[INTERNAL_ERROR], "status": status}
     return {"path": [stage],
             "features": {"dim": dim, "n_contacts": nc, "global": False, "mu_max": x[MU_MAX],
                          "frictionless": False, "structurally_rank_deficient": None,
-                         "redundancy": None},
+                         "redundancy": redundancy},
             "best_stage": 0, "guard": guard_record(x), "scaling": scaling_record(x),
             "route": "compiled"}
 
@@ -1309,6 +1334,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 message = f"{method}: {type(exc).__name__}: {exc}"
             dt = _clock() - t0
             took[method] = min(took.get(method, np.inf), dt)
+            if method == "clarabel_first":      # (the full stage costs at least its set-up)
+                took["clarabel"] = min(took.get("clarabel", np.inf), dt)
             err = judge(r)
         if small_first and handoff is not None and r is not None:
             nsgs_own = (r, st, its)     # the hand-off's first NSGS stage (route or here)
@@ -1316,27 +1343,30 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             nsgs_own = (r, st, nsgs_own[2] + its)
         mid_ran = mid_ran or method == "nsgs_mid"
         tried = tried or method == "newton_trial"
+        # a newton_first or clarabel_first that missed tol is not the seed: the chain after it
+        # runs as without it (its far-probe verdict, the rounds' record of the best errors)
+        missed_first = method in _FIRST_STAGES and not err <= tol
         if method == "nsgs_probe" or (FAR_NSGS_COLD and methods is None
                                       and method in ("nsgs", "nsgs_mid", "nsgs_rest")):
             after_far_probe = not min(err, chain_err) <= WARM_MAX
-        elif method == "newton_trial":
+        elif method == "newton_trial" or missed_first:
             pass        # a trial hands the NSGS stages' verdict on to the next stage
-        elif method not in COLD_STAGES or err < best_err:
+        elif method not in COLD_STAGES or err < chain_err:
             # (a cold stage that did not improve on a far probe, e.g. the fixed point before
             # Newton on large 2D problems, hands the far-probe rule on to the next stage)
             after_far_probe = False
         path.append({"method": method, "formulation": form, "iterations": its, "time": dt,
                      "error": err, "status": st})
         iterations += its
-        bests.append(min(err, best_err))
-        if method not in ("newton_first", "clarabel_first") or err <= tol:
+        if not missed_first:
             chain_err = min(chain_err, err)
+        bests.append(chain_err)
         if history and res is not None and res.history:
             hist.extend(res.history)
         if err < best_err:
             best_r, best_err, best_stage = r, err, k
             best_v = res.v if (res is not None and target is problem) else None
-        if err < seed_score and (method not in ("newton_first", "clarabel_first") or err <= tol):
+        if err < seed_score and not missed_first:
             # (the rank is at least the error: else no gain; a newton_first or clarabel_first
             # that missed tol is not the seed: the chain after it starts as without it)
             score = _seed_score(judge, r, err, tol)
@@ -1368,7 +1398,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 # (next; the answer itself when refused by little enough to be the seed);
                 # a Newton-family stage as the warm proximal Newton method (a trial's or a
                 # cold stage's rerun would start elsewhere, or be skipped as already run)
-                again = "newton" if method in _NEWTON_FAMILY else method
+                again = ("newton" if method in _NEWTON_FAMILY
+                         else "clarabel" if method == "clarabel_first" else method)
                 order = order[:k + 1] + ((again, form),) + order[k + 1:]
                 retried = True
     if short and status != "converged":

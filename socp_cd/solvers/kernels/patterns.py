@@ -22,8 +22,11 @@ def pattern_redundancy(indptr, indices, nc, dim):
     Parameters
     ----------
     indptr, indices : ndarray
-        ``W`` in CSR form (``m = nc * dim`` rows).
-    nc, dim : int
+        ``W`` in CSR form (``m = nc * dim`` rows; int32 or int64).
+    nc : int
+        Number of contacts.
+    dim : int
+        Unknowns per contact (2 or 3).
 
     Returns
     -------
