@@ -1183,6 +1183,11 @@ def test_redundant_contacts_run_the_fixed_point_after_the_probe(monkeypatch):
     assert steps[0] == steps[1] and steps[0][:2] == ["nsgs_probe", "clarabel_first"]
     assert plain.converged and socp_cd.error(faces, plain.r) <= 1e-8
     assert plain.info["features"]["redundancy"] == 1.0
+    for p in (faces, spheres):      # a probe that meets tol: the route's (lazy) info, the same
+        routed = socp_cd.solve(p, "auto", tol=1e-1)
+        assert routed.info["route"] == "compiled"
+        assert routed.info["features"] == socp_cd.solve(p, "auto", tol=1e-1,
+                                                        max_iter=10 ** 6).info["features"]
     # the first stage stops after REDUNDANT_FIRST_ITER outer iterations of the fixed point
     monkeypatch.setattr(auto, "REDUNDANT_FIRST_ITER", 1)
     path = socp_cd.solve(faces, "auto", tol=1e-30, time_limit=5.0).info["path"]

@@ -937,15 +937,17 @@ def _stage_outcome(problem, out, method, handoff, tol, max_iter, time_limit, t0)
         stop = met = True
     else:
         stop, met = _stop_test(problem, out, tol, lo)
-    # (features' redundancy: on the probe's problems, more than SMALL_NC contacts)
-    redundancy = _redundancy_feature(problem) if method == "nsgs_probe" else None
     if stop:
+        # (the probe's problems, more than SMALL_NC contacts: features' redundancy, read
+        # when the info is)
         return (SolverResult.of_local(vectors[1], vectors[2], "converged", x[ERROR], sweeps,
                                       LazyInfo((_route_info, problem.dim, nc, x, method, t,
-                                                status, redundancy)),
+                                                status,
+                                                problem if method == "nsgs_probe" else None)),
                                       "nsgs met tol", x[ZERO_ERROR] <= tol),
                 x[GUARD_VALUE], None)
-    info = _route_info(problem.dim, nc, x, method, t, status, redundancy)
+    # (handed on: auto_backend reads its features itself; or the small chain's trials' answer)
+    info = _route_info(problem.dim, nc, x, method, t, status)
     trials = []
     if (handoff[0] and not met and problem.m <= nsgs_route.TRIAL_MAX_M
             and _handoff_cap(problem, max_iter) is not None
@@ -1048,17 +1050,19 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
     return done
 
 
-def _route_info(dim, nc, x, method, seconds, status, redundancy=None) -> dict:
+def _route_info(dim, nc, x, method, seconds, status, probed=None) -> dict:
     """``result.info`` of :func:`route`'s result: the stage ``method`` (its ``status``,
     ``seconds``) from the compiled call's stats tuple ``x``
     (:data:`~socp_cd.solvers.nsgs_route.STATS`) on a problem of ``nc`` contacts
-    (``redundancy``: :func:`features`' value, None on the small chain's problems)."""
+    (``probed``: the problem of an NSGS probe, whose :func:`features` carry a
+    ``redundancy``; None on the small chain's problems, whose value is None)."""
     stage = {"method": method, "formulation": "coulomb", "iterations": int(x[SWEEPS]),
              "time": seconds, "error": x[INTERNAL_ERROR], "status": status}
     return {"path": [stage],
             "features": {"dim": dim, "n_contacts": nc, "global": False, "mu_max": x[MU_MAX],
                          "frictionless": False, "structurally_rank_deficient": None,
-                         "redundancy": redundancy},
+                         "redundancy": (None if probed is None
+                                        else _redundancy_feature(probed))},
             "best_stage": 0, "guard": guard_record(x), "scaling": scaling_record(x),
             "route": "compiled"}
 
