@@ -114,3 +114,36 @@ def test_chunk_below_one_is_refused_before_any_work(script, monkeypatch):
     monkeypatch.setattr(script, "problem_set", lambda args: pytest.fail("no work"))
     with pytest.raises(SystemExit):
         script.main(["--chunk", "0"])
+
+
+def test_an_answer_past_the_budget_is_not_solved(script):
+    # both sides have the same budget: within tol but later than time_limit (plus the slack
+    # for either side's stop granularity) is not solved; the error alone still decides claims
+    late = dict(error=1e-9, time=1.0 + 2 * script.BUDGET_SLACK)
+    on_time = dict(error=1e-9, time=1.0 + 0.5 * script.BUDGET_SLACK)
+    assert script.solved(late, 1e-8) and not script.solved(late, 1e-8, 1.0)
+    assert script.solved(on_time, 1e-8, 1.0)
+    assert script.past_budget(late, 1e-8, 1.0) and not script.past_budget(on_time, 1e-8, 1.0)
+    assert not script.past_budget(dict(error=1e-7, time=5.0), 1e-8, 1.0)
+
+
+def test_the_report_counts_a_late_siconos_answer_as_a_failure(script, tmp_path):
+    import argparse
+    base = dict(tol=1e-8, set="shared", split="shared", kind="local3", nc=3, guard=1e-9,
+                path="")
+    rows = [dict(base, problem="p0", solver="auto", side="ours", error=3e-8,
+                 status="time_limit", claimed=False, time=1.0),
+            dict(base, problem="p0", solver="siconos:prox", side="siconos", error=1e-9,
+                 status="ok", claimed=True, time=1.17),
+            dict(base, problem="p1", solver="auto", side="ours", error=1e-9,
+                 status="converged", claimed=True, time=0.01),
+            dict(base, problem="p1", solver="siconos:prox", side="siconos", error=1e-9,
+                 status="ok", claimed=True, time=0.02)]
+    args = argparse.Namespace(out=tmp_path, tol=1e-8, time_limit=1.0, quick=False, repeats=3,
+                              repeats_small=200)
+    script.write(rows, args, have_sic=True)
+    report = (tmp_path / "newton_vs_siconos.md").read_text()
+    assert "Solved by at least one Siconos solver: 1/2." in report
+    assert "siconos:prox on p0 (1.17 s)" in report
+    assert "| siconos:prox | 1 | 1/2 |" in report
+    assert "- `auto` misses 0 of them" in report
