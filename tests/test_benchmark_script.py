@@ -1,24 +1,13 @@
 """validation/newton_vs_siconos.py's run order: both sides interleaved by chunks of problems."""
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import pytest
 
 from socp_cd.bench.generators import manufactured
 
-VALIDATION = Path(__file__).resolve().parents[1] / "validation"
-
-
 @pytest.fixture()
-def script():
-    sys.path.insert(0, str(VALIDATION))
-    try:
-        import newton_vs_siconos
-        yield newton_vs_siconos
-    finally:
-        sys.path.remove(str(VALIDATION))
+def script(validation_script):
+    return validation_script("newton_vs_siconos")
 
 
 #: what a stubbed run of ours returns

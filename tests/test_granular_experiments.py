@@ -1,16 +1,11 @@
 """The granular experiment builders (socp_cd.granular.samples) and the validation scripts' pieces."""
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from socp_cd.errors import InvalidProblemError
 from socp_cd.granular.samples import TalusGrains, biaxial_box_scene, feed_batch, talus_bed, talus_simulation
-
-VALIDATION = Path(__file__).resolve().parents[1] / "validation"
 
 
 def test_talus_grains_survive_a_rebuild():
@@ -38,10 +33,9 @@ def test_biaxial_shape_is_checked():
 
 
 @pytest.mark.slow
-def test_biaxial_sample_is_at_rest_and_moreau_exact():
+def test_biaxial_sample_is_at_rest_and_moreau_exact(validation_script):
     """A small biaxial box through compress → quench → static step: at rest to solver tolerance."""
-    sys.path.insert(0, str(VALIDATION))
-    import granular_convergence as gc
+    gc = validation_script("granular_convergence")
     state, W, H, info = gc.make_sample(40, "disk", max_steps=600, quench=60, final_tol=1e-8,
                                        v_wall=5e-3)
     r = gc.analyse(state, W, H, info)
@@ -53,10 +47,9 @@ def test_biaxial_sample_is_at_rest_and_moreau_exact():
     assert np.isfinite(r["rms_normal"]) and np.isfinite(r["rms_shear"])
 
 
-def test_biaxial_compression_resumes_from_its_checkpoint(tmp_path):
+def test_biaxial_compression_resumes_from_its_checkpoint(tmp_path, validation_script):
     """An interrupted compression resumed from its HDF5 checkpoint ends where an uninterrupted one does."""
-    sys.path.insert(0, str(VALIDATION))
-    import granular_convergence as gc
+    gc = validation_script("granular_convergence")
     kw = dict(quench=2, final_solver="nsgs", final_iter=200, final_tol=1e-4, max_iter=30)
     whole = gc.make_sample(20, "polygon", max_steps=40, **kw)
     ck = tmp_path / "box.ckpt.h5"
@@ -69,10 +62,9 @@ def test_biaxial_compression_resumes_from_its_checkpoint(tmp_path):
     np.testing.assert_array_equal(resumed[0].forces, whole[0].forces)
 
 
-def test_sample_spread_reports_every_seed():
+def test_sample_spread_reports_every_seed(validation_script):
     """cuts_sample_spread --quick: one record per shape with each seed's values, mean and spread."""
-    sys.path.insert(0, str(VALIDATION))
-    import cuts_sample_spread as css
+    css = validation_script("cuts_sample_spread")
     recs = css.main(["--quick"])
     assert {r["shape"] for r in recs} == {"disk", "polygon"}
     for r in recs:
@@ -83,10 +75,9 @@ def test_sample_spread_reports_every_seed():
             assert r[k]["mean"] == pytest.approx(v.mean()) and r[k]["std"] == pytest.approx(v.std(ddof=1))
 
 
-def test_biaxial_checkpoint_of_a_jammed_box_is_not_compressed_again(tmp_path):
+def test_biaxial_checkpoint_of_a_jammed_box_is_not_compressed_again(tmp_path, validation_script):
     """A crash after the walls stopped: the rerun goes straight to the quench; other settings are refused."""
-    sys.path.insert(0, str(VALIDATION))
-    import granular_convergence as gc
+    gc = validation_script("granular_convergence")
     kw = dict(quench=2, final_solver="nsgs", final_iter=200, final_tol=1e-4, max_iter=30,
               v_wall=1e3, max_steps=1000)          # any wall speed counts as stopped: jams at step 300
     ck = tmp_path / "box.ckpt.h5"

@@ -382,3 +382,16 @@ def test_3d_entries_follow_the_agreed_box_interface(tmp_path, monkeypatch):
     wall = make_obstacle(spec, spec.obstacles[0])
     assert type(wall).__name__ == "FixedBox" and wall.size == (1.0, 1.0, 0.1) and wall.restitution == 0.5
     assert wall.orientation == (1.0, 0.0, 0.0, 0.0)
+
+
+def test_scenes_simulate_is_the_function_whatever_was_imported_first():
+    # the package's ``simulate`` shares its name with the submodule; a lazy wrapper there was
+    # replaced by the submodule when ``socp_cd.scenes.simulate`` was imported before it
+    import subprocess
+    import sys
+    code = ("import socp_cd.scenes.simulate\n"
+            "from socp_cd.scenes import simulate\n"
+            "import types\n"
+            "assert callable(simulate) and not isinstance(simulate, types.ModuleType), simulate\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr

@@ -242,16 +242,11 @@ def test_preview_draws_3d_box_scenes_without_the_dynamics(tmp_path):
 
 # ----------------------------------------------------------------------------- Siconos
 @pytest.mark.siconos
-def test_sphere_column_agrees_with_siconos_moreau_jean():
+def test_sphere_column_agrees_with_siconos_moreau_jean(validation_script):
     from socp_cd.bench.siconos_peer import siconos_available
     if not siconos_available():
         pytest.skip("Siconos not available")
-    import sys
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "validation"))
-    try:
-        from siconos_side_by_side import SCENES
-    finally:
-        sys.path.pop(0)
+    SCENES = validation_script("siconos_side_by_side").SCENES
     from socp_cd.scenes.siconos_md import run_both
     sc = SCENES["sphere_column"]
     r = run_both(sc["text"], 60, sc["distance"], tol=1e-10)

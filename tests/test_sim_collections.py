@@ -2,7 +2,6 @@
 every scene a valid scene file, and the box scenes the redundant-contact problems they are for."""
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
@@ -11,17 +10,9 @@ import socp_cd
 from socp_cd.scenes.simulate import simulate
 from socp_cd.solvers import auto
 
-VALIDATION = Path(__file__).resolve().parents[1] / "validation"
-
-
 @pytest.fixture()
-def script():
-    sys.path.insert(0, str(VALIDATION))
-    try:
-        import build_sim_collections
-        yield build_sim_collections
-    finally:
-        sys.path.remove(str(VALIDATION))
+def script(validation_script):
+    return validation_script("build_sim_collections")
 
 
 def test_every_kinds_scene_loads(script, tmp_path):

@@ -18,12 +18,9 @@ Typical use::
 """
 from .builder import build_scene, has_boxes, load_simulation
 from .schema import SceneFileError, SceneSpec, load_scene_file, validate_scene
-
-
-def simulate(*args, **kwargs):
-    """Run a scene file (see :func:`socp_cd.scenes.simulate.simulate`)."""
-    from .simulate import simulate as _s
-    return _s(*args, **kwargs)
+# the function, bound after its submodule of the same name is loaded: a lazy wrapper here was
+# replaced by the submodule whenever ``socp_cd.scenes.simulate`` was imported first
+from .simulate import simulate  # noqa: E402,I001
 
 
 __all__ = ["SceneFileError", "SceneSpec", "load_scene_file", "validate_scene", "build_scene",
