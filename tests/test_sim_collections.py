@@ -1,5 +1,6 @@
-"""validation/build_sim_collections.py's ``--kinds`` scenes (session 41): held out and tune apart,
-every scene a valid scene file, and the box scenes the redundant-contact problems they are for."""
+"""validation/build_sim_collections.py's ``--kinds`` scenes (session 41) and ``--kinds-fresh``
+(session 42): held out, tune and fresh apart, every scene a valid scene file, and the box scenes
+the redundant-contact problems they are for."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -10,17 +11,25 @@ import socp_cd
 from socp_cd.scenes.simulate import simulate
 from socp_cd.solvers import auto
 
+
 @pytest.fixture()
 def script(validation_script):
     return validation_script("build_sim_collections")
 
 
+def _draws(script, root):
+    """``{draw: runs}`` of the three draws of the kinds, each written in its own folder."""
+    out = {}
+    for draw, tune in (("held", False), ("tune", True), ("fresh", "fresh")):
+        (root / draw).mkdir()
+        out[draw] = script.kinds_runs(root / draw, tune)
+    return out
+
+
 def test_every_kinds_scene_loads(script, tmp_path):
     from socp_cd.scenes import load_simulation
-    (tmp_path / "held").mkdir()
-    (tmp_path / "tune").mkdir()
-    runs = script.kinds_runs(tmp_path / "held") + script.kinds_runs(tmp_path / "tune", tune=True)
-    assert len(runs) == 14
+    runs = [r for rs in _draws(script, tmp_path).values() for r in rs]
+    assert len(runs) == 21
     for name, scene, steps, every in runs:
         spec, sim = load_simulation(scene)
         assert len(spec.bodies) > 0 and sim.h > 0 and steps > every > 0, name
@@ -28,16 +37,14 @@ def test_every_kinds_scene_loads(script, tmp_path):
         assert spec.name in (name, "KaplaTower", "Talus2D"), (name, spec.name)
 
 
-def test_kinds_and_their_tune_scenes_are_apart(script, tmp_path):
-    (tmp_path / "held").mkdir()
-    (tmp_path / "tune").mkdir()
-    held = script.kinds_runs(tmp_path / "held")
-    tune = script.kinds_runs(tmp_path / "tune", tune=True)
-    assert len(held) == 6 and len(tune) == 8
-    names = [n for n, *_ in held] + [n for n, *_ in tune]
+def test_kinds_their_tune_and_fresh_scenes_are_apart(script, tmp_path):
+    draws = _draws(script, tmp_path)
+    assert {d: len(rs) for d, rs in draws.items()} == {"held": 6, "tune": 8, "fresh": 7}
+    names = [n for rs in draws.values() for n, *_ in rs]
     assert len(set(names)) == len(names)
-    held_texts = {Path(s).read_text() for _, s, *_ in held}
-    assert not held_texts & {Path(s).read_text() for _, s, *_ in tune}   # no scene in both
+    texts = {d: {Path(s).read_text() for _, s, *_ in rs} for d, rs in draws.items()}
+    assert not texts["held"] & texts["tune"] and not texts["held"] & texts["fresh"]
+    assert not texts["tune"] & texts["fresh"]                           # no scene in two draws
 
 
 @pytest.mark.parametrize("name,redundant", [("wall3d-27", True), ("massratio3d-60", False)])

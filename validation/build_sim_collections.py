@@ -39,6 +39,10 @@ masonry wall of 3D boxes, a heavy block on light spheres (mass ratio ~1e5), a sp
 two materials (μ 0.02 … 1.5), the Kapla tower of ``examples/``, a 2D hopper discharge and
 Moreau's talus of hexagons; ``--kinds --tune`` other sizes and seeds of the same kinds into
 ``validation/evalset_sim_kinds_tune/``, the ones a rule may be chosen on.
+``--kinds-fresh`` (session 42) builds a third draw of the same kinds, with sizes, seeds and
+parameters neither of those uses (:data:`KINDS_FRESH`), into
+``validation/evalset_sim_kinds_fresh/``: session 41 found its rule's need on ``--kinds`` and
+chose it on ``--kinds --tune``, so this draw is the one nothing was looked at on.
 
 ``--tune`` builds *other* scenes of the same kinds into
 ``validation/evalset_sim_tune/`` (1 500 disks with packing seed 11, 250
@@ -114,6 +118,23 @@ def deposit_scene(n: int, steps: int, seed: int = 7) -> str:
     area = n * 3.1416 * 0.0102 ** 2 / 0.33          # random sequential placement, 33 % of the box
     return DEPOSIT.format(n=n, steps=steps, width=width, height=round(area / width, 4), seed=seed)
 
+#: ``--kinds-fresh`` (session 42, after session 41's rule was fixed): the same kinds with sizes,
+#: seeds and parameters neither ``--kinds`` nor ``--kinds --tune`` uses, so that the rule found
+#: on ``--kinds`` and chosen on ``--kinds --tune`` is checked on scenes nobody looked at:
+#: name -> (the ``--kinds`` scene, replacements)
+KINDS_FRESH = {
+    "wall3d-fresh-20": ("wall3d-27", (("rows = 6", "rows = 5"), ("columns = 5", "columns = 4"),
+                                      ("mu = 0.6", "mu = 0.4"))),
+    "wall3d-fresh-42": ("wall3d-27", (("rows = 6", "rows = 7"), ("columns = 5", "columns = 6"),
+                                      ("size = [0.2, 0.1, 0.1]", "size = [0.24, 0.12, 0.08]"))),
+    "massratio3d-fresh-80": ("massratio3d-60", (("count = 60", "count = 80"), ("seed = 41", "seed = 81"),
+                                                ("density = 2.5e7", "density = 2.5e8"))),
+    "mixedmu3d-fresh-120": ("mixedmu3d-160", (("count = 80", "count = 60"), ("seed = 43", "seed = 83"),
+                                              ("seed = 47", "seed = 87"))),
+    "hopper2d-fresh-300": ("hopper2d-400", (("count = 400", "count = 300"), ("seed = 53", "seed = 93"),
+                                            ("opening = 0.12", "opening = 0.1"))),
+}
+
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -129,10 +150,15 @@ def main(argv=None) -> int:
                       help="scenes no session had run, for a check after the fact (see above)")
     mode.add_argument("--kinds", action="store_true",
                       help="scene kinds no other collection has (session 41, see above)")
+    mode.add_argument("--kinds-fresh", action="store_true",
+                      help="the same kinds, sizes and seeds no other collection has (session 42, "
+                           "see above)")
     ap.add_argument("--only", nargs="*", default=None)
     args = ap.parse_args(argv)
     if args.out is None and args.fresh:
         args.out = HERE / "evalset_sim_fresh"
+    if args.out is None and args.kinds_fresh:
+        args.out = HERE / "evalset_sim_kinds_fresh"
     if args.out is None and args.kinds:
         args.out = HERE / ("evalset_sim_kinds_tune" if args.tune else "evalset_sim_kinds")
     if args.out is None:
@@ -148,6 +174,8 @@ def main(argv=None) -> int:
         return build(fresh_runs(args.out), args)
     if args.kinds:
         return build(kinds_runs(args.out, args.tune), args)
+    if args.kinds_fresh:
+        return build(kinds_runs(args.out, "fresh"), args)
     table = QUICK if args.quick else TUNE if args.tune else FULL
     for name, (n, steps, every) in table.items():
         scene = args.out / f"{name}.toml"
@@ -352,14 +380,16 @@ def kinds_runs(out: Path, tune: bool = False) -> list:
     """The ``--kinds`` collections (session 41): ``(name, scene file, steps, dump every)`` of
     :data:`KINDS`, the Kapla tower of ``examples/`` (1 000 steps) and Moreau's talus of 200
     hexagons (``examples/talus_2d.toml``); with ``tune`` the :data:`KINDS_TUNE` scenes, Kapla
-    towers of 8 and 16 levels and a talus of 120 hexagons with another seed."""
+    towers of 8 and 16 levels and a talus of 120 hexagons with another seed; with
+    ``tune="fresh"`` the :data:`KINDS_FRESH` scenes, a tower of 10 levels (μ 0.4 between planks)
+    and a talus of 160 hexagons with a third seed."""
     runs = []
     scenes = {name: (KINDS_HEADER.format(what=what, name=name, dim=dim, mu=mu, h=h, steps=steps)
                      + body, steps, every)
               for name, (what, dim, mu, h, steps, every, body) in KINDS.items()}
     if tune:
         tuned = {}
-        for name, (base, swaps) in KINDS_TUNE.items():
+        for name, (base, swaps) in (KINDS_FRESH if tune == "fresh" else KINDS_TUNE).items():
             text, steps, every = scenes[base]
             for old, new in swaps:
                 assert old in text, (name, old)
@@ -372,7 +402,11 @@ def kinds_runs(out: Path, tune: bool = False) -> list:
         runs.append((name, scene, steps, every))
     kapla = (EXAMPLES / "kapla_tower.toml").read_text()
     talus = (EXAMPLES / "talus_2d.toml").read_text()
-    examples = ((("kapla3d-tune-16", kapla.replace("levels = 12", "levels = 8"), 1000, 100),
+    examples = ((("kapla3d-fresh-20", kapla.replace("levels = 12", "levels = 10")
+                  .replace("mu = 0.5", "mu = 0.4"), 1000, 100),
+                 ("talus2d-fresh-160", talus.replace("count = 200", "count = 160")
+                  .replace("seed = 3", "seed = 29"), 3000, 300)) if tune == "fresh" else
+                (("kapla3d-tune-16", kapla.replace("levels = 12", "levels = 8"), 1000, 100),
                  ("kapla3d-tune-32", kapla.replace("levels = 12", "levels = 16"), 1000, 100),
                  ("talus2d-tune-120", talus.replace("count = 200", "count = 120")
                   .replace("seed = 3", "seed = 17"), 3000, 300)) if tune else
