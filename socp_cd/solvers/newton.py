@@ -489,7 +489,7 @@ class LocalSystem:
             jac = self.jacobian
             jac.values(Dr, Du, alpha)
             try:
-                dr = self._lu.solve(jac.out.reshape(-1), jac.perm, -F, jac.current)
+                dr = self._lu.solve(jac.out.reshape(-1), jac.perm, -F)
             except SingularMatrix as exc:
                 raise _SingularStep(str(exc)) from None
         if not np.all(np.isfinite(dr)):

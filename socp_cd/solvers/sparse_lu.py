@@ -140,8 +140,7 @@ class NewtonLU:
 
     ``kind`` is ``"left_looking"`` or ``"splu"`` (chosen at construction, see the module
     docstring); :meth:`solve` takes the matrix as its values (``vals[perm]`` is the CSC data
-    on the pattern) and, for SuperLU without :data:`SPLU_ORDER_ONCE`, the matrix itself
-    from ``matrix()``.  ``splu_options``: SuperLU's settings (its ``permc_spec`` is used
+    on the pattern).  ``splu_options``: SuperLU's settings (its ``permc_spec`` is used
     only without :data:`SPLU_ORDER_ONCE`; the ordering is :data:`ORDERING`).
     """
 
@@ -233,18 +232,15 @@ class NewtonLU:
         self.Ui = np.empty(capacity, np.int64)
         self.Ux = np.empty(capacity)
 
-    def solve(self, vals, perm, b, matrix=None):
+    def solve(self, vals, perm, b):
         """``J^{-1} b``.
 
         Parameters
         ----------
         vals, perm : ndarray
-            ``J``'s values: ``vals[perm]`` is its CSC data on the pattern.
+            ``J``'s values: ``vals[perm]`` is its CSC data on the pattern (SuperLU, when it
+            orders the matrix itself, gets it with its stored zeros dropped).
         b : ndarray
-        matrix : callable, optional
-            Builds ``J`` as a scipy matrix for SuperLU when it orders the matrix itself
-            (without :data:`SPLU_ORDER_ONCE`, or after :data:`SPLU_FILL_GROWTH`); default:
-            from ``vals`` and ``perm``, stored zeros dropped.
 
         Raises
         ------
@@ -254,8 +250,7 @@ class NewtonLU:
         if self.kind == "splu":
             if SPLU_ORDER_ONCE and self.q is not None and not self.reorder_each:
                 return self._splu_ordered(vals, perm, b)
-            J = (matrix() if matrix is not None
-                 else csc_without_zeros(vals[perm], self.Ai, self.Ap, self.n))
+            J = csc_without_zeros(vals[perm], self.Ai, self.Ap, self.n)
             try:
                 return spla.splu(J, **self.splu_options).solve(b)
             except RuntimeError as exc:
@@ -282,7 +277,7 @@ class NewtonLU:
                 # (the ordering no longer fits these matrices, whose pivots left the
                 # diagonal: SuperLU orders each one itself, as after SPLU_FILL_GROWTH)
                 self.kind, self.reorder_each = "splu", True
-                return self.solve(vals, perm, b, matrix)
+                return self.solve(vals, perm, b)
             self._allocate(2 * self.Li.shape[0])    # FULL_L / FULL_U: more room, again
 
 
