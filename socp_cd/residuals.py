@@ -71,8 +71,29 @@ def error(problem, r, u=None) -> float:
         ``||r - P_K(r - û)|| / max(||q||, ||r||, ||u||)``.
     """
     r, u = checked_pair(problem, r, u)
-    F = natural_map(r, u, problem.mu, problem.dim)
-    return float(np.sqrt(np.dot(F, F))) / error_normalization(problem, r, u)
+    with np.errstate(over="ignore", invalid="ignore"):
+        F = natural_map(r, u, problem.mu, problem.dim)
+        f = float(np.sqrt(np.dot(F, F)))
+        norm = error_normalization(problem, r, u)
+    return f / norm if math.isfinite(f) and math.isfinite(norm) else _rescaled_error(problem, r, u)
+
+
+def _rescaled_error(problem, r, u) -> float:
+    """:func:`error` of a pair whose squared norms overflow (entries beyond ~1e154; an
+    overflowed ``||r||`` over a finite ``||F||`` read 0): the measure is the same for
+    ``(c r, c u, c q)``, any ``c > 0`` (the natural map is positively homogeneous), so it is
+    evaluated at ``c = 1 / max|(r, u)|``; inf when ``u`` itself overflowed (``W r`` beyond
+    the largest float)."""
+    c = max(float(np.max(np.abs(r), initial=0.0)), float(np.max(np.abs(u), initial=0.0)))
+    if not (math.isfinite(c) and c > 0.0):
+        return math.inf
+    rs, us = r / c, u / c
+    with np.errstate(over="ignore", invalid="ignore", under="ignore"):
+        F = natural_map(rs, us, problem.mu, problem.dim)
+        norm = max(float(np.linalg.norm(problem.q_local / c)), float(np.linalg.norm(rs)),
+                   float(np.linalg.norm(us)))
+        value = float(np.sqrt(np.dot(F, F))) / norm
+    return value if math.isfinite(value) else math.inf
 
 
 def contact_errors(problem, r, u=None) -> np.ndarray:

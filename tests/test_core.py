@@ -76,6 +76,26 @@ def test_siconos_error_kernel_equals_reference(dim):
 
 
 @pytest.mark.parametrize("dim", [2, 3])
+def test_siconos_error_of_huge_impulses_is_their_scaled_error_not_nan(dim):
+    # squared norms overflow beyond ~1e154: the measure is the same for (c r, c u, c q), so
+    # both the reference and the kernel give the value of the scaled pair (it was nan)
+    p = _problem(5, dim, seed=dim + 3)
+    r = np.random.default_rng(4).standard_normal(p.m)
+    expected = residuals.error(p, r)
+    for c in (1e160, 1e250, 1e300):
+        big = FrictionContactProblem(p.W, c * p.q, p.mu, dim)
+        with np.errstate(all="raise"):              # no NumPy warning either
+            assert residuals.error(big, c * r) == pytest.approx(expected, rel=1e-12)
+        u = big.velocity(c * r)
+        mu = np.asarray(p.mu, float)
+        norm_q = c * float(np.linalg.norm(p.q))      # (finite: ||c q|| computed without overflow)
+        assert kc.siconos_error(c * r, u, mu, dim, norm_q) == pytest.approx(expected, rel=1e-12)
+        # an overflowed ||q|| or u: inf, never a small error
+        assert kc.siconos_error(c * r, u, mu, dim, np.inf) == np.inf
+    assert kc.siconos_error(r, np.full(p.m, np.inf), mu, dim, 1.0) == np.inf
+
+
+@pytest.mark.parametrize("dim", [2, 3])
 def test_siconos_error_kernel_on_frictionless_contacts(dim):
     """mu = 0 contacts, separated (r = 0, u_N > 0) or closed: exact answers have error 0."""
     p = _problem(6, dim, seed=dim + 7, mu=np.array([0.0, 0.0, 0.5, 0.0, 1.0, 0.0]))

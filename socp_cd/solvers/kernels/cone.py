@@ -292,9 +292,26 @@ def relative_error(f2, r2, u2, norm_q):
 
 @njit(cache=True)
 def law_error(r, u, mu, g, dim, law, norm_q):
-    """Relative natural-map error of ``r`` for any law code, ``u`` given."""
+    """Relative natural-map error of ``r`` for any law code, ``u`` given; a pair whose squared
+    norms overflow is measured at ``(c r, c u, c g, c norm_q)``, ``c = 1 / max|(r, u)|``, where
+    the measure is the same (:func:`socp_cd.residuals.error`: an overflowed ``||r||²`` over a
+    finite ``||F||²`` read 0); inf when that is not finite, or ``norm_q`` is not."""
+    if not np.isfinite(norm_q):
+        return np.inf
     f2, r2, u2 = error_parts(r, u, mu, g, dim, law)
-    return relative_error(f2, r2, u2, norm_q)
+    if np.isfinite(f2) and np.isfinite(r2) and np.isfinite(u2):
+        return relative_error(f2, r2, u2, norm_q)
+    c = 0.0
+    for k in range(r.shape[0]):
+        if abs(r[k]) > c:
+            c = abs(r[k])
+        if abs(u[k]) > c:
+            c = abs(u[k])
+    if not (np.isfinite(c) and c > 0.0):
+        return np.inf
+    f2, r2, u2 = error_parts(r / c, u / c, mu, g / c, dim, law)
+    e = relative_error(f2, r2, u2, norm_q / c)
+    return e if np.isfinite(e) else np.inf
 
 
 @njit(cache=True)
