@@ -93,6 +93,10 @@ def test_siconos_error_of_huge_impulses_is_their_scaled_error_not_nan(dim):
         # an overflowed ||q|| or u: inf, never a small error
         assert kc.siconos_error(c * r, u, mu, dim, np.inf) == np.inf
     assert kc.siconos_error(r, np.full(p.m, np.inf), mu, dim, 1.0) == np.inf
+    # the shared denominator of every compiled relative error (the dispatcher's origin_error,
+    # the guard, NSGS' and the projection's stops): an overflowed norm is inf, not a 0 error
+    for parts in ((1.0, np.inf, 1.0, 1.0), (1.0, 1.0, np.inf, 1.0), (1.0, 1.0, 1.0, np.inf)):
+        assert kc.relative_error(*parts) == np.inf
 
 
 @pytest.mark.parametrize("dim", [2, 3])

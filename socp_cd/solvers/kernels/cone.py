@@ -279,7 +279,10 @@ def _error_parts(r, u, a, b, scaled, mu, g, dim, law):
 
 @njit(cache=True, inline="always")
 def relative_error(f2, r2, u2, norm_q):
-    """``sqrt(f2) / max(norm_q, sqrt(r2), sqrt(u2))`` (1 when all three are below eps)."""
+    """``sqrt(f2) / max(norm_q, sqrt(r2), sqrt(u2))`` (1 when all three are below eps); inf
+    when one of them is not finite (an overflowed ``r2`` over a finite ``f2`` would read 0)."""
+    if not (np.isfinite(f2) and np.isfinite(r2) and np.isfinite(u2) and np.isfinite(norm_q)):
+        return np.inf
     den = norm_q
     if np.sqrt(r2) > den:
         den = np.sqrt(r2)
@@ -296,11 +299,10 @@ def law_error(r, u, mu, g, dim, law, norm_q):
     norms overflow is measured at ``(c r, c u, c g, c norm_q)``, ``c = 1 / max|(r, u)|``, where
     the measure is the same (:func:`socp_cd.residuals.error`: an overflowed ``||r||²`` over a
     finite ``||F||²`` read 0); inf when that is not finite, or ``norm_q`` is not."""
-    if not np.isfinite(norm_q):
-        return np.inf
     f2, r2, u2 = error_parts(r, u, mu, g, dim, law)
-    if np.isfinite(f2) and np.isfinite(r2) and np.isfinite(u2):
-        return relative_error(f2, r2, u2, norm_q)
+    e = relative_error(f2, r2, u2, norm_q)
+    if np.isfinite(e) or not np.isfinite(norm_q):
+        return e
     c = 0.0
     for k in range(r.shape[0]):
         if abs(r[k]) > c:
