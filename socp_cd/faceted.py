@@ -33,7 +33,7 @@ import scipy.sparse as sp
 
 from .cones import project_cone
 from .errors import InvalidProblemError
-from .residuals import checked_pair, error_normalization
+from .residuals import checked_pair, relative_residual
 
 PLACEMENTS = ("inscribed", "circumscribed")
 
@@ -177,8 +177,8 @@ def faceted_error(problem, r, u=None, n_facets: int = 8, placement: str = "inscr
     """
     n_facets, placement = check_facets(n_facets, placement)
     r, u = checked_pair(problem, r, u)
-    F = r - project_faceted_cone(r - u, problem.mu, problem.dim, n_facets, placement)
-    return float(np.linalg.norm(F)) / error_normalization(problem, r, u)
+    return relative_residual(problem, r, u, lambda rs, us, c: rs - project_faceted_cone(
+        rs - us, problem.mu, problem.dim, n_facets, placement))
 
 
 __all__ = ["PLACEMENTS", "check_facets", "facet_normals", "facet_slope", "cone_matrix",

@@ -20,25 +20,22 @@ import numpy as np
 from .cones import project_cone
 from .errors import InvalidProblemError
 from .faceted import DEFAULT_FACETS, check_facets, faceted_error
-from .residuals import checked_pair, error, error_normalization
-
-
-def _relative(problem, r, u, F) -> float:
-    return float(np.linalg.norm(F)) / error_normalization(problem, r, u)
+from .residuals import checked_pair, error, relative_residual
 
 
 def associated_error(problem, r, u=None) -> float:
     """Relative residual of the associated law ``K* ∋ u ⊥ r ∈ K``."""
     r, u = checked_pair(problem, r, u)
-    F = r - project_cone(r - u, problem.mu, problem.dim)
-    return _relative(problem, r, u, F)
+    return relative_residual(problem, r, u, lambda rs, us, c:
+                             rs - project_cone(rs - us, problem.mu, problem.dim))
 
 
 def frictionless_error(problem, r, u=None) -> float:
     """Relative residual of Signorini's law with ``r_T = 0``."""
     r, u = checked_pair(problem, r, u)
-    F = r - project_cone(r - u, np.zeros(problem.n_contacts), problem.dim)
-    return _relative(problem, r, u, F)
+    zero = np.zeros(problem.n_contacts)
+    return relative_residual(problem, r, u, lambda rs, us, c:
+                             rs - project_cone(rs - us, zero, problem.dim))
 
 
 def check_threshold(problem, threshold) -> np.ndarray:
@@ -68,12 +65,16 @@ def tresca_error(problem, r, u=None, threshold=None) -> float:
                                   problem.source)
     g = check_threshold(problem, threshold)
     r, u = checked_pair(problem, r, u)
-    R = r.reshape(-1, problem.dim)
-    U = u.reshape(-1, problem.dim)
-    F = np.empty_like(R)
-    F[:, 0] = R[:, 0] - np.maximum(R[:, 0] - U[:, 0], 0.0)
-    F[:, 1:] = R[:, 1:] - project_ball(R[:, 1:] - U[:, 1:], g)
-    return _relative(problem, r, u, F.reshape(-1))
+
+    def residual(rs, us, c):            # (g, a bound on ||r_T||, scales with r)
+        R = rs.reshape(-1, problem.dim)
+        U = us.reshape(-1, problem.dim)
+        F = np.empty_like(R)
+        F[:, 0] = R[:, 0] - np.maximum(R[:, 0] - U[:, 0], 0.0)
+        F[:, 1:] = R[:, 1:] - project_ball(R[:, 1:] - U[:, 1:], g / c)
+        return F.reshape(-1)
+
+    return relative_residual(problem, r, u, residual)
 
 
 def faceted_law_error(problem, r, u=None, facets=DEFAULT_FACETS, placement="inscribed") -> float:

@@ -71,25 +71,32 @@ def error(problem, r, u=None) -> float:
         ``||r - P_K(r - û)|| / max(||q||, ||r||, ||u||)``.
     """
     r, u = checked_pair(problem, r, u)
+    return relative_residual(problem, r, u,
+                             lambda rs, us, c: natural_map(rs, us, problem.mu, problem.dim))
+
+
+def relative_residual(problem, r, u, residual) -> float:
+    """``||F|| / max(||q||, ||r||, ||u||)`` (:func:`error_normalization`) of a law's residual.
+
+    ``residual(rs, us, c)`` returns ``F`` for the pair ``(rs, us) = (r, u) / c`` with the law's
+    dimensioned parameters (a Tresca threshold) divided by ``c`` too.  It is called with
+    ``c = 1``, and again with ``c = max|(r, u)|`` when a squared norm overflows (entries
+    beyond ~1e154; the measure is the same for ``(c r, c u, c q)``, the natural maps being
+    positively homogeneous): a finite pair never gives nan (nor, as an overflowed ``||r||``
+    over a finite ``||F||`` would, 0).  Inf when ``u`` itself overflowed.
+    """
     with np.errstate(over="ignore", invalid="ignore"):
-        F = natural_map(r, u, problem.mu, problem.dim)
+        F = residual(r, u, 1.0)
         f = float(np.sqrt(np.dot(F, F)))
         norm = error_normalization(problem, r, u)
-    return f / norm if math.isfinite(f) and math.isfinite(norm) else _rescaled_error(problem, r, u)
-
-
-def _rescaled_error(problem, r, u) -> float:
-    """:func:`error` of a pair whose squared norms overflow (entries beyond ~1e154; an
-    overflowed ``||r||`` over a finite ``||F||`` read 0): the measure is the same for
-    ``(c r, c u, c q)``, any ``c > 0`` (the natural map is positively homogeneous), so it is
-    evaluated at ``c = 1 / max|(r, u)|``; inf when ``u`` itself overflowed (``W r`` beyond
-    the largest float)."""
+    if math.isfinite(f) and math.isfinite(norm):
+        return f / norm
     c = max(float(np.max(np.abs(r), initial=0.0)), float(np.max(np.abs(u), initial=0.0)))
     if not (math.isfinite(c) and c > 0.0):
         return math.inf
     rs, us = r / c, u / c
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):
-        F = natural_map(rs, us, problem.mu, problem.dim)
+        F = residual(rs, us, c)
         norm = max(float(np.linalg.norm(problem.q_local / c)), float(np.linalg.norm(rs)),
                    float(np.linalg.norm(us)))
         value = float(np.sqrt(np.dot(F, F))) / norm
@@ -339,5 +346,5 @@ def balanced_error(problem, r, u=None, scales=None) -> float:
     return guard(problem, r, u, scales)["error"]
 
 
-__all__ = ["contact_scales", "BalancedView", "guard", "guard_values", "finite_guard", "balanced_pair", "failed_guard", "coulomb_parts", "balanced_error", "error", "checked_pair", "absolute_error", "error_normalization", "contact_errors",
+__all__ = ["contact_scales", "BalancedView", "guard", "guard_values", "finite_guard", "balanced_pair", "failed_guard", "coulomb_parts", "balanced_error", "error", "relative_residual", "checked_pair", "absolute_error", "error_normalization", "contact_errors",
            "feasibility", "complementarity"]

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import importlib
-import sys
 from pathlib import Path
 
 import pytest
@@ -12,11 +11,9 @@ VALIDATION = Path(__file__).resolve().parents[1] / "validation"
 
 
 @pytest.fixture()
-def validation_script():
+def validation_script(monkeypatch):
     """``validation_script("name")`` imports ``validation/name.py`` (with ``validation/`` on
-    ``sys.path`` for the test's duration, as the scripts expect when run)."""
-    sys.path.insert(0, str(VALIDATION))
-    try:
-        yield importlib.import_module
-    finally:
-        sys.path.remove(str(VALIDATION))
+    ``sys.path`` for the test's duration, as the scripts expect when run; ``sys.path`` is
+    restored whole afterwards, also when a script inserted the folder again)."""
+    monkeypatch.syspath_prepend(str(VALIDATION))
+    return importlib.import_module

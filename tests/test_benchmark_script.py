@@ -136,3 +136,11 @@ def test_the_report_counts_a_late_siconos_answer_as_a_failure(script, tmp_path):
     assert "siconos:prox on p0 (1.17 s)" in report
     assert "| siconos:prox | 1 | 1/2 |" in report
     assert "- `auto` misses 0 of them" in report
+    # rewritten from its CSV, the run is judged against its own limit (recorded in the JSON),
+    # not the option's default of 5 s; without the record the limit must be given
+    again = tmp_path / "again"
+    script.main(["--from-csv", str(tmp_path / "newton_vs_siconos.csv"), "--out", str(again)])
+    assert "Solved by at least one Siconos solver: 1/2." in (again / "newton_vs_siconos.md").read_text()
+    (tmp_path / "newton_vs_siconos.json").unlink()
+    with pytest.raises(SystemExit):
+        script.main(["--from-csv", str(tmp_path / "newton_vs_siconos.csv"), "--out", str(again)])

@@ -100,6 +100,30 @@ def test_siconos_error_of_huge_impulses_is_their_scaled_error_not_nan(dim):
 
 
 @pytest.mark.parametrize("dim", [2, 3])
+def test_other_laws_of_huge_impulses_measure_their_scaled_pair(dim):
+    # the same for the associated, frictionless and Tresca references (g scales with r) and
+    # the compiled law_error they are held equal to
+    from socp_cd import laws
+    p = _problem(5, dim, seed=dim + 5)
+    r = np.random.default_rng(6).standard_normal(p.m)
+    g = np.linspace(0.1, 0.5, p.n_contacts)
+    mu = np.asarray(p.mu, float)
+    cases = [(laws.associated_error, {}, mu, kc.LAW_ASSOCIATED, g),
+             (laws.frictionless_error, {}, np.zeros(p.n_contacts), kc.LAW_ASSOCIATED, g),
+             (laws.tresca_error, {"threshold": g}, mu, kc.LAW_TRESCA, g)]
+    for ref, params, kmu, code, kg in cases:
+        expected = ref(p, r, **params)
+        c = 1e250
+        big = FrictionContactProblem(p.W, c * p.q, p.mu, dim)
+        big_params = {"threshold": c * g} if params else {}
+        with np.errstate(all="raise"):
+            assert ref(big, c * r, **big_params) == pytest.approx(expected, rel=1e-12)
+        u = big.velocity(c * r)
+        e = kc.law_error(c * r, u, kmu, c * kg, dim, code, c * float(np.linalg.norm(p.q)))
+        assert e == pytest.approx(expected, rel=1e-12), ref.__name__
+
+
+@pytest.mark.parametrize("dim", [2, 3])
 def test_siconos_error_kernel_on_frictionless_contacts(dim):
     """mu = 0 contacts, separated (r = 0, u_N > 0) or closed: exact answers have error 0."""
     p = _problem(6, dim, seed=dim + 7, mu=np.array([0.0, 0.0, 0.5, 0.0, 1.0, 0.0]))

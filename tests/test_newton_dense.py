@@ -179,7 +179,7 @@ def test_twin_equals_python_loop_when_it_stalls_runs_out_or_overflows():
     a, b = _both(p, np.zeros(p.m), 1e-16, max_iter=3)
     _assert_equal(a, b)
     assert a[0] == "max_iter" and a[2] == 3
-    # a start of 1e300: its error is finite (measured scaled, socp_cd.residuals.error), so
+    # a start of 1e300: its error is finite (measured scaled: kernels.cone.law_error), so
     # both loops iterate from it, equally; a start whose u = W r + q overflows: the error is
     # not finite -> numerical_error in both
     a, b = _both(p, np.full(p.m, 1e300), 1e-10, max_iter=5)

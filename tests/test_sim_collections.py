@@ -20,9 +20,9 @@ def script(validation_script):
 def _draws(script, root):
     """``{draw: runs}`` of the three draws of the kinds, each written in its own folder."""
     out = {}
-    for draw, tune in (("held", False), ("tune", True), ("fresh", "fresh")):
+    for draw in script.DRAWS:
         (root / draw).mkdir()
-        out[draw] = script.kinds_runs(root / draw, tune)
+        out[draw] = script.kinds_runs(root / draw, draw)
     return out
 
 

@@ -123,9 +123,9 @@ def deposit_scene(n: int, steps: int, seed: int = 7) -> str:
 #: on ``--kinds`` and chosen on ``--kinds --tune`` is checked on scenes nobody looked at:
 #: name -> (the ``--kinds`` scene, replacements)
 KINDS_FRESH = {
-    "wall3d-fresh-20": ("wall3d-27", (("rows = 6", "rows = 5"), ("columns = 5", "columns = 4"),
+    "wall3d-fresh-18": ("wall3d-27", (("rows = 6", "rows = 5"), ("columns = 5", "columns = 4"),
                                       ("mu = 0.6", "mu = 0.4"))),
-    "wall3d-fresh-42": ("wall3d-27", (("rows = 6", "rows = 7"), ("columns = 5", "columns = 6"),
+    "wall3d-fresh-39": ("wall3d-27", (("rows = 6", "rows = 7"), ("columns = 5", "columns = 6"),
                                       ("size = [0.2, 0.1, 0.1]", "size = [0.24, 0.12, 0.08]"))),
     "massratio3d-fresh-80": ("massratio3d-60", (("count = 60", "count = 80"), ("seed = 41", "seed = 81"),
                                                 ("density = 2.5e7", "density = 2.5e8"))),
@@ -141,7 +141,8 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=None,
                     help="output directory (default validation/evalset_sim, with --tune "
                          "validation/evalset_sim_tune; --kinds: validation/evalset_sim_kinds, "
-                         "with --tune validation/evalset_sim_kinds_tune)")
+                         "with --tune validation/evalset_sim_kinds_tune; --kinds-fresh: "
+                         "validation/evalset_sim_kinds_fresh)")
     mode = ap.add_mutually_exclusive_group()
     mode.add_argument("--quick", action="store_true")
     ap.add_argument("--tune", action="store_true", help="the tuning scenes (see above)")
@@ -155,6 +156,8 @@ def main(argv=None) -> int:
                            "see above)")
     ap.add_argument("--only", nargs="*", default=None)
     args = ap.parse_args(argv)
+    if args.tune and (args.fresh or args.kinds_fresh or args.quick):
+        ap.error("--tune goes with the default collections, --small or --kinds")
     if args.out is None and args.fresh:
         args.out = HERE / "evalset_sim_fresh"
     if args.out is None and args.kinds_fresh:
@@ -173,7 +176,7 @@ def main(argv=None) -> int:
     if args.fresh:
         return build(fresh_runs(args.out), args)
     if args.kinds:
-        return build(kinds_runs(args.out, args.tune), args)
+        return build(kinds_runs(args.out, "tune" if args.tune else "held"), args)
     if args.kinds_fresh:
         return build(kinds_runs(args.out, "fresh"), args)
     table = QUICK if args.quick else TUNE if args.tune else FULL
@@ -376,26 +379,40 @@ KINDS_TUNE = {
 }
 
 
-def kinds_runs(out: Path, tune: bool = False) -> list:
+#: the draws of :func:`kinds_runs`: ``held`` (``--kinds``), ``tune`` (``--kinds --tune``),
+#: ``fresh`` (``--kinds-fresh``)
+DRAWS = ("held", "tune", "fresh")
+
+
+def kinds_runs(out: Path, draw: str = "held") -> list:
     """The ``--kinds`` collections (session 41): ``(name, scene file, steps, dump every)`` of
     :data:`KINDS`, the Kapla tower of ``examples/`` (1 000 steps) and Moreau's talus of 200
-    hexagons (``examples/talus_2d.toml``); with ``tune`` the :data:`KINDS_TUNE` scenes, Kapla
-    towers of 8 and 16 levels and a talus of 120 hexagons with another seed; with
-    ``tune="fresh"`` the :data:`KINDS_FRESH` scenes, a tower of 10 levels (μ 0.4 between planks)
-    and a talus of 160 hexagons with a third seed."""
+    hexagons (``examples/talus_2d.toml``); with ``draw="tune"`` the :data:`KINDS_TUNE` scenes,
+    Kapla towers of 8 and 16 levels and a talus of 120 hexagons with another seed; with
+    ``draw="fresh"`` the :data:`KINDS_FRESH` scenes, a tower of 10 levels (μ 0.4 between
+    planks) and a talus of 160 hexagons with a third seed."""
+    if draw not in DRAWS:
+        raise ValueError(f"draw must be one of {DRAWS}, got {draw!r}")
     runs = []
     scenes = {name: (KINDS_HEADER.format(what=what, name=name, dim=dim, mu=mu, h=h, steps=steps)
                      + body, steps, every)
               for name, (what, dim, mu, h, steps, every, body) in KINDS.items()}
-    if tune:
-        tuned = {}
-        for name, (base, swaps) in (KINDS_FRESH if tune == "fresh" else KINDS_TUNE).items():
+    if draw != "held":
+        derived = {}
+        for name, (base, swaps) in (KINDS_FRESH if draw == "fresh" else KINDS_TUNE).items():
             text, steps, every = scenes[base]
             for old, new in swaps:
                 assert old in text, (name, old)
                 text = text.replace(old, new)
-            tuned[name] = (text.replace(f'name = "{base}"', f'name = "{name}"'), steps, every)
-        scenes = tuned
+            # the first line said what the base scene is: say what this one is made from
+            head, rest = text.split("\n", 1)
+            option = "--kinds-fresh, session 42" if draw == "fresh" else "--kinds --tune, session 41"
+            head = (f"# {name}: the --kinds scene {base} with "
+                    + "; ".join(f"{o} -> {n}" for o, n in swaps)
+                    + f" (validation/build_sim_collections.py {option}).")
+            derived[name] = (head + "\n" + rest.replace(f'name = "{base}"', f'name = "{name}"'),
+                             steps, every)
+        scenes = derived
     for name, (text, steps, every) in scenes.items():
         scene = out / f"{name}.toml"
         scene.write_text(text)
@@ -405,11 +422,11 @@ def kinds_runs(out: Path, tune: bool = False) -> list:
     examples = ((("kapla3d-fresh-20", kapla.replace("levels = 12", "levels = 10")
                   .replace("mu = 0.5", "mu = 0.4"), 1000, 100),
                  ("talus2d-fresh-160", talus.replace("count = 200", "count = 160")
-                  .replace("seed = 3", "seed = 29"), 3000, 300)) if tune == "fresh" else
+                  .replace("seed = 3", "seed = 29"), 3000, 300)) if draw == "fresh" else
                 (("kapla3d-tune-16", kapla.replace("levels = 12", "levels = 8"), 1000, 100),
                  ("kapla3d-tune-32", kapla.replace("levels = 12", "levels = 16"), 1000, 100),
                  ("talus2d-tune-120", talus.replace("count = 200", "count = 120")
-                  .replace("seed = 3", "seed = 17"), 3000, 300)) if tune else
+                  .replace("seed = 3", "seed = 17"), 3000, 300)) if draw == "tune" else
                 (("kapla3d-24", kapla, 1000, 100), ("talus2d-200", talus, 3000, 300)))
     for name, text, steps, every in examples:
         scene = out / f"{name}.toml"

@@ -35,9 +35,8 @@ from socp_cd.bench import evalset
 from socp_cd.data import shared_problems, shared_problems_dir
 from socp_cd.solvers import newton, sparse_lu
 
-# session 16's path, where SuperLU gets the assembled matrix and orders it on each call: since
-# session 39 SuperLU's default input is built from the block values in the solve's order,
-# and ``BlockJacobian.current`` (what this study swaps) is not called at all
+# session 16's path, where SuperLU gets the assembled matrix and orders it on each call (since
+# session 39 SuperLU's default input is built from the block values in the solve's order)
 sparse_lu.SPLU_ORDER_ONCE = False
 
 OUT = Path(__file__).resolve().parent / "results"
@@ -70,22 +69,28 @@ def timed(p, repeats, time_limit):
 
 
 def install(fn):
-    """SuperLU's matrix of the sparse path built by ``fn(self, Dr, Du, alpha)``.  (Since
-    session 38 the path calls ``BlockJacobian.values`` and hands ``current`` to the sparse
-    LU, which calls it for SuperLU only: the solves here force ``linear_solver="splu"``,
-    and session 38's SuperLU path, ``sparse_lu.SPLU_ORDER_ONCE = False``, set at import.)"""
+    """SuperLU's matrix of the sparse path built by ``fn(self, Dr, Du, alpha)``:
+    ``BlockJacobian.values`` records its arguments, and the sparse LU's matrix builder
+    (``sparse_lu.csc_without_zeros``, which ``NewtonLU.solve`` calls for SuperLU when SuperLU
+    orders each matrix itself: ``SPLU_ORDER_ONCE = False`` above, ``linear_solver="splu"``)
+    returns ``fn``'s matrix instead.  (Until session 42 ``NewtonLU.solve`` took the matrix as a
+    callable, ``BlockJacobian.current``, which this study swapped.)"""
+    state = {}
+
     def values(self, Dr, Du, alpha):
-        self.last_args = (Dr, Du, alpha)
+        state["jacobian"], state["args"] = self, (Dr, Du, alpha)
         VALUES(self, Dr, Du, alpha)
 
-    def current(self):
-        return fn(self, *self.last_args)
+    def build(data, indices, indptr, n):
+        state["calls"] = state.get("calls", 0) + 1
+        return fn(state["jacobian"], *state["args"])
 
     newton.BlockJacobian.values = values
-    newton.BlockJacobian.current = current
+    sparse_lu.csc_without_zeros = build
+    return state
 
 
-VALUES, CURRENT = newton.BlockJacobian.values, newton.BlockJacobian.current
+VALUES, BUILD = newton.BlockJacobian.values, sparse_lu.csc_without_zeros
 
 
 def run(args, compiled):
@@ -100,9 +105,11 @@ def run(args, compiled):
             continue
         out = {}
         for label, fn in (("scipy", scipy_matrix), ("compiled", compiled), ):
-            install(fn)
+            state = install(fn)
             timed(p, 1, args.time_limit)                       # warm (caches, JIT)
             out[label] = timed(p, args.repeats, args.time_limit)
+            if not state.get("calls"):
+                raise SystemExit("the swapped assembly was never called: the study measures nothing")
         install(compiled)
         (ts, rs), (tc, rc) = out["scipy"], out["compiled"]
         rows.append({"part": part, "problem": name, "m": p.m, "scipy_s": ts, "compiled_s": tc,
@@ -132,7 +139,7 @@ def main(argv=None) -> int:
         rows = run(args, compiled)
     finally:
         newton.BlockJacobian.__init__ = original_init
-        newton.BlockJacobian.values, newton.BlockJacobian.current = VALUES, CURRENT
+        newton.BlockJacobian.values, sparse_lu.csc_without_zeros = VALUES, BUILD
     if not rows:
         raise SystemExit("no problem took Newton's sparse path")
     OUT.mkdir(exist_ok=True)

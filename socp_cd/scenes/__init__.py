@@ -19,7 +19,9 @@ Typical use::
 from .builder import build_scene, has_boxes, load_simulation
 from .schema import SceneFileError, SceneSpec, load_scene_file, validate_scene
 # the function, bound after its submodule of the same name is loaded: a lazy wrapper here was
-# replaced by the submodule whenever ``socp_cd.scenes.simulate`` was imported first
+# replaced by the submodule whenever ``socp_cd.scenes.simulate`` was imported first.  The
+# attribute is the function, so reach the module by ``from socp_cd.scenes.simulate import ...``
+# or ``importlib.import_module`` (``import socp_cd.scenes.simulate as m`` binds the function)
 from .simulate import simulate  # noqa: E402,I001
 
 

@@ -3,9 +3,8 @@
 :func:`socp_cd.solve` recomputes Siconos' error of every answer and the units
 guard (:func:`socp_cd.residuals.guard`).  For the Coulomb law it does so here
 with the compiled twins of the NumPy references
-(:func:`~socp_cd.solvers.kernels.cone.error_parts` /
-:func:`~socp_cd.solvers.kernels.cone.relative_error`, held equal to
-:func:`socp_cd.residuals.error` by ``tests/test_core.py``) and the
+(:func:`~socp_cd.solvers.kernels.cone.law_error`, held equal to
+:func:`socp_cd.residuals.error` by ``tests/test_core.py``, beyond ~1e154 too) and the
 compiled twins :func:`~socp_cd.solvers.kernels.cone.coulomb_violations` of
 :func:`socp_cd.residuals.coulomb_parts` and
 :func:`~socp_cd.solvers.kernels.scaling.balanced_guard` of the guard's
@@ -22,7 +21,7 @@ import numpy as np
 from ..errors import InvalidProblemError
 from ..problem import kernel_array
 from ..residuals import failed_guard
-from .kernels.cone import LAW_COULOMB, error_parts, relative_error
+from .kernels.cone import LAW_COULOMB, law_error
 from .kernels.dense import csr_matvec_add
 from .kernels.scaling import GUARD_KEYS, balanced_guard
 from .scaling import balanced
@@ -38,18 +37,13 @@ def velocity(problem, r):
     return csr_matvec_add(indptr, indices, data, r, kernel_array(problem.q))
 
 
-def _parts(problem, r, u):
-    """``(||F||², ||r||², ||u||²)`` of the Coulomb natural map (``u`` given)."""
-    return error_parts(r, u, problem.mu, np.zeros(problem.n_contacts), problem.dim, LAW_COULOMB)
-
-
 def coulomb_error(problem, r, u) -> float:
     """Siconos' relative error of ``r`` with ``u = W r + q`` given (= :func:`socp_cd.residuals.error`).
 
     ``r`` and ``u``: finite float64 vectors of length ``problem.m``.
     """
-    f2, r2, u2 = _parts(problem, r, u)
-    return float(relative_error(f2, r2, u2, balanced(problem).raw_q_norm))
+    return float(law_error(r, u, problem.mu, np.zeros(problem.n_contacts), problem.dim,
+                           LAW_COULOMB, balanced(problem).raw_q_norm))
 
 
 def zero_error(problem):

@@ -319,7 +319,8 @@ class FixedPoint:
     def keep_better(out, r_best, e_best, hist):
         """The polished point ``out = (r, err)`` when it beats the best iterate (then recorded
         in ``hist``), else the best iterate."""
-        # a NaN error never wins; any other beats a NaN best (an overflowing r0)
+        # a NaN error never wins; any other beats a NaN best (a start whose u overflows: inf
+        # since session 42's errors, NaN from other measures)
         if out is None or math.isnan(out[1]) or out[1] >= e_best:
             return r_best, e_best
         if hist is not None:

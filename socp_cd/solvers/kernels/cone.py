@@ -41,7 +41,10 @@ Whole stacked vectors (length ``m = dim * n_contacts``):
     (the parts of the units guard, :func:`socp_cd.residuals.coulomb_parts`).
 ``relative_error(f2, r2, u2, norm_q)``
     ``sqrt(f2) / max(norm_q, sqrt(r2), sqrt(u2))``; when the three norms are
-    below machine epsilon the absolute value is returned (Siconos' rule).
+    below machine epsilon the absolute value is returned (Siconos' rule); inf
+    when one of them is not finite (entries beyond ~1e154), where
+    :func:`law_error` measures the pair scaled, as :func:`socp_cd.error` does:
+    a caller of ``relative_error`` alone is conservative there, never smaller.
 
 Tangential norms in 2D are ``|x_T|``.  Nothing is allocated per block.
 """

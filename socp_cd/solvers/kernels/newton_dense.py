@@ -327,6 +327,20 @@ def velocity_error(err, r, u, norm_q):
     for k in range(u.shape[0]):
         u2 += u[k] * u[k]
     r_norm, u_norm = np.sqrt(r2), np.sqrt(u2)
+    if not (np.isfinite(r_norm) and np.isfinite(u_norm)):
+        # squares beyond the largest float (entries beyond ~1e154): the norms of the pair
+        # scaled by its largest entry, scaled back (the ratio below is what is wanted)
+        c = 0.0
+        for k in range(r.shape[0]):
+            c = max(c, abs(r[k]), abs(u[k]))
+        if not (np.isfinite(c) and c > 0.0):
+            return np.inf
+        r2 = 0.0
+        u2 = 0.0
+        for k in range(r.shape[0]):
+            r2 += (r[k] / c) * (r[k] / c)
+            u2 += (u[k] / c) * (u[k] / c)
+        r_norm, u_norm = c * np.sqrt(r2), c * np.sqrt(u2)
     eps = 2.220446049250313e-16
     vel = max(norm_q, u_norm)
     vel = vel if vel > eps else 1.0

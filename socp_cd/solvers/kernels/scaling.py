@@ -232,7 +232,8 @@ def origin_error(r, u, a, b, mu, dim, q_norm):
     ``(r, u)`` a pair of the balanced problem (``r = a r~``, ``u = b u~``,
     :func:`balance_csr`), ``q_norm = ||q||`` of the problem the caller
     wrote.  The measure the dispatcher judges ``converged`` by
-    (:func:`socp_cd.error`, up to the rounding of ``u = W r + q``), for a
+    (:func:`socp_cd.error`, up to the rounding of ``u = W r + q``; inf beyond
+    ~1e154, where ``socp_cd.error`` measures the pair scaled), for a
     solver that runs on the balanced copy and would otherwise stop on the
     balanced problem's own error.
     """
