@@ -601,3 +601,15 @@ def test_dense_jacobian_equals_the_entrywise_products(d):
             block[1][i * d:(i + 1) * d, i * d:(i + 1) * d] = Du[i]
         np.testing.assert_allclose(J, block[0] + block[1] @ (W + alpha * np.eye(m)),
                                    rtol=1e-13, atol=1e-13)
+
+
+def test_velocity_error_of_an_overflowing_pair_is_its_scaled_value():
+    # the guard's error part re-normalizes err by max(||q||, ||u||): a ratio of norms, the same
+    # for the pair times c (its squared norms overflowed to inf / inf = NaN before)
+    from socp_cd.solvers.kernels import newton_dense as nd
+    rng = np.random.default_rng(3)
+    r, u = rng.standard_normal(12), rng.standard_normal(12)
+    expected = nd.velocity_error(1e-3, r, 2.0 * u, 0.5)
+    c = 1e200
+    assert nd.velocity_error(1e-3, c * r, 2.0 * c * u, c * 0.5) == pytest.approx(expected, rel=1e-12)
+    assert nd.velocity_error(1e-3, r, np.full(12, np.inf), 0.5) == np.inf
