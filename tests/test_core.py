@@ -268,8 +268,11 @@ def test_overflowing_start_is_numerical_error_never_nan(solver):
     p = _problem()
     res = socp_cd.solve(p, solver, r0=np.full(p.m, 1e300), max_iter=3)
     assert not math.isnan(res.error)
+    assert not res.converged or res.error <= 1e-6
     if res.status == "numerical_error":
-        assert res.error == math.inf
+        # the reported error is the answer's, recomputed (finite since session 42 for a finite
+        # answer beyond ~1e154: measured scaled; NSGS' compiled stop still gives up there)
+        assert res.r is None or res.error == pytest.approx(socp_cd.error(p, res.r), rel=1e-12)
 
 
 # ------------------------------------------------------------------ import graph
