@@ -329,7 +329,7 @@ def velocity_error(err, r, u, norm_q):
     r_norm, u_norm = np.sqrt(r2), np.sqrt(u2)
     if not (np.isfinite(r_norm) and np.isfinite(u_norm)):
         # squares beyond the largest float (entries beyond ~1e154): the norms of the pair
-        # scaled by its largest entry, scaled back (the ratio below is what is wanted)
+        # and ||q|| scaled by its largest entry (the ratio below is the same)
         c = 0.0
         for k in range(r.shape[0]):
             c = max(c, abs(r[k]), abs(u[k]))
@@ -340,7 +340,7 @@ def velocity_error(err, r, u, norm_q):
         for k in range(r.shape[0]):
             r2 += (r[k] / c) * (r[k] / c)
             u2 += (u[k] / c) * (u[k] / c)
-        r_norm, u_norm = c * np.sqrt(r2), c * np.sqrt(u2)
+        r_norm, u_norm, norm_q = np.sqrt(r2), np.sqrt(u2), norm_q / c
     eps = 2.220446049250313e-16
     vel = max(norm_q, u_norm)
     vel = vel if vel > eps else 1.0
