@@ -382,53 +382,60 @@ KINDS_TUNE = {
 #: the draws of :func:`kinds_runs`: ``held`` (``--kinds``), ``tune`` (``--kinds --tune``),
 #: ``fresh`` (``--kinds-fresh``)
 DRAWS = ("held", "tune", "fresh")
+#: each draw's scenes made from ``examples/``: name -> (example file, replacements, steps,
+#: dump every)
+KINDS_EXAMPLES = {
+    "held": {"kapla3d-24": ("kapla_tower.toml", (), 1000, 100),
+             "talus2d-200": ("talus_2d.toml", (), 3000, 300)},
+    "tune": {"kapla3d-tune-16": ("kapla_tower.toml", (("levels = 12", "levels = 8"),), 1000, 100),
+             "kapla3d-tune-32": ("kapla_tower.toml", (("levels = 12", "levels = 16"),), 1000, 100),
+             "talus2d-tune-120": ("talus_2d.toml", (("count = 200", "count = 120"),
+                                                    ("seed = 3", "seed = 17")), 3000, 300)},
+    "fresh": {"kapla3d-fresh-20": ("kapla_tower.toml", (("levels = 12", "levels = 10"),
+                                                        ("mu = 0.5", "mu = 0.4")), 1000, 100),
+              "talus2d-fresh-160": ("talus_2d.toml", (("count = 200", "count = 160"),
+                                                      ("seed = 3", "seed = 29")), 3000, 300)},
+}
+
+
+def _swapped(name, text, swaps) -> str:
+    """``text`` with each ``(old, new)`` of ``swaps`` replaced (every occurrence; ``old`` must
+    occur: a scene that silently kept its base's value would not be the scene named)."""
+    for old, new in swaps:
+        assert old in text, (name, old)
+        text = text.replace(old, new)
+    return text
 
 
 def kinds_runs(out: Path, draw: str = "held") -> list:
     """The ``--kinds`` collections (session 41): ``(name, scene file, steps, dump every)`` of
-    :data:`KINDS`, the Kapla tower of ``examples/`` (1 000 steps) and Moreau's talus of 200
-    hexagons (``examples/talus_2d.toml``); with ``draw="tune"`` the :data:`KINDS_TUNE` scenes,
-    Kapla towers of 8 and 16 levels and a talus of 120 hexagons with another seed; with
-    ``draw="fresh"`` the :data:`KINDS_FRESH` scenes, a tower of 10 levels (μ 0.4 between
-    planks) and a talus of 160 hexagons with a third seed."""
+    :data:`KINDS` and :data:`KINDS_EXAMPLES` (the Kapla tower of ``examples/``, 1 000 steps,
+    and Moreau's talus of 200 hexagons, ``examples/talus_2d.toml``); with ``draw="tune"`` the
+    :data:`KINDS_TUNE` scenes, Kapla towers of 8 and 16 levels and a talus of 120 hexagons with
+    another seed; with ``draw="fresh"`` the :data:`KINDS_FRESH` scenes, a tower of 10 levels
+    (μ 0.4 between planks) and a talus of 160 hexagons with a third seed."""
     if draw not in DRAWS:
         raise ValueError(f"draw must be one of {DRAWS}, got {draw!r}")
-    runs = []
     scenes = {name: (KINDS_HEADER.format(what=what, name=name, dim=dim, mu=mu, h=h, steps=steps)
                      + body, steps, every)
               for name, (what, dim, mu, h, steps, every, body) in KINDS.items()}
     if draw != "held":
         derived = {}
+        option = "--kinds-fresh, session 42" if draw == "fresh" else "--kinds --tune, session 41"
         for name, (base, swaps) in (KINDS_FRESH if draw == "fresh" else KINDS_TUNE).items():
             text, steps, every = scenes[base]
-            for old, new in swaps:
-                assert old in text, (name, old)
-                text = text.replace(old, new)
             # the first line said what the base scene is: say what this one is made from
-            head, rest = text.split("\n", 1)
-            option = "--kinds-fresh, session 42" if draw == "fresh" else "--kinds --tune, session 41"
+            head, rest = _swapped(name, text, swaps).split("\n", 1)
             head = (f"# {name}: the --kinds scene {base} with "
                     + "; ".join(f"{o} -> {n}" for o, n in swaps)
                     + f" (validation/build_sim_collections.py {option}).")
             derived[name] = (head + "\n" + rest.replace(f'name = "{base}"', f'name = "{name}"'),
                              steps, every)
         scenes = derived
+    for name, (example, swaps, steps, every) in KINDS_EXAMPLES[draw].items():
+        scenes[name] = (_swapped(name, (EXAMPLES / example).read_text(), swaps), steps, every)
+    runs = []
     for name, (text, steps, every) in scenes.items():
-        scene = out / f"{name}.toml"
-        scene.write_text(text)
-        runs.append((name, scene, steps, every))
-    kapla = (EXAMPLES / "kapla_tower.toml").read_text()
-    talus = (EXAMPLES / "talus_2d.toml").read_text()
-    examples = ((("kapla3d-fresh-20", kapla.replace("levels = 12", "levels = 10")
-                  .replace("mu = 0.5", "mu = 0.4"), 1000, 100),
-                 ("talus2d-fresh-160", talus.replace("count = 200", "count = 160")
-                  .replace("seed = 3", "seed = 29"), 3000, 300)) if draw == "fresh" else
-                (("kapla3d-tune-16", kapla.replace("levels = 12", "levels = 8"), 1000, 100),
-                 ("kapla3d-tune-32", kapla.replace("levels = 12", "levels = 16"), 1000, 100),
-                 ("talus2d-tune-120", talus.replace("count = 200", "count = 120")
-                  .replace("seed = 3", "seed = 17"), 3000, 300)) if draw == "tune" else
-                (("kapla3d-24", kapla, 1000, 100), ("talus2d-200", talus, 3000, 300)))
-    for name, text, steps, every in examples:
         scene = out / f"{name}.toml"
         scene.write_text(text)
         runs.append((name, scene, steps, every))
