@@ -174,7 +174,7 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "HANDOFF_SWEEPS", "HANDOFF_WORK", "COLD_PLAIN_STALL_LARGE", "COLD_SPLIT",
          "SEED_BY_GUARD", "TIGHTEN_FROM_SEED", "SMALL_NC", "NEWTON_FIRST_BLOCKS",
          "NEWTON_FIRST_MIN_NC", "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROX_EARLY", "REDUNDANT_SHARE",
-         "LAST_RESORT")
+         "LAST_RESORT", "REDUNDANT_RETRY")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -191,7 +191,9 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "COLD_PLAIN_STALL_LARGE": None, "COLD_SPLIT": False, "SEED_BY_GUARD": False, "TIGHTEN_FROM_SEED": False,
         "SMALL_NC": 100, "NEWTON_FIRST_BLOCKS": None, "NEWTON_FIRST_MIN_NC": 10,
         "NEWTON_FIRST_STEPS": 10, "NEWTON_FIRST_STALL": 2, "PROX_EARLY": False,
-        "REDUNDANT_SHARE": None, "LAST_RESORT": False}
+        "REDUNDANT_SHARE": None, "LAST_RESORT": False, "REDUNDANT_RETRY": "clarabel"}
+#: rules whose values are names
+STRINGS = ("REDUNDANT_RETRY",)
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M", "HANDOFF_PREDICT",
         "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "HANDOFF_SWEEPS", "HANDOFF_WORK",
@@ -217,7 +219,7 @@ def settings(config: str) -> dict:
             name, value = part.split("=")
             if name not in RULES:
                 raise SystemExit(f"unknown rule {name!r}; one of {RULES}")
-            out[name] = (None if value == "None" else float(value) if name in FLOATS else int(value) if name in INTS
+            out[name] = (None if value == "None" else value if name in STRINGS else float(value) if name in FLOATS else int(value) if name in INTS
                          else bool(int(value)))
     return out
 

@@ -307,6 +307,9 @@ PROX_ERROR_STALL = 100
 #: LARGE_2D_NC), ``"newton_prox_error"`` right after the first Newton stage instead of only
 #: as the last resort (formulations/auto.md, "The last resort")
 PROX_EARLY = False
+#: study knob: the stage a refused ``"clarabel_first"`` answer runs next (``"clarabel"``: the
+#: full fixed point from the seed; ``"newton"``: the warm proximal Newton method)
+REDUNDANT_RETRY = "clarabel"
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
@@ -1403,7 +1406,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 # a Newton-family stage as the warm proximal Newton method (a trial's or a
                 # cold stage's rerun would start elsewhere, or be skipped as already run)
                 again = ("newton" if method in _NEWTON_FAMILY
-                         else "clarabel" if method == "clarabel_first" else method)
+                         else REDUNDANT_RETRY if method == "clarabel_first" else method)
                 order = order[:k + 1] + ((again, form),) + order[k + 1:]
                 retried = True
     if short and status != "converged":
