@@ -1,8 +1,9 @@
-"""validation/build_sim_collections.py's ``--kinds`` scenes (session 41) and ``--kinds-fresh``
-(session 42): held out, tune and fresh apart, every scene a valid scene file, and the box scenes
+"""validation/build_sim_collections.py's ``--kinds`` scenes (session 41), ``--kinds-fresh``
+(session 42) and ``--kinds-fresh2`` (session 43): the four draws apart, every scene a valid scene file, and the box scenes
 the redundant-contact problems they are for."""
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import pytest
@@ -18,7 +19,7 @@ def script(validation_script):
 
 
 def _draws(script, root):
-    """``{draw: runs}`` of the three draws of the kinds, each written in its own folder."""
+    """``{draw: runs}`` of the draws of the kinds, each written in its own folder."""
     out = {}
     for draw in script.DRAWS:
         (root / draw).mkdir()
@@ -29,7 +30,7 @@ def _draws(script, root):
 def test_every_kinds_scene_loads(script, tmp_path):
     from socp_cd.scenes import load_simulation
     runs = [r for rs in _draws(script, tmp_path).values() for r in rs]
-    assert len(runs) == 21
+    assert len(runs) == 28
     for name, scene, steps, every in runs:
         spec, sim = load_simulation(scene)
         assert len(spec.bodies) > 0 and sim.h > 0 and steps > every > 0, name
@@ -37,14 +38,15 @@ def test_every_kinds_scene_loads(script, tmp_path):
         assert spec.name in (name, "KaplaTower", "Talus2D"), (name, spec.name)
 
 
-def test_kinds_their_tune_and_fresh_scenes_are_apart(script, tmp_path):
+def test_the_draws_of_the_kinds_are_apart(script, tmp_path):
     draws = _draws(script, tmp_path)
-    assert {d: len(rs) for d, rs in draws.items()} == {"held": 6, "tune": 8, "fresh": 7}
+    assert {d: len(rs) for d, rs in draws.items()} == {"held": 6, "tune": 8, "fresh": 7,
+                                                       "fresh2": 7}
     names = [n for rs in draws.values() for n, *_ in rs]
     assert len(set(names)) == len(names)
     texts = {d: {Path(s).read_text() for _, s, *_ in rs} for d, rs in draws.items()}
-    assert not texts["held"] & texts["tune"] and not texts["held"] & texts["fresh"]
-    assert not texts["tune"] & texts["fresh"]                           # no scene in two draws
+    for a, b in itertools.combinations(draws, 2):
+        assert not texts[a] & texts[b], (a, b)                          # no scene in two draws
 
 
 @pytest.mark.parametrize("name,redundant", [("wall3d-27", True), ("massratio3d-60", False)])

@@ -43,6 +43,9 @@ Moreau's talus of hexagons; ``--kinds --tune`` other sizes and seeds of the same
 parameters neither of those uses (:data:`KINDS_FRESH`), into
 ``validation/evalset_sim_kinds_fresh/``: session 41 found its rule's need on ``--kinds`` and
 chose it on ``--kinds --tune``, so this draw is the one nothing was looked at on.
+``--kinds-fresh2`` (session 43) a fourth draw (:data:`KINDS_FRESH2`) into
+``validation/evalset_sim_kinds_fresh2/``: session 43 looked at the third draw's walls before
+choosing a rule (``auto.REDUNDANT_RETRY``), so the fourth is the clean check of that rule.
 
 ``--tune`` builds *other* scenes of the same kinds into
 ``validation/evalset_sim_tune/`` (1 500 disks with packing seed 11, 250
@@ -135,6 +138,22 @@ KINDS_FRESH = {
                                             ("opening = 0.12", "opening = 0.1"))),
 }
 
+#: ``--kinds-fresh2`` (session 43, after the third draw's walls were looked at): a fourth draw,
+#: sizes, seeds and parameters none of the three others uses
+KINDS_FRESH2 = {
+    "wall3d-fresh2-32": ("wall3d-27", (("rows = 6", "rows = 8"), ("columns = 5", "columns = 4"),
+                                       ("mu = 0.6", "mu = 0.5"))),
+    "wall3d-fresh2-35": ("wall3d-27", (("rows = 6", "rows = 5"), ("columns = 5", "columns = 7"),
+                                       ("size = [0.2, 0.1, 0.1]", "size = [0.18, 0.09, 0.12]"))),
+    "massratio3d-fresh2-50": ("massratio3d-60", (("count = 60", "count = 50"),
+                                                 ("seed = 41", "seed = 101"),
+                                                 ("density = 2.5e7", "density = 5e7"))),
+    "mixedmu3d-fresh2-140": ("mixedmu3d-160", (("count = 80", "count = 70"), ("seed = 43", "seed = 103"),
+                                               ("seed = 47", "seed = 107"))),
+    "hopper2d-fresh2-350": ("hopper2d-400", (("count = 400", "count = 350"), ("seed = 53", "seed = 113"),
+                                             ("opening = 0.12", "opening = 0.14"))),
+}
+
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -154,14 +173,17 @@ def main(argv=None) -> int:
     mode.add_argument("--kinds-fresh", action="store_true",
                       help="the same kinds, sizes and seeds no other collection has (session 42, "
                            "see above)")
+    mode.add_argument("--kinds-fresh2", action="store_true",
+                      help="a fourth draw of the same kinds (session 43, see above)")
     ap.add_argument("--only", nargs="*", default=None)
     args = ap.parse_args(argv)
-    if args.tune and (args.fresh or args.kinds_fresh or args.quick):
+    if args.tune and (args.fresh or args.kinds_fresh or args.kinds_fresh2 or args.quick):
         ap.error("--tune goes with the default collections, --small or --kinds")
     if args.out is None and args.fresh:
         args.out = HERE / "evalset_sim_fresh"
-    if args.out is None and args.kinds_fresh:
-        args.out = HERE / "evalset_sim_kinds_fresh"
+    if args.out is None and (args.kinds_fresh or args.kinds_fresh2):
+        args.out = HERE / ("evalset_sim_kinds_fresh2" if args.kinds_fresh2
+                           else "evalset_sim_kinds_fresh")
     if args.out is None and args.kinds:
         args.out = HERE / ("evalset_sim_kinds_tune" if args.tune else "evalset_sim_kinds")
     if args.out is None:
@@ -177,8 +199,8 @@ def main(argv=None) -> int:
         return build(fresh_runs(args.out), args)
     if args.kinds:
         return build(kinds_runs(args.out, "tune" if args.tune else "held"), args)
-    if args.kinds_fresh:
-        return build(kinds_runs(args.out, "fresh"), args)
+    if args.kinds_fresh or args.kinds_fresh2:
+        return build(kinds_runs(args.out, "fresh2" if args.kinds_fresh2 else "fresh"), args)
     table = QUICK if args.quick else TUNE if args.tune else FULL
     for name, (n, steps, every) in table.items():
         scene = args.out / f"{name}.toml"
@@ -380,8 +402,12 @@ KINDS_TUNE = {
 
 
 #: the draws of :func:`kinds_runs`: ``held`` (``--kinds``), ``tune`` (``--kinds --tune``),
-#: ``fresh`` (``--kinds-fresh``)
-DRAWS = ("held", "tune", "fresh")
+#: ``fresh`` (``--kinds-fresh``), ``fresh2`` (``--kinds-fresh2``)
+DRAWS = ("held", "tune", "fresh", "fresh2")
+#: the derived draws: draw -> (the table of its scenes, the option that builds it)
+DERIVED = {"tune": (KINDS_TUNE, "--kinds --tune, session 41"),
+           "fresh": (KINDS_FRESH, "--kinds-fresh, session 42"),
+           "fresh2": (KINDS_FRESH2, "--kinds-fresh2, session 43")}
 #: each draw's scenes made from ``examples/``: name -> (example file, replacements, steps,
 #: dump every)
 KINDS_EXAMPLES = {
@@ -395,6 +421,10 @@ KINDS_EXAMPLES = {
                                                         ("mu = 0.5", "mu = 0.4")), 1000, 100),
               "talus2d-fresh-160": ("talus_2d.toml", (("count = 200", "count = 160"),
                                                       ("seed = 3", "seed = 29")), 3000, 300)},
+    "fresh2": {"kapla3d-fresh2-28": ("kapla_tower.toml", (("levels = 12", "levels = 14"),
+                                                          ("mu = 0.5", "mu = 0.45")), 1000, 100),
+               "talus2d-fresh2-180": ("talus_2d.toml", (("count = 200", "count = 180"),
+                                                        ("seed = 3", "seed = 41")), 3000, 300)},
 }
 
 
@@ -413,7 +443,9 @@ def kinds_runs(out: Path, draw: str = "held") -> list:
     and Moreau's talus of 200 hexagons, ``examples/talus_2d.toml``); with ``draw="tune"`` the
     :data:`KINDS_TUNE` scenes, Kapla towers of 8 and 16 levels and a talus of 120 hexagons with
     another seed; with ``draw="fresh"`` the :data:`KINDS_FRESH` scenes, a tower of 10 levels
-    (μ 0.4 between planks) and a talus of 160 hexagons with a third seed."""
+    (μ 0.4 between planks) and a talus of 160 hexagons with a third seed; with
+    ``draw="fresh2"`` the :data:`KINDS_FRESH2` scenes, a tower of 14 levels (μ 0.45) and a
+    talus of 180 hexagons with a fourth seed."""
     if draw not in DRAWS:
         raise ValueError(f"draw must be one of {DRAWS}, got {draw!r}")
     scenes = {name: (KINDS_HEADER.format(what=what, name=name, dim=dim, mu=mu, h=h, steps=steps)
@@ -421,8 +453,8 @@ def kinds_runs(out: Path, draw: str = "held") -> list:
               for name, (what, dim, mu, h, steps, every, body) in KINDS.items()}
     if draw != "held":
         derived = {}
-        option = "--kinds-fresh, session 42" if draw == "fresh" else "--kinds --tune, session 41"
-        for name, (base, swaps) in (KINDS_FRESH if draw == "fresh" else KINDS_TUNE).items():
+        table, option = DERIVED[draw]
+        for name, (base, swaps) in table.items():
             text, steps, every = scenes[base]
             # the first line said what the base scene is: say what this one is made from
             head, rest = _swapped(name, text, swaps).split("\n", 1)

@@ -310,6 +310,10 @@ PROX_EARLY = False
 #: study knob: the stage a refused ``"clarabel_first"`` answer runs next (``"clarabel"``: the
 #: full fixed point from the seed; ``"newton"``: the warm proximal Newton method)
 REDUNDANT_RETRY = "clarabel"
+#: study knob: a Newton-family stage aiming at a tightened tolerance (after a guard refusal)
+#: stops at the first iterate the chain's judge accepts (both of the dispatcher's checks;
+#: newton's ``accepted`` hook) instead of going on towards that tolerance
+ACCEPT_STOP = False
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
     "newton": (newton.SPEC, {}),
@@ -628,6 +632,12 @@ class _Judge:
                 e = LAW_RESIDUALS[self.formulation](self.problem, r, None, **self.params)
         e = float(e)
         return e if np.isfinite(e) else np.inf
+
+
+    def accepts(self, r) -> bool:
+        """Whether ``r`` meets ``tol`` by both of the dispatcher's checks (the stage error and
+        :meth:`guard_value`): a Newton stage's ``accepted`` hook (:data:`ACCEPT_STOP`)."""
+        return self(r) <= self.tol and self.guard_value(r) <= self.tol
 
 
 def check(problem, options, inner_settings) -> None:
@@ -1324,6 +1334,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 opts["stall_window"] = COLD_TRIAL_STALL
             if form == "tresca":
                 opts["threshold"] = options["threshold"]
+            if ACCEPT_STOP and spec is newton.SPEC and stage_tol < tol:
+                opts["accepted"] = judge.accepts
             t0 = _clock()
             try:
                 start = None if cold else r0 if after_far_probe else seed_r

@@ -778,7 +778,7 @@ def velocity_relative_error(err, r, u, norm_q):
 
 def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
                 stall_window, time_limit, history, rho=DEFAULT_RHO, policy=None,
-                compiled=None, equation=DEFAULT_EQUATION):
+                compiled=None, equation=DEFAULT_EQUATION, accepted=None):
     """Run the proximal-point semismooth Newton method.
 
     This Python loop is the reference; a small dense local system
@@ -815,6 +815,12 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     equation : {"alart_curnier", "natural_map", "fischer_burmeister"}
         The nonsmooth equation of the law (:data:`EQUATIONS`; the compiled twin's ``law``
         code, :data:`~.kernels.newton_dense.LAW_CODES`).
+    accepted : callable, optional
+        ``accepted(r) -> bool``, the caller's own test of an answer (``auto``'s judge: the
+        dispatcher's two checks): the run also stops ``"converged"`` at an outer iterate
+        that lowers the best error and that ``accepted`` takes, whatever ``tol``.  For a
+        ``tol`` that stands in for the caller's test (a tolerance tightened after a
+        refusal), so that the run does not go on past an answer the test takes.
 
     Returns
     -------
@@ -841,7 +847,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         return _newton_compiled(system, mu, r, tol=tol, max_iter=max_iter, alpha0=alpha0,
                                 alpha_min=alpha_min, inner_max_iter=inner_max_iter,
                                 stall_window=stall_window, time_limit=time_limit, rho=rho,
-                                plain=policy == "plain", equation=equation)
+                                plain=policy == "plain", equation=equation, accepted=accepted)
     d = system.d
     nc = mu.shape[0]
     rho_n, rho_t, wscale = _system_rho(system, rho)
@@ -960,8 +966,9 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
             system.start(r)
             status = "numerical_error"
             break
+        lower = err < best_err
         best_err, best_r, best_it = _best_so_far(err, r, it, best_err, best_r, best_it, hist)
-        if err <= tol:
+        if err <= tol or (accepted is not None and lower and accepted(r)):
             status = "converged"
             break
         # proximal parameter: shrink after good progress, grow otherwise
@@ -1191,7 +1198,7 @@ def prox_error_runs(system, mu, r, *, tol, max_iter, alpha_min, stall_window, ti
 
 
 def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
-                     stall_window, time_limit, rho, equation, plain=False):
+                     stall_window, time_limit, rho, equation, plain=False, accepted=None):
     """:func:`prox_newton` (policy "prox", or "plain" when ``plain``; no history) through its
     compiled twin (:func:`~.kernels.newton_dense.prox_newton_dense`,
     :func:`~.kernels.newton_dense.plain_newton_dense`).
@@ -1204,7 +1211,10 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
     below cannot cut a subproblem, which the Python loop does).  Where that
     clock is not available (``clock.AVAILABLE`` False) a time-limited run goes in chunks
     of outer iterations (:data:`CHUNK_WORK`, :data:`CHUNK_MAX`), the clock read in
-    Python between them (a run may then overrun its limit by one chunk).
+    Python between them (a run may then overrun its limit by one chunk).  With
+    ``accepted`` (:func:`prox_newton`'s) the loop runs one outer iteration per call, and
+    ``accepted`` is asked between calls, after an iteration that lowered the best error (the
+    same stop as the Python loop's).
     """
     rho_n, rho_t, wscale = _system_rho(system, rho)
     law = nd.LAW_CODES[equation]
@@ -1222,7 +1232,23 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
         rest = (alpha_min * wscale, _ALPHA_MAX * wscale, int(inner_max_iter), int(stall_window),
                 _ARMIJO, _MAX_BACKTRACK, NONMONOTONE, INNER_GATE, INNER_DECREASE, r, best_r,
                 fstate, istate, system.lapack, law)
-    if time_limit is None or clock.AVAILABLE:
+    if accepted is not None:
+        t0 = time.perf_counter()
+        while True:
+            it_before, best_before = int(istate[nd.I_IT]), fstate[nd.F_BEST_ERR]
+            loop(*args, min(it_before + 1, int(max_iter)), *rest)
+            status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
+            if status != "max_iter" or istate[nd.I_IT] == it_before:
+                break        # stopped by a status, or the budget is spent
+            if fstate[nd.F_BEST_ERR] < best_before and accepted(r):
+                status = "converged"
+                istate[nd.I_STATUS] = nd.CONVERGED
+                break
+            if (not clock.AVAILABLE and time_limit is not None
+                    and time.perf_counter() - t0 > time_limit):
+                status = "time_limit"
+                break
+    elif time_limit is None or clock.AVAILABLE:
         loop(*args, int(max_iter), *rest)
         status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
     else:
@@ -1385,6 +1411,9 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
         # F(r) = a F~(r~) with the parameter rho b / a (P_K is positively homogeneous)
         d = problem.dim
         st["rho"] = np.ascontiguousarray(st["rho"] * units[1][::d] / units[0][::d])
+    # auto's hook (not an option of solve(): the dispatcher checks those): its judge of an
+    # answer on this (balanced) problem, which a run stops at (prox_newton's ``accepted``)
+    accepted = options.get("accepted")
     as_written = None
     if units is not None:
         def as_written(r, info):
@@ -1399,7 +1428,8 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
         return prox_newton(system, mu, r, tol=run_tol, max_iter=run_max_iter, alpha0=alpha0,
                            alpha_min=st["alpha_min"], inner_max_iter=st["inner_max_iter"],
                            stall_window=st["stall_window"], time_limit=left, history=history,
-                           rho=st["rho"], policy=st["policy"], equation=st["equation"])
+                           rho=st["rho"], policy=st["policy"], equation=st["equation"],
+                           accepted=accepted)
 
     with _one_blas_thread(system):
         status, r, iters, hist, info = continued_runs(run, as_written, r, tol, max_iter,
