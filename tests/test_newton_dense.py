@@ -21,7 +21,7 @@ from socp_cd.errors import UnsupportedError
 from socp_cd.problem import FrictionContactProblem
 from socp_cd.solvers import newton as nt
 from socp_cd.solvers import nsgs_route
-from socp_cd.solvers.kernels.cone import project_cone_stacked
+from socp_cd.solvers.kernels.cone import project_cone_stacked, siconos_error
 from socp_cd.solvers.kernels.dense import envelope_fraction
 
 #: settings of a cold solve (newton_backend's defaults) and of the polish (newton_polish)
@@ -613,3 +613,53 @@ def test_velocity_error_of_an_overflowing_pair_is_its_scaled_value():
     c = 1e200
     assert nd.velocity_error(1e-3, c * r, 2.0 * c * u, c * 0.5) == pytest.approx(expected, rel=1e-12)
     assert nd.velocity_error(1e-3, r, np.full(12, np.inf), 0.5) == np.inf
+
+
+
+def _measure(p, r, mu, policy):
+    """The loop's own measure of ``r``: Siconos' error, re-normalized by the velocity scale
+    under the plain policy (:func:`~socp_cd.solvers.newton.velocity_relative_error`)."""
+    u = p.W @ r + p.q
+    nq = float(np.linalg.norm(p.q))
+    e = siconos_error(r, u, p.mu, p.dim, nq)
+    return e if policy == "prox" else nt.velocity_relative_error(e, r, u, nq)
+
+
+@pytest.mark.parametrize("policy", ["prox", "plain"])
+def test_accepted_stops_both_loops_at_the_first_lower_iterate_it_takes(policy):
+    """``accepted`` (auto's judge, as a hook): with a ``tol`` no run meets, both loops stop
+    ``converged`` at the same outer iteration -- the first whose error is a new best that the
+    test takes -- with the same ``r``, asking the test at new bests only; a test that takes
+    nothing leaves the run as it is without the hook."""
+    p = manufactured(6, 3, 0.5, seed=3)
+    mu = np.ascontiguousarray(p.mu, dtype=np.float64)
+
+    def run(compiled, accepted=None, history=False):
+        return nt.prox_newton(nt.LocalSystem(p, "auto"), mu, np.zeros(p.m), tol=1e-300,
+                              max_iter=60, time_limit=None, history=history, policy=policy,
+                              compiled=compiled, accepted=accepted, **COLD)
+
+    hist = run(False, history=True)[3]
+    lower, best = [], hist[0]                # (iteration, error) of each new best
+    for k, e in enumerate(hist[1:], start=1):
+        if e < best:
+            lower.append((k, e))
+            best = e
+    assert len(lower) >= 4
+    bar = lower[len(lower) // 2][1]          # an error the run reaches after a few iterations
+    first = next(k for k, e in lower if e <= bar)
+    asked = []
+
+    def accepted(r):
+        asked.append(1)
+        return bool(_measure(p, r, mu, policy) <= bar)
+
+    runs = []
+    for compiled in (False, True):
+        asked.clear()
+        runs.append(run(compiled, accepted))
+        assert runs[-1][0] == "converged" and runs[-1][2] == first
+        assert _measure(p, runs[-1][1], mu, policy) <= bar
+        assert len(asked) == sum(1 for k, _ in lower if k <= first)
+    _assert_equal(*runs)
+    _assert_equal(run(True), run(True, lambda r: False))

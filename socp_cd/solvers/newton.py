@@ -1234,15 +1234,24 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
                 fstate, istate, system.lapack, law)
     if accepted is not None:
         t0 = time.perf_counter()
-        while True:
+        loop(*args, 0, *rest)       # (no iteration: the start's error recorded as the best)
+        status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
+        while status == "max_iter":
             it_before, best_before = int(istate[nd.I_IT]), fstate[nd.F_BEST_ERR]
+            alpha_before = fstate[nd.F_ALPHA]
             loop(*args, min(it_before + 1, int(max_iter)), *rest)
             status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
-            if status != "max_iter" or istate[nd.I_IT] == it_before:
-                break        # stopped by a status, or the budget is spent
-            if fstate[nd.F_BEST_ERR] < best_before and accepted(r):
+            if istate[nd.I_IT] == it_before:
+                break        # the budget is spent
+            if (status in ("max_iter", "stalled", "time_limit")
+                    and fstate[nd.F_BEST_ERR] < best_before and accepted(r)):
+                # the Python loop's stop: before that iteration's update of alpha, its stall
+                # and time tests
                 status = "converged"
                 istate[nd.I_STATUS] = nd.CONVERGED
+                fstate[nd.F_ALPHA] = alpha_before
+                break
+            if status != "max_iter":
                 break
             if (not clock.AVAILABLE and time_limit is not None
                     and time.perf_counter() - t0 > time_limit):
