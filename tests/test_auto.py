@@ -1255,3 +1255,54 @@ def test_contact_redundancy_kernel_and_reference_on_index_types_and_empty_rows()
         assert auto.contact_redundancy(p) == auto.contact_redundancy(p, compiled=False) == 2 / 3
         empty = csr(rows[:3] + [[], [0], [1]] + rows[6:], 3, dtype)        # an empty first row
         assert auto.contact_redundancy(empty) == auto.contact_redundancy(empty, compiled=False) == 0.0
+
+
+@pytest.mark.parametrize("retry", ["newton", "clarabel"])
+def test_a_refused_clarabel_first_is_polished_by_newton_which_stops_when_accepted(monkeypatch,
+                                                                                  retry):
+    """REDUNDANT_RETRY, ACCEPT_STOP: after a ``clarabel_first`` answer within ``tol`` by the
+    error that the units guard refuses (by little: it is the seed), the next stage is the warm
+    proximal Newton method from it (``"clarabel"``: the fixed point once more), aiming at the
+    tightened tolerance with the chain's judge as its ``accepted`` hook; a Newton stage aiming
+    at ``tol`` itself gets no hook."""
+    import dataclasses
+    faces, _ = _faces_and_spheres()
+    a, _ = contact_scales(faces)
+    exact = socp_cd.solve(faces, "clarabel", tol=1e-12).r
+    near = exact * (1 + 1e-9)
+    assert socp_cd.error(faces, near) <= 1e-8
+    near_balanced = near / a                           # (stages see the balanced copy)
+
+    def first(problem, formulation, **kw):
+        return SolverResult(r=near_balanced.copy(), status="max_iter", iterations=2)
+    real_guard = auto._Judge.guard_value
+
+    def guard_value(self, r):           # the guard refuses that answer, by little
+        return 2e-8 if r is not None and np.array_equal(r, near_balanced) else real_guard(self, r)
+    stages = []
+
+    def spy(spec, name):
+        def func(problem, formulation, **kw):
+            stages.append((name, kw))
+            return spec.func(problem, formulation, **kw)
+        return dataclasses.replace(spec, func=func)
+    monkeypatch.setattr(auto._Judge, "guard_value", guard_value)
+    monkeypatch.setattr(auto, "REDUNDANT_RETRY", retry)
+    monkeypatch.setitem(auto._STAGES, "clarabel_first",
+                        (SolverSpec("first", first, ("coulomb",)), {}))
+    for name in ("newton", "clarabel"):
+        monkeypatch.setitem(auto._STAGES, name, (spy(auto._STAGES[name][0], name),
+                                                 auto._STAGES[name][1]))
+    res = socp_cd.solve(faces, "auto", tol=1e-8, max_iter=10 ** 6)
+    methods = [s["method"] for s in res.info["path"]]
+    assert methods[:3] == ["nsgs_probe", "clarabel_first", retry] and res.converged
+    name, kw = stages[0]
+    assert name == retry and np.array_equal(kw["r0"], near_balanced) and kw["tol"] < 1e-8
+    if retry == "newton":
+        hook = kw["accepted"]
+        assert not hook(near_balanced) and hook(res.r / a)       # the judge's two checks
+    # a Newton stage aiming at tol itself (no refusal before it) gets no hook
+    stages.clear()
+    monkeypatch.setattr(auto._Judge, "guard_value", real_guard)
+    socp_cd.solve(faces, "auto", tol=1e-8, max_iter=10 ** 6, methods=("newton",))
+    assert stages and all("accepted" not in kw for _, kw in stages)
