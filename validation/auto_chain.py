@@ -129,6 +129,20 @@ Session 33's:
     without it (its ``relax_after``; 1.0: off; ``results/auto_chain_tune_s33omega.md``;
     ``formulations/auto.md``, "Over-relaxed NSGS stages").
 
+Session 41's: ``REDUNDANT_SHARE`` (``formulations/auto.md``, "Redundant contacts: the fixed
+point first"; None: off).
+
+Session 43's:
+
+``REDUNDANT_RETRY``
+    the stage a ``clarabel_first`` answer the units guard refuses runs next: ``clarabel`` (the
+    fixed point once more, until session 43) or ``newton`` (adopted);
+``ACCEPT_STOP``
+    a Newton stage aiming at a tolerance tightened after a refusal stops at the first iterate
+    the chain's judge accepts (adopted with ``REDUNDANT_RETRY=newton``;
+    ``results/auto_chain_{tune_s43accept,holdout_s43adopt}.md``, ``formulations/auto.md``,
+    "After a refused clarabel_first").
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``), ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``, or
