@@ -49,9 +49,11 @@ units guard (:func:`socp_cd.residuals.guard`, the dispatcher's second test)
 does too (on a local Coulomb problem, with Siconos' error of the problem as
 written: the chain runs on the dispatcher's balanced copy, and the dispatcher
 judges by that error first); after a stage that met the first and not the second, that stage runs
-once more from the seed (:data:`RETRY_REFUSED`) and the later stages aim at
+once more from the seed (:data:`RETRY_REFUSED`; after ``"clarabel_first"`` the warm proximal
+Newton method, :data:`REDUNDANT_RETRY`) and the later stages aim at
 the dispatcher's retry tolerance
-(:func:`~socp_cd.solvers.options.tightened_tolerance`).  The dispatcher
+(:func:`~socp_cd.solvers.options.tightened_tolerance`), a Newton stage among them stopping at
+the first iterate that meets both (:data:`ACCEPT_STOP`).  The dispatcher
 recomputes both once more independently.  Later stages start from the *seed*
 (:data:`SEED_BY_GUARD`): the best iterate by the error, except that one within
 ``tol`` by the error ranks by the larger of the error and the guard, so an answer
