@@ -663,3 +663,46 @@ def test_accepted_stops_both_loops_at_the_first_lower_iterate_it_takes(policy):
         assert len(asked) == sum(1 for k, _ in lower if k <= first)
     _assert_equal(*runs)
     _assert_equal(run(True), run(True, lambda r: False))
+
+
+def _badly_scaled(nc=8, seed=1):
+    """A manufactured problem whose contacts' scales span 1e-3 ... 1e3: its balanced copy's
+    errors differ from the errors as written."""
+    p = manufactured(nc, 3, 0.5, seed=seed)
+    s = np.repeat(10.0 ** np.linspace(-3, 3, nc), 3)
+    W = p.W.toarray() if hasattr(p.W, "toarray") else np.asarray(p.W)
+    return FrictionContactProblem(s[:, None] * W * s[None, :], s * p.q, p.mu, 3)
+
+
+@pytest.mark.parametrize("policy", ["prox", "prox_error"])
+def test_the_backend_stops_at_the_answer_its_hook_takes_and_does_not_continue_it(policy):
+    """newton_backend passes ``accepted`` to its runs (auto's stages), and a run it stopped is
+    the answer: not continued towards ``tol`` as written (``continued_runs``)."""
+    from socp_cd.solvers.scaling import balanced
+    bp = balanced(_badly_scaled()).problem            # the dispatcher's balanced copy
+    asked = []
+
+    def hook(r):
+        asked.append(r.copy())
+        u = bp.W @ r + bp.q
+        return bool(siconos_error(r, u, bp.mu, 3, float(np.linalg.norm(bp.q))) <= 1e-7)
+    res = nt.newton_backend(bp, "coulomb", tol=1e-300, max_iter=200, policy=policy,
+                            accepted=hook)
+    assert asked and res.status == "converged" and hook(res.r)
+    assert res.info["continued"] == []
+    without = nt.newton_backend(bp, "coulomb", tol=1e-300, max_iter=200, policy=policy)
+    assert without.status != "converged"           # tol 1e-300: only the hook ends a run
+
+
+def test_accepted_on_the_iteration_that_spends_the_time_limit_wins_on_both_loops():
+    """An iterate the hook takes on the outer iteration whose end also spends the time limit:
+    both loops end ``converged`` there with the same record (the twin's kernel had made its
+    time test, and updated alpha, before it was asked)."""
+    p = manufactured(6, 3, 0.5, seed=3)
+    mu = np.ascontiguousarray(p.mu, dtype=np.float64)
+    runs = [nt.prox_newton(nt.LocalSystem(p, "auto"), mu, np.zeros(p.m), tol=1e-300,
+                           max_iter=60, time_limit=1e-9, history=False, compiled=compiled,
+                           accepted=lambda r: True, **COLD) for compiled in (False, True)]
+    for status, _, its, _, _ in runs:
+        assert status == "converged" and its == 1
+    _assert_equal(*runs)

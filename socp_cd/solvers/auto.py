@@ -318,6 +318,8 @@ PROX_EARLY = False
 #: 57 -> 58 solved of 65, held out 108 -> 112 of 142, of which the fourth draw of the kinds
 #: (built before the rule was chosen, looked at after) 32 -> 34 of 35
 REDUNDANT_RETRY = "newton"
+#: the values :data:`REDUNDANT_RETRY` may take
+REDUNDANT_RETRIES = ("newton", "clarabel")
 #: a Newton-family stage aiming at a tolerance tightened after a guard refusal stops at the
 #: first outer iterate the chain's judge accepts (both of the dispatcher's checks, newton's
 #: ``accepted`` hook), instead of going on towards that tolerance, a stand-in for the checks
@@ -1462,4 +1464,5 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
-           "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "small_plan"]
+           "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY",
+           "REDUNDANT_RETRIES", "ACCEPT_STOP", "small_plan"]

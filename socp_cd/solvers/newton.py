@@ -820,7 +820,8 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         dispatcher's two checks): the run also stops ``"converged"`` at an outer iterate
         that lowers the best error and that ``accepted`` takes, whatever ``tol``.  For a
         ``tol`` that stands in for the caller's test (a tolerance tightened after a
-        refusal), so that the run does not go on past an answer the test takes.
+        refusal), so that the run does not go on past an answer the test takes.  ``r`` is
+        the run's own buffer on the compiled twin: the hook must not keep or change it.
 
     Returns
     -------
@@ -1029,7 +1030,7 @@ def _best_so_far(err, r, it, best_err, best_r, best_it, hist):
 
 
 def error_prox(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_limit, history,
-               rho=DEFAULT_RHO, written=None, equation=DEFAULT_EQUATION):
+               rho=DEFAULT_RHO, written=None, equation=DEFAULT_EQUATION, accepted=None):
     """Siconos PROX's proximal-point loop (``policy="prox_error"``, ``formulations/newton.md``
     §12).
 
@@ -1136,8 +1137,9 @@ def error_prox(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_li
         if not math.isfinite(err):
             status = "numerical_error"
             break
+        lower = err < best_err
         best_err, best_r, best_it = _best_so_far(err, r, it, best_err, best_r, best_it, hist)
-        if err <= tol:
+        if err <= tol or (accepted is not None and lower and accepted(r)):
             status = "converged"
             break
         n_inner_failed += 0 if met else 1
@@ -1162,7 +1164,8 @@ def error_prox(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_li
 
 
 def prox_error_runs(system, mu, r, *, tol, max_iter, alpha_min, stall_window, time_limit,
-                    history, rho=DEFAULT_RHO, written=None, equation=DEFAULT_EQUATION):
+                    history, rho=DEFAULT_RHO, written=None, equation=DEFAULT_EQUATION,
+                    accepted=None):
     """``policy="prox_error"``: :func:`error_prox` in the units as written (``written``), and
     when that run ends without meeting ``tol`` with outer iterations and time left, a second
     run from the same start in the system's own (balanced) units; the better of the two by
@@ -1170,11 +1173,12 @@ def prox_error_runs(system, mu, r, *, tol, max_iter, alpha_min, stall_window, ti
     ``(units, status, iterations, error)``).  Siconos' metric, the written units, solves
     capsule piles the balanced one does not, and stalls on badly scaled problems (contact
     scales spanning 1e-6 … 1e6, mass ratios 1e6) that the balanced one solves
-    (``formulations/newton.md`` §12).  Without ``written`` one run, in the system's units."""
+    (``formulations/newton.md`` §12).  Without ``written`` one run, in the system's units.
+    ``accepted``: :func:`prox_newton`'s hook, given to both runs."""
     t0 = time.perf_counter()
     first = error_prox(system, mu, r.copy(), tol=tol, max_iter=max_iter, alpha_min=alpha_min,
                        stall_window=stall_window, time_limit=time_limit, history=history,
-                       rho=rho, written=written, equation=equation)
+                       rho=rho, written=written, equation=equation, accepted=accepted)
     first[4]["units"] = "written" if written is not None else "own"
     left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
     if (written is None or not PROX_BALANCED_FALLBACK
@@ -1183,7 +1187,8 @@ def prox_error_runs(system, mu, r, *, tol, max_iter, alpha_min, stall_window, ti
         return first
     second = error_prox(system, mu, r.copy(), tol=tol, max_iter=max_iter - first[2],
                         alpha_min=alpha_min, stall_window=stall_window, time_limit=left,
-                        history=history, rho=rho, written=None, equation=equation)
+                        history=history, rho=rho, written=None, equation=equation,
+                        accepted=accepted)
     second[4]["units"] = "balanced"
     runs = [(run[4]["units"], run[0], run[2], run[4]["internal_error"]) for run in (first, second)]
     best = second if (second[0] == "converged"
@@ -1214,7 +1219,9 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
     Python between them (a run may then overrun its limit by one chunk).  With
     ``accepted`` (:func:`prox_newton`'s) the loop runs one outer iteration per call, and
     ``accepted`` is asked between calls, after an iteration that lowered the best error (the
-    same stop as the Python loop's).
+    same stop as the Python loop's: the kernel has by then updated ``alpha`` and made its
+    stall and time tests for that iteration, so an accepted iterate gets the ``alpha`` and
+    status back that the Python loop, which asks before those, leaves).
     """
     rho_n, rho_t, wscale = _system_rho(system, rho)
     law = nd.LAW_CODES[equation]
@@ -1433,7 +1440,7 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
             return prox_error_runs(system, mu, r, tol=run_tol, max_iter=run_max_iter,
                                    alpha_min=st["alpha_min"], stall_window=st["stall_window"],
                                    time_limit=left, history=history, rho=st["rho"],
-                                   written=units, equation=st["equation"])
+                                   written=units, equation=st["equation"], accepted=accepted)
         return prox_newton(system, mu, r, tol=run_tol, max_iter=run_max_iter, alpha0=alpha0,
                            alpha_min=st["alpha_min"], inner_max_iter=st["inner_max_iter"],
                            stall_window=st["stall_window"], time_limit=left, history=history,
@@ -1443,7 +1450,7 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
     with _one_blas_thread(system):
         status, r, iters, hist, info = continued_runs(run, as_written, r, tol, max_iter,
                                                       st["alpha0"], st["alpha_min"],
-                                                      time_limit, history, t0)
+                                                      time_limit, history, t0, accepted)
     message = _message(status, st["stall_window"])
     if verbose:
         print(f"newton: {status} after {iters} outer iterations, error {info['internal_error']:.3e}")
@@ -1467,7 +1474,7 @@ def _message(status, stall_window) -> str:
 
 
 def continued_runs(run, as_written, r, tol, max_iter, alpha0, alpha_min, time_limit,
-                   history=False, t0=None):
+                   history=False, t0=None, accepted=None):
     """Newton runs from ``r`` until the answer meets ``tol`` as written (the backend's loop).
 
     A run that converges on a balanced copy while Siconos' error of the problem as
@@ -1491,6 +1498,9 @@ def continued_runs(run, as_written, r, tol, max_iter, alpha0, alpha_min, time_li
         As :func:`newton_backend`'s.
     t0 : float, optional
         ``time.perf_counter()`` when the time limit's clock started (default: now).
+    accepted : callable, optional
+        :func:`prox_newton`'s hook, which ``run`` stops at: a run that ends ``converged`` at an
+        answer the hook takes is the answer (it is not continued towards ``tol``).
 
     Returns
     -------
@@ -1523,7 +1533,7 @@ def continued_runs(run, as_written, r, tol, max_iter, alpha0, alpha_min, time_li
                 "internal_error"])
             break
         if (status != "converged" or as_written is None or e <= tol or not np.isfinite(e)
-                or iters >= max_iter or len(continued) == MAX_CONTINUED
+                or (accepted is not None and accepted(r)) or iters >= max_iter or len(continued) == MAX_CONTINUED
                 or time_limit is not None and time.perf_counter() - t0 >= time_limit):
             break       # (a claim the dispatcher refuses still gets its retry)
         # met in balanced units only: go on from r, aiming lower (the dispatcher's policy)
