@@ -1,6 +1,6 @@
 """validation/build_sim_collections.py's ``--kinds`` scenes (session 41), ``--kinds-fresh``
-(session 42) and ``--kinds-fresh2`` (session 43): the four draws apart, every scene a valid scene file, and the box scenes
-the redundant-contact problems they are for."""
+(session 42) and ``--kinds-fresh2`` (session 43): the four draws apart, every scene a valid
+scene file, and the box scenes the redundant-contact problems they are for."""
 from __future__ import annotations
 
 import itertools

@@ -236,7 +236,8 @@ def settings(config: str) -> dict:
                 raise SystemExit(f"unknown rule {name!r}; one of {RULES}")
             if name == "REDUNDANT_RETRY" and value not in auto.REDUNDANT_RETRIES:
                 raise SystemExit(f"REDUNDANT_RETRY must be one of {auto.REDUNDANT_RETRIES}")
-            out[name] = (None if value == "None" else value if name in STRINGS else float(value) if name in FLOATS else int(value) if name in INTS
+            out[name] = (None if value == "None" else value if name in STRINGS
+                         else float(value) if name in FLOATS else int(value) if name in INTS
                          else bool(int(value)))
     return out
 

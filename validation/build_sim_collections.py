@@ -148,9 +148,11 @@ KINDS_FRESH2 = {
     "massratio3d-fresh2-50": ("massratio3d-60", (("count = 60", "count = 50"),
                                                  ("seed = 41", "seed = 101"),
                                                  ("density = 2.5e7", "density = 5e7"))),
-    "mixedmu3d-fresh2-140": ("mixedmu3d-160", (("count = 80", "count = 70"), ("seed = 43", "seed = 103"),
+    "mixedmu3d-fresh2-140": ("mixedmu3d-160", (("count = 80", "count = 70"),
+                                               ("seed = 43", "seed = 103"),
                                                ("seed = 47", "seed = 107"))),
-    "hopper2d-fresh2-350": ("hopper2d-400", (("count = 400", "count = 350"), ("seed = 53", "seed = 113"),
+    "hopper2d-fresh2-350": ("hopper2d-400", (("count = 400", "count = 350"),
+                                             ("seed = 53", "seed = 113"),
                                              ("opening = 0.12", "opening = 0.14"))),
 }
 

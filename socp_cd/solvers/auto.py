@@ -644,7 +644,6 @@ class _Judge:
         e = float(e)
         return e if np.isfinite(e) else np.inf
 
-
     def accepts(self, r) -> bool:
         """Whether ``r`` meets ``tol`` by both of the dispatcher's checks (the stage error and
         :meth:`guard_value`): a Newton stage's ``accepted`` hook (:data:`ACCEPT_STOP`)."""

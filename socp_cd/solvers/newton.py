@@ -1533,7 +1533,8 @@ def continued_runs(run, as_written, r, tol, max_iter, alpha0, alpha_min, time_li
                 "internal_error"])
             break
         if (status != "converged" or as_written is None or e <= tol or not np.isfinite(e)
-                or (accepted is not None and accepted(r)) or iters >= max_iter or len(continued) == MAX_CONTINUED
+                or (accepted is not None and accepted(r))
+                or iters >= max_iter or len(continued) == MAX_CONTINUED
                 or time_limit is not None and time.perf_counter() - t0 >= time_limit):
             break       # (a claim the dispatcher refuses still gets its retry)
         # met in balanced units only: go on from r, aiming lower (the dispatcher's policy)
