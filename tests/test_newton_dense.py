@@ -665,21 +665,14 @@ def test_accepted_stops_both_loops_at_the_first_lower_iterate_it_takes(policy):
     _assert_equal(run(True), run(True, lambda r: False))
 
 
-def _badly_scaled(nc=8, seed=1):
-    """A manufactured problem whose contacts' scales span 1e-3 ... 1e3: its balanced copy's
-    errors differ from the errors as written."""
-    p = manufactured(nc, 3, 0.5, seed=seed)
-    s = np.repeat(10.0 ** np.linspace(-3, 3, nc), 3)
-    W = p.W.toarray() if hasattr(p.W, "toarray") else np.asarray(p.W)
-    return FrictionContactProblem(s[:, None] * W * s[None, :], s * p.q, p.mu, 3)
-
-
 @pytest.mark.parametrize("policy", ["prox", "prox_error"])
 def test_the_backend_stops_at_the_answer_its_hook_takes_and_does_not_continue_it(policy):
     """newton_backend passes ``accepted`` to its runs (auto's stages), and a run it stopped is
     the answer: not continued towards ``tol`` as written (``continued_runs``)."""
     from socp_cd.solvers.scaling import balanced
-    bp = balanced(_badly_scaled()).problem            # the dispatcher's balanced copy
+    # contact scales spanning 1e-3 ... 1e3: the balanced copy's errors are not those as written
+    p = manufactured(8, 3, 0.5, seed=1, contact_scale=1e6)
+    bp = balanced(p).problem                          # the dispatcher's balanced copy
     asked = []
 
     def hook(r):
