@@ -1239,18 +1239,26 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
         rest = (alpha_min * wscale, _ALPHA_MAX * wscale, int(inner_max_iter), int(stall_window),
                 _ARMIJO, _MAX_BACKTRACK, NONMONOTONE, INNER_GATE, INNER_DECREASE, r, best_r,
                 fstate, istate, system.lapack, law)
-    if accepted is not None:
-        t0 = time.perf_counter()
-        loop(*args, 0, *rest)       # (no iteration: the start's error recorded as the best)
+    if accepted is None and (time_limit is None or clock.AVAILABLE):
+        loop(*args, int(max_iter), *rest)
         status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
-        while status == "max_iter":
+    else:
+        # chunks of outer iterations: with ``accepted`` one per call, the hook asked between
+        # them; without the compiled clock, the clock read in Python between them
+        t0 = time.perf_counter()
+        m = system.m
+        chunk = 1 if accepted is not None else max(1, min(CHUNK_MAX, int(CHUNK_WORK // (
+            (1 if plain else inner_max_iter) * m * m * m / 3.0))))
+        if accepted is not None:
+            loop(*args, 0, *rest)   # (no iteration: the start's error recorded as the best)
+        while True:
             it_before, best_before = int(istate[nd.I_IT]), fstate[nd.F_BEST_ERR]
             alpha_before = fstate[nd.F_ALPHA]
-            loop(*args, min(it_before + 1, int(max_iter)), *rest)
+            loop(*args, min(it_before + chunk, int(max_iter)), *rest)
             status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
             if istate[nd.I_IT] == it_before:
-                break        # the budget is spent
-            if (status in ("max_iter", "stalled", "time_limit")
+                break        # the budget is spent, or the start met tol
+            if (accepted is not None and status in ("max_iter", "stalled", "time_limit")
                     and fstate[nd.F_BEST_ERR] < best_before and accepted(r)):
                 # the Python loop's stop: before that iteration's update of alpha, its stall
                 # and time tests
@@ -1260,25 +1268,8 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
                 break
             if status != "max_iter":
                 break
-            if (not clock.AVAILABLE and time_limit is not None
+            if (time_limit is not None and not clock.AVAILABLE
                     and time.perf_counter() - t0 > time_limit):
-                status = "time_limit"
-                break
-    elif time_limit is None or clock.AVAILABLE:
-        loop(*args, int(max_iter), *rest)
-        status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
-    else:
-        t0 = time.perf_counter()
-        m = system.m
-        chunk = max(1, min(CHUNK_MAX, int(CHUNK_WORK // ((1 if plain else inner_max_iter)
-                                                         * m * m * m / 3.0))))
-        while True:
-            it_before = int(istate[nd.I_IT])
-            loop(*args, min(it_before + chunk, int(max_iter)), *rest)
-            status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
-            if status != "max_iter" or istate[nd.I_IT] == it_before:
-                break        # stopped by a status, or the budget is spent
-            if time.perf_counter() - t0 > time_limit:
                 status = "time_limit"
                 break
     fs, ist = fstate.tolist(), istate.tolist()       # Python scalars in one call each
