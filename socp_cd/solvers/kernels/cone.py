@@ -297,6 +297,20 @@ def relative_error(f2, r2, u2, norm_q):
 
 
 @njit(cache=True)
+def pair_scale(r, u):
+    """``max|(r, u)|``, the largest entry of a pair in absolute value: the factor the measures
+    divide a pair by when its squared norms overflow (:func:`law_error`,
+    ``newton_dense.velocity_error``)."""
+    c = 0.0
+    for k in range(r.shape[0]):
+        if abs(r[k]) > c:
+            c = abs(r[k])
+        if abs(u[k]) > c:
+            c = abs(u[k])
+    return c
+
+
+@njit(cache=True)
 def law_error(r, u, mu, g, dim, law, norm_q):
     """Relative natural-map error of ``r`` for any law code, ``u`` given; a pair whose squared
     norms overflow is measured at ``(c r, c u, c g, c norm_q)``, ``c = 1 / max|(r, u)|``, where
@@ -306,12 +320,7 @@ def law_error(r, u, mu, g, dim, law, norm_q):
     e = relative_error(f2, r2, u2, norm_q)
     if np.isfinite(e) or not np.isfinite(norm_q):
         return e
-    c = 0.0
-    for k in range(r.shape[0]):
-        if abs(r[k]) > c:
-            c = abs(r[k])
-        if abs(u[k]) > c:
-            c = abs(u[k])
+    c = pair_scale(r, u)
     if not (np.isfinite(c) and c > 0.0):
         return np.inf
     f2, r2, u2 = error_parts(r / c, u / c, mu, g / c, dim, law)
@@ -366,7 +375,7 @@ def coulomb_violations(r, u, mu, dim):
     return cone, normal, gap
 
 
-__all__ = ["LAW_COULOMB", "LAW_ASSOCIATED", "LAW_TRESCA", "EPS", "tangential_norm_block",
+__all__ = ["pair_scale", "LAW_COULOMB", "LAW_ASSOCIATED", "LAW_TRESCA", "EPS", "tangential_norm_block",
            "tangential_norm", "cone_projection", "law_projection", "law_velocity",
            "project_cone_block", "project_cone_stacked", "project_dual_cone_block", "project_law_block",
            "desaxce_velocity_block", "law_velocity_block", "project_cone_jacobian_block",

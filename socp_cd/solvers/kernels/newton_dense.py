@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit
 
 from .clock import past
-from .cone import project_cone_stacked, siconos_error
+from .cone import pair_scale, project_cone_stacked, siconos_error
 from .dense import dense_solve, matvec, matvec_into
 from .newton_ac import ac_blocks, dense_jacobian
 from .newton_fb import fb_blocks
@@ -330,9 +330,7 @@ def velocity_error(err, r, u, norm_q):
     if not (np.isfinite(r_norm) and np.isfinite(u_norm)):
         # squares beyond the largest float (entries beyond ~1e154): the norms of the pair
         # and ||q|| scaled by its largest entry (the ratio below is the same)
-        c = 0.0
-        for k in range(r.shape[0]):
-            c = max(c, abs(r[k]), abs(u[k]))
+        c = pair_scale(r, u)
         if not (np.isfinite(c) and c > 0.0):
             return np.inf
         r2 = 0.0
