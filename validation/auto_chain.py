@@ -143,6 +143,12 @@ Session 43's:
     ``results/auto_chain_{tune_s43accept,holdout_s43adopt}.md``, ``formulations/auto.md``,
     "After a refused clarabel_first").
 
+Session 44's:
+
+``CLARABEL_RETRY``
+    the same choice after an answer of the chain's own ``clarabel`` stage that the units guard
+    refuses: ``clarabel`` (until session 44) or ``newton``.
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``), ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``, or
@@ -188,7 +194,7 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "HANDOFF_SWEEPS", "HANDOFF_WORK", "COLD_PLAIN_STALL_LARGE", "COLD_SPLIT",
          "SEED_BY_GUARD", "TIGHTEN_FROM_SEED", "SMALL_NC", "NEWTON_FIRST_BLOCKS",
          "NEWTON_FIRST_MIN_NC", "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROX_EARLY", "REDUNDANT_SHARE",
-         "LAST_RESORT", "REDUNDANT_RETRY", "ACCEPT_STOP")
+         "LAST_RESORT", "REDUNDANT_RETRY", "ACCEPT_STOP", "CLARABEL_RETRY")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -206,9 +212,9 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "SMALL_NC": 100, "NEWTON_FIRST_BLOCKS": None, "NEWTON_FIRST_MIN_NC": 10,
         "NEWTON_FIRST_STEPS": 10, "NEWTON_FIRST_STALL": 2, "PROX_EARLY": False,
         "REDUNDANT_SHARE": None, "LAST_RESORT": False, "REDUNDANT_RETRY": "clarabel",
-        "ACCEPT_STOP": False}
+        "ACCEPT_STOP": False, "CLARABEL_RETRY": "clarabel"}
 #: rules whose values are names
-STRINGS = ("REDUNDANT_RETRY",)
+STRINGS = ("REDUNDANT_RETRY", "CLARABEL_RETRY")
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M", "HANDOFF_PREDICT",
         "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "HANDOFF_SWEEPS", "HANDOFF_WORK",
@@ -234,8 +240,8 @@ def settings(config: str) -> dict:
             name, value = part.split("=")
             if name not in RULES:
                 raise SystemExit(f"unknown rule {name!r}; one of {RULES}")
-            if name == "REDUNDANT_RETRY" and value not in auto.REDUNDANT_RETRIES:
-                raise SystemExit(f"REDUNDANT_RETRY must be one of {auto.REDUNDANT_RETRIES}")
+            if name in STRINGS and value not in auto.REDUNDANT_RETRIES:
+                raise SystemExit(f"{name} must be one of {auto.REDUNDANT_RETRIES}")
             out[name] = (None if value == "None" else value if name in STRINGS
                          else float(value) if name in FLOATS else int(value) if name in INTS
                          else bool(int(value)))

@@ -318,8 +318,12 @@ PROX_EARLY = False
 #: 57 -> 58 solved of 65, held out 108 -> 112 of 142, of which the fourth draw of the kinds
 #: (built before the rule was chosen, looked at after) 32 -> 34 of 35
 REDUNDANT_RETRY = "newton"
-#: the values :data:`REDUNDANT_RETRY` may take
+#: the values :data:`REDUNDANT_RETRY` and :data:`CLARABEL_RETRY` may take
 REDUNDANT_RETRIES = ("newton", "clarabel")
+#: the same for an answer of the chain's own ``"clarabel"`` stage (the fixed point to its
+#: end) refused by the units guard: ``"clarabel"`` (until session 44), the fixed point once
+#: more at the tightened tolerance
+CLARABEL_RETRY = "clarabel"
 #: a Newton-family stage aiming at a tolerance tightened after a guard refusal stops at the
 #: first outer iterate the chain's judge accepts (both of the dispatcher's checks, newton's
 #: ``accepted`` hook), instead of going on towards that tolerance, a stand-in for the checks
@@ -1428,7 +1432,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 # a Newton-family stage as the warm proximal Newton method (a trial's or a
                 # cold stage's rerun would start elsewhere, or be skipped as already run)
                 again = ("newton" if method in _NEWTON_FAMILY
-                         else REDUNDANT_RETRY if method == "clarabel_first" else method)
+                         else REDUNDANT_RETRY if method == "clarabel_first"
+                         else CLARABEL_RETRY if method == "clarabel" else method)
                 order = order[:k + 1] + ((again, form),) + order[k + 1:]
                 retried = True
     if short and status != "converged":
@@ -1463,5 +1468,5 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
-           "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY",
+           "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY", "CLARABEL_RETRY",
            "REDUNDANT_RETRIES", "ACCEPT_STOP", "small_plan"]
