@@ -277,14 +277,21 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.chunk < 1:
         ap.error(f"--chunk must be at least 1, got {args.chunk}")
-    if args.from_csv is not None and args.time_limit is None:
-        # the budget the run's answers are judged against is the run's own
+    if args.from_csv is not None:
+        # the run's summary beside its CSV, read once: the budget its answers are judged
+        # against (the run's own) and its calibration readings (the rewritten report keeps them)
         try:
             sibling = json.loads(Path(args.from_csv).with_suffix(".json").read_text())
-            args.time_limit = float(sibling["time_limit"])
-        except (OSError, ValueError, KeyError, TypeError):
-            ap.error("--from-csv: the run's time limit is not recorded beside the CSV (runs "
-                     "before session 42): give it with --time-limit")
+        except (OSError, ValueError):
+            sibling = {}
+        sibling = sibling if isinstance(sibling, dict) else {}
+        args.calibration = sibling.get("calibration_us") or None
+        if args.time_limit is None:
+            try:
+                args.time_limit = float(sibling["time_limit"])
+            except (KeyError, ValueError, TypeError):
+                ap.error("--from-csv: the run's time limit is not recorded beside the CSV (runs "
+                         "before session 42): give it with --time-limit")
     if args.time_limit is None:
         args.time_limit = 5.0
     if args.from_csv is not None:
@@ -465,13 +472,7 @@ def write(rows, args, have_sic) -> None:
         lines[-2] += (f" Rewritten from `{Path(args.from_csv).name}` with `--from-csv`: the time "
                       "limit and repeats above are the arguments of that command, which should "
                       "repeat the run's.")
-    cal = getattr(args, "calibration", None)
-    if cal is None and getattr(args, "from_csv", None) is not None:
-        try:        # (a rewritten report keeps the run's readings)
-            sibling = Path(args.from_csv).with_suffix(".json")
-            cal = json.loads(sibling.read_text()).get("calibration_us") or None
-        except (OSError, ValueError):
-            cal = None
+    cal = getattr(args, "calibration", None)    # (--from-csv: the run's readings, main)
     if cal:
         lines[-2] += (" Calibration (the machine's speed on our side, `calibration_call`: a "
                       "one-contact `solve`, µs, read before each chunk of the main tolerance's "
