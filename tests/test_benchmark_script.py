@@ -129,7 +129,7 @@ def test_the_report_counts_a_late_siconos_answer_as_a_failure(script, tmp_path):
             dict(base, problem="p1", solver="siconos:prox", side="siconos", error=1e-9,
                  status="ok", claimed=True, time=0.02)]
     args = argparse.Namespace(out=tmp_path, tol=1e-8, time_limit=1.0, quick=False, repeats=3,
-                              repeats_small=200)
+                              repeats_small=200, calibration={"chunk 0 (problems 0-1)": 6.25})
     script.write(rows, args, have_sic=True)
     report = (tmp_path / "newton_vs_siconos.md").read_text()
     assert "Solved by at least one Siconos solver: 1/2." in report
@@ -140,7 +140,9 @@ def test_the_report_counts_a_late_siconos_answer_as_a_failure(script, tmp_path):
     # not the option's default of 5 s; without the record the limit must be given
     again = tmp_path / "again"
     script.main(["--from-csv", str(tmp_path / "newton_vs_siconos.csv"), "--out", str(again)])
-    assert "Solved by at least one Siconos solver: 1/2." in (again / "newton_vs_siconos.md").read_text()
+    rewritten = (again / "newton_vs_siconos.md").read_text()
+    assert "Solved by at least one Siconos solver: 1/2." in rewritten
+    assert "chunk 0 (problems 0-1) 6.25" in rewritten        # the run's calibration readings
     (tmp_path / "newton_vs_siconos.json").unlink()
     with pytest.raises(SystemExit):
         script.main(["--from-csv", str(tmp_path / "newton_vs_siconos.csv"), "--out", str(again)])
