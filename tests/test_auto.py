@@ -1306,3 +1306,50 @@ def test_a_refused_clarabel_first_is_polished_by_newton_which_stops_when_accepte
     monkeypatch.setattr(auto._Judge, "guard_value", real_guard)
     socp_cd.solve(faces, "auto", tol=1e-8, max_iter=10 ** 6, methods=("newton",))
     assert stages and all("accepted" not in kw for _, kw in stages)
+
+
+@pytest.mark.parametrize("retry", ["newton", "clarabel"])
+def test_a_refused_clarabel_answer_is_polished_by_newton(monkeypatch, retry):
+    """CLARABEL_RETRY: after an answer of the chain's own ``clarabel`` stage (the fixed point to
+    its end) within ``tol`` by the error that the units guard refuses (by little: it is the
+    seed), the next stage is the warm proximal Newton method from it, aiming at the tightened
+    tolerance with the judge as its ``accepted`` hook (``"clarabel"``: the fixed point once
+    more, as until session 44)."""
+    import dataclasses
+    faces, _ = _faces_and_spheres()
+    a, _ = contact_scales(faces)
+    exact = socp_cd.solve(faces, "clarabel", tol=1e-12).r
+    near_balanced = exact * (1 + 1e-9) / a              # (stages see the balanced copy)
+    real_guard = auto._Judge.guard_value
+    stages = []
+
+    def guard_value(self, r):           # the guard refuses that answer, by little
+        return 2e-8 if r is not None and np.array_equal(r, near_balanced) else real_guard(self, r)
+
+    def fixed_point(problem, formulation, **kw):
+        stages.append(("clarabel", kw))
+        if not stages[:-1]:             # its first run: the refused answer
+            return SolverResult(r=near_balanced.copy(), status="converged", iterations=3)
+        return clarabel_spec.func(problem, formulation, **kw)
+
+    def spy(spec, name):
+        def func(problem, formulation, **kw):
+            stages.append((name, kw))
+            return spec.func(problem, formulation, **kw)
+        return dataclasses.replace(spec, func=func)
+    clarabel_spec = auto._STAGES["clarabel"][0]
+    monkeypatch.setattr(auto._Judge, "guard_value", guard_value)
+    monkeypatch.setattr(auto, "CLARABEL_RETRY", retry)
+    monkeypatch.setitem(auto._STAGES, "clarabel",
+                        (dataclasses.replace(clarabel_spec, func=fixed_point),
+                         auto._STAGES["clarabel"][1]))
+    monkeypatch.setitem(auto._STAGES, "newton", (spy(auto._STAGES["newton"][0], "newton"),
+                                                 auto._STAGES["newton"][1]))
+    res = socp_cd.solve(faces, "auto", tol=1e-8, max_iter=10 ** 6, methods=("clarabel", "nsgs"))
+    methods = [s["method"] for s in res.info["path"]]
+    assert methods[:2] == ["clarabel", retry] and res.converged
+    name, kw = stages[1]
+    assert name == retry and np.array_equal(kw["r0"], near_balanced) and kw["tol"] < 1e-8
+    assert ("accepted" in kw) == (retry == "newton")
+    if retry == "newton":
+        assert not kw["accepted"](near_balanced) and kw["accepted"](res.r / a)

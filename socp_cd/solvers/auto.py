@@ -321,9 +321,16 @@ REDUNDANT_RETRY = "newton"
 #: the values :data:`REDUNDANT_RETRY` and :data:`CLARABEL_RETRY` may take
 REDUNDANT_RETRIES = ("newton", "clarabel")
 #: the same for an answer of the chain's own ``"clarabel"`` stage (the fixed point to its
-#: end) refused by the units guard: ``"clarabel"`` (until session 44), the fixed point once
-#: more at the tightened tolerance
-CLARABEL_RETRY = "clarabel"
+#: end) refused by the units guard: ``"newton"`` (since session 44), or ``"clarabel"``, the
+#: fixed point once more at the tightened tolerance.  On 2D deposits at rest (the large-2D
+#: order: the fixed point right after the probe) Clarabel's answer at 1e-10 was refused, the
+#: second fixed point cost 0.1-0.45 s and often ended where the first had, and the Newton
+#: stage after it was accepted after one outer iteration.  Session 44
+#: (``validation/auto_chain.py``, 1 s; formulations/auto.md, "After a refused clarabel_first"):
+#: tune deposits of 2 000-3 000 contacts sgm 0.73 -> 0.49 s (4 of 9 at x0.39-0.42, none
+#: lost); held out, the simulation collections: the 8 at-rest deposits x0.34-0.71, sgm of the
+#: 31 2D cases 0.35 -> 0.30 s, no other path changed (nor on the tune cases of at most 2 000)
+CLARABEL_RETRY = "newton"
 #: a Newton-family stage aiming at a tolerance tightened after a guard refusal stops at the
 #: first outer iterate the chain's judge accepts (both of the dispatcher's checks, newton's
 #: ``accepted`` hook), instead of going on towards that tolerance, a stand-in for the checks
@@ -1430,7 +1437,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 # this stage's answer was refused: the same stage once more from the seed
                 # (next; the answer itself when refused by little enough to be the seed);
                 # a Newton-family stage as the warm proximal Newton method (a trial's or a
-                # cold stage's rerun would start elsewhere, or be skipped as already run)
+                # cold stage's rerun would start elsewhere, or be skipped as already run); a
+                # fixed point's answer as REDUNDANT_RETRY and CLARABEL_RETRY say (Newton)
                 again = ("newton" if method in _NEWTON_FAMILY
                          else REDUNDANT_RETRY if method == "clarabel_first"
                          else CLARABEL_RETRY if method == "clarabel" else method)
