@@ -7,6 +7,7 @@ import pytest
 
 import socp_cd
 from socp_cd.errors import InvalidProblemError, UnsupportedError
+from socp_cd.laws import LAW_RESIDUALS
 from socp_cd.problem import FrictionContactProblem, GlobalFrictionContactProblem
 from socp_cd.residuals import contact_scales
 from socp_cd.solvers import auto
@@ -1308,18 +1309,23 @@ def test_a_refused_clarabel_first_is_polished_by_newton_which_stops_when_accepte
     assert stages and all("accepted" not in kw for _, kw in stages)
 
 
-@pytest.mark.parametrize("retry", ["newton", "clarabel"])
-def test_a_refused_clarabel_answer_is_polished_by_newton(monkeypatch, retry):
+@pytest.mark.parametrize("form, retry, expected", [("coulomb", "newton", "newton"),
+                                                    ("coulomb", "clarabel", "clarabel"),
+                                                    ("associated", "newton", "clarabel")])
+def test_a_refused_clarabel_answer_is_polished_by_newton(monkeypatch, form, retry, expected):
     """CLARABEL_RETRY: after an answer of the chain's own ``clarabel`` stage (the fixed point to
     its end) within ``tol`` by the error that the units guard refuses (by little: it is the
-    seed), the next stage is the warm proximal Newton method from it, aiming at the tightened
-    tolerance with the judge as its ``accepted`` hook (``"clarabel"``: the fixed point once
-    more, as until session 44)."""
+    seed), the next stage on the exact Coulomb law is the warm proximal Newton method from it,
+    aiming at the tightened tolerance with the judge as its ``accepted`` hook (``"clarabel"``:
+    the fixed point once more, as until session 44).  Newton solves that law only: on
+    another law (the associated one here) the fixed point runs once more whatever the knob."""
     import dataclasses
     faces, _ = _faces_and_spheres()
     a, _ = contact_scales(faces)
-    exact = socp_cd.solve(faces, "clarabel", tol=1e-12).r
-    near_balanced = exact * (1 + 1e-9) / a              # (stages see the balanced copy)
+    exact = socp_cd.solve(faces, "clarabel", form, tol=1e-12).r
+    near = exact * (1 + 1e-9)
+    assert LAW_RESIDUALS[form](faces, near, None) <= 1e-8
+    near_balanced = near / a                            # (stages see the balanced copy)
     real_guard = auto._Judge.guard_value
     stages = []
 
@@ -1345,11 +1351,12 @@ def test_a_refused_clarabel_answer_is_polished_by_newton(monkeypatch, retry):
                          auto._STAGES["clarabel"][1]))
     monkeypatch.setitem(auto._STAGES, "newton", (spy(auto._STAGES["newton"][0], "newton"),
                                                  auto._STAGES["newton"][1]))
-    res = socp_cd.solve(faces, "auto", tol=1e-8, max_iter=10 ** 6, methods=("clarabel", "nsgs"))
+    res = socp_cd.solve(faces, "auto", form, tol=1e-8, max_iter=10 ** 6,
+                        methods=("clarabel", "nsgs"))
     methods = [s["method"] for s in res.info["path"]]
-    assert methods[:2] == ["clarabel", retry] and res.converged
+    assert methods[:2] == ["clarabel", expected] and res.converged
     name, kw = stages[1]
-    assert name == retry and np.array_equal(kw["r0"], near_balanced) and kw["tol"] < 1e-8
-    assert ("accepted" in kw) == (retry == "newton")
-    if retry == "newton":
+    assert name == expected and np.array_equal(kw["r0"], near_balanced) and kw["tol"] < 1e-8
+    assert ("accepted" in kw) == (expected == "newton")
+    if expected == "newton":
         assert not kw["accepted"](near_balanced) and kw["accepted"](res.r / a)

@@ -285,13 +285,17 @@ def main(argv=None) -> int:
         except (OSError, ValueError):
             sibling = {}
         sibling = sibling if isinstance(sibling, dict) else {}
-        args.calibration = sibling.get("calibration_us") or None
+        cal = sibling.get("calibration_us")
+        cal = cal if isinstance(cal, dict) else {}
+        args.calibration = {k: float(v) for k, v in cal.items()
+                            if isinstance(v, (int, float))} or None
         if args.time_limit is None:
             try:
                 args.time_limit = float(sibling["time_limit"])
             except (KeyError, ValueError, TypeError):
                 ap.error("--from-csv: the run's time limit is not recorded beside the CSV (runs "
-                         "before session 42): give it with --time-limit")
+                         "before session 42, or no readable JSON summary there): give it with "
+                         "--time-limit")
     if args.time_limit is None:
         args.time_limit = 5.0
     if args.from_csv is not None:

@@ -49,8 +49,9 @@ units guard (:func:`socp_cd.residuals.guard`, the dispatcher's second test)
 does too (on a local Coulomb problem, with Siconos' error of the problem as
 written: the chain runs on the dispatcher's balanced copy, and the dispatcher
 judges by that error first); after a stage that met the first and not the second, that stage runs
-once more from the seed (:data:`RETRY_REFUSED`; after ``"clarabel_first"`` the warm proximal
-Newton method, :data:`REDUNDANT_RETRY`) and the later stages aim at
+once more from the seed (:data:`RETRY_REFUSED`; after a Newton-family stage, and on the exact
+Coulomb law after ``"clarabel_first"`` and ``"clarabel"``, the warm proximal Newton method:
+:data:`REDUNDANT_RETRY`, :data:`CLARABEL_RETRY`) and the later stages aim at
 the dispatcher's retry tolerance
 (:func:`~socp_cd.solvers.options.tightened_tolerance`), a Newton stage among them stopping at
 the first iterate that meets both (:data:`ACCEPT_STOP`).  The dispatcher
@@ -229,7 +230,8 @@ TRIAL_STALL = 2
 #: follows there, as without the prediction: a failed early trial costs its steps
 HANDOFF_PREDICT = 20
 #: a stage whose answer meets ``tol`` by the stages' measure and not by the units guard runs
-#: once more, from the seed (that answer when it is refused by little enough to be the seed,
+#: once more (a Newton-family stage, and a fixed point's on the exact Coulomb law, as the warm
+#: proximal Newton method: :data:`REDUNDANT_RETRY`, :data:`CLARABEL_RETRY`), from the seed (that answer when it is refused by little enough to be the seed,
 #: :data:`SEED_BY_GUARD`; else the run is skipped as already made from that start), aiming at
 #: the tightened tolerance (the dispatcher's retry,
 #: :func:`~socp_cd.solvers.options.tightened_tolerance`, done by the chain itself)
@@ -321,15 +323,17 @@ REDUNDANT_RETRY = "newton"
 #: the values :data:`REDUNDANT_RETRY` and :data:`CLARABEL_RETRY` may take
 REDUNDANT_RETRIES = ("newton", "clarabel")
 #: the same for an answer of the chain's own ``"clarabel"`` stage (the fixed point to its
-#: end) refused by the units guard: ``"newton"`` (since session 44), or ``"clarabel"``, the
-#: fixed point once more at the tightened tolerance.  On 2D deposits at rest (the large-2D
-#: order: the fixed point right after the probe) Clarabel's answer at 1e-10 was refused, the
-#: second fixed point cost 0.1-0.45 s and often ended where the first had, and the Newton
+#: end) refused by the units guard, on the exact Coulomb law: ``"newton"`` (since session 44),
+#: or ``"clarabel"``, the fixed point once more at the tightened tolerance (other laws: always
+#: that).  On 2D deposits at rest (the large-2D order: the fixed point right after the probe)
+#: Clarabel's answers at 8e-11 ... 8e-9 were refused and the second interior point cost
+#: 0.10-0.46 s; on the four tune deposits at rest it ended where the first had, and the Newton
 #: stage after it was accepted after one outer iteration.  Session 44
-#: (``validation/auto_chain.py``, 1 s; formulations/auto.md, "After a refused clarabel_first"):
-#: tune deposits of 2 000-3 000 contacts sgm 0.73 -> 0.49 s (4 of 9 at x0.39-0.42, none
-#: lost); held out, the simulation collections: the 8 at-rest deposits x0.34-0.71, sgm of the
-#: 31 2D cases 0.35 -> 0.30 s, no other path changed (nor on the tune cases of at most 2 000)
+#: (``validation/auto_chain.py``, 1 s; formulations/auto.md, "After a refused clarabel
+#: answer"): tune deposits of 2 001-3 000 contacts sgm 0.73 -> 0.49 s (the 4 at rest
+#: x0.39-0.42, none lost); held out, the benchmark's simulation collections: the 8 deposits at
+#: rest x0.34-0.71, sgm of the 31 2D cases 0.35 -> 0.30 s; no other path changed, on tune or
+#: held out
 CLARABEL_RETRY = "newton"
 #: a Newton-family stage aiming at a tolerance tightened after a guard refusal stops at the
 #: first outer iterate the chain's judge accepts (both of the dispatcher's checks, newton's
@@ -405,7 +409,9 @@ OPTIONS = {
                "'nsgs', 'nsgs_probe', "
                "'clarabel', 'clarabel_first' (the fixed point stopped after REDUNDANT_FIRST_ITER outer "
                "iterations; its iterate is not the seed when it misses tol), 'clarabel_qp' "
-               "(default: chosen from the problem's features)",
+               "(default: chosen from the problem's features); a stage whose answer the units "
+               "guard refuses is followed by its retry, which on the exact Coulomb law is 'newton' "
+               "after a Newton-family or a fixed-point stage (RETRY_REFUSED), listed or not",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
 }
 
@@ -1438,10 +1444,12 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 # (next; the answer itself when refused by little enough to be the seed);
                 # a Newton-family stage as the warm proximal Newton method (a trial's or a
                 # cold stage's rerun would start elsewhere, or be skipped as already run); a
-                # fixed point's answer as REDUNDANT_RETRY and CLARABEL_RETRY say (Newton)
+                # fixed point's answer to the exact Coulomb law as REDUNDANT_RETRY and
+                # CLARABEL_RETRY say (Newton solves that law only)
+                coulomb = form == "coulomb"
                 again = ("newton" if method in _NEWTON_FAMILY
-                         else REDUNDANT_RETRY if method == "clarabel_first"
-                         else CLARABEL_RETRY if method == "clarabel" else method)
+                         else REDUNDANT_RETRY if method == "clarabel_first" and coulomb
+                         else CLARABEL_RETRY if method == "clarabel" and coulomb else method)
                 order = order[:k + 1] + ((again, form),) + order[k + 1:]
                 retried = True
     if short and status != "converged":
