@@ -1312,7 +1312,8 @@ def test_a_refused_clarabel_first_is_polished_by_newton_which_stops_when_accepte
 @pytest.mark.parametrize("form, retry, expected", [("coulomb", "newton", "newton"),
                                                     ("coulomb", "clarabel", "clarabel"),
                                                     ("associated", "newton", "clarabel")])
-def test_a_refused_clarabel_answer_is_polished_by_newton(monkeypatch, form, retry, expected):
+def test_a_refused_clarabel_answer_is_retried_by_newton_on_the_coulomb_law(monkeypatch, form,
+                                                                            retry, expected):
     """CLARABEL_RETRY: after an answer of the chain's own ``clarabel`` stage (the fixed point to
     its end) within ``tol`` by the error that the units guard refuses (by little: it is the
     seed), the next stage on the exact Coulomb law is the warm proximal Newton method from it,

@@ -231,7 +231,8 @@ TRIAL_STALL = 2
 HANDOFF_PREDICT = 20
 #: a stage whose answer meets ``tol`` by the stages' measure and not by the units guard runs
 #: once more (a Newton-family stage, and a fixed point's on the exact Coulomb law, as the warm
-#: proximal Newton method: :data:`REDUNDANT_RETRY`, :data:`CLARABEL_RETRY`), from the seed (that answer when it is refused by little enough to be the seed,
+#: proximal Newton method: :data:`REDUNDANT_RETRY`, :data:`CLARABEL_RETRY`), from the seed
+#: (that answer when it is refused by little enough to be the seed,
 #: :data:`SEED_BY_GUARD`; else the run is skipped as already made from that start), aiming at
 #: the tightened tolerance (the dispatcher's retry,
 #: :func:`~socp_cd.solvers.options.tightened_tolerance`, done by the chain itself)
@@ -1484,5 +1485,5 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
-           "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY", "CLARABEL_RETRY",
-           "REDUNDANT_RETRIES", "ACCEPT_STOP", "small_plan"]
+           "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY",
+           "CLARABEL_RETRY", "REDUNDANT_RETRIES", "ACCEPT_STOP", "small_plan"]
