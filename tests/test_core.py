@@ -95,8 +95,15 @@ def test_siconos_error_of_huge_impulses_is_their_scaled_error_not_nan(dim):
     assert kc.siconos_error(r, np.full(p.m, np.inf), mu, dim, 1.0) == np.inf
     # the shared denominator of every compiled relative error (the dispatcher's origin_error,
     # the guard, NSGS' and the projection's stops): an overflowed norm is inf, not a 0 error
-    for parts in ((1.0, np.inf, 1.0, 1.0), (1.0, 1.0, np.inf, 1.0), (1.0, 1.0, 1.0, np.inf)):
+    for parts in ((1.0, np.inf, 1.0, 1.0), (1.0, 1.0, np.inf, 1.0), (1.0, 1.0, 1.0, np.inf),
+                  (np.inf, 1.0, 1.0, 1.0)):
         assert kc.relative_error(*parts) == np.inf
+    # and a NaN anywhere is not a small error either (the test is a comparison with inf)
+    for k in range(4):
+        parts = [1.0, 4.0, 1.0, 1.0]
+        parts[k] = np.nan
+        assert kc.relative_error(*parts) == np.inf
+    assert kc.relative_error(1.0, 4.0, 1.0, 1.0) == 0.5
 
 
 @pytest.mark.parametrize("dim", [2, 3])
