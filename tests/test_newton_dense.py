@@ -615,7 +615,6 @@ def test_velocity_error_of_an_overflowing_pair_is_its_scaled_value():
     assert nd.velocity_error(1e-3, r, np.full(12, np.inf), 0.5) == np.inf
 
 
-
 def _measure(p, r, mu, policy):
     """The loop's own measure of ``r``: Siconos' error, re-normalized by the velocity scale
     under the plain policy (:func:`~socp_cd.solvers.newton.velocity_relative_error`)."""
