@@ -149,6 +149,14 @@ Session 44's:
     the same choice after an answer of the chain's own ``clarabel`` stage that the units guard
     refuses: ``clarabel`` (until session 44) or ``newton``.
 
+Session 45's:
+
+``PROBE_CAP``, ``PROBE_PREDICT``
+    the NSGS probe of larger problems goes on past ``PROBE_SWEEPS`` up to ``PROBE_CAP``
+    sweeps while NSGS's rate over the last ``PROBE_PREDICT`` sweeps predicts that the cap
+    reaches ``tol`` (None: off, the probe's 30 sweeps); ``PROBE_MISS_COLD``: a probe that went
+    on and missed counts as far (Newton starts afresh).
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``), ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``, or
@@ -194,7 +202,8 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "HANDOFF_SWEEPS", "HANDOFF_WORK", "COLD_PLAIN_STALL_LARGE", "COLD_SPLIT",
          "SEED_BY_GUARD", "TIGHTEN_FROM_SEED", "SMALL_NC", "NEWTON_FIRST_BLOCKS",
          "NEWTON_FIRST_MIN_NC", "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROX_EARLY", "REDUNDANT_SHARE",
-         "LAST_RESORT", "REDUNDANT_RETRY", "ACCEPT_STOP", "CLARABEL_RETRY")
+         "LAST_RESORT", "REDUNDANT_RETRY", "ACCEPT_STOP", "CLARABEL_RETRY", "PROBE_CAP",
+         "PROBE_PREDICT", "PROBE_MISS_COLD")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -212,14 +221,15 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "SMALL_NC": 100, "NEWTON_FIRST_BLOCKS": None, "NEWTON_FIRST_MIN_NC": 10,
         "NEWTON_FIRST_STEPS": 10, "NEWTON_FIRST_STALL": 2, "PROX_EARLY": False,
         "REDUNDANT_SHARE": None, "LAST_RESORT": False, "REDUNDANT_RETRY": "clarabel",
-        "ACCEPT_STOP": False, "CLARABEL_RETRY": "clarabel"}
+        "ACCEPT_STOP": False, "CLARABEL_RETRY": "clarabel", "PROBE_CAP": None,
+        "PROBE_PREDICT": 15, "PROBE_MISS_COLD": False}
 #: rules whose values are names
 STRINGS = ("REDUNDANT_RETRY", "CLARABEL_RETRY")
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M", "HANDOFF_PREDICT",
         "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "HANDOFF_SWEEPS", "HANDOFF_WORK",
         "COLD_PLAIN_STALL_LARGE", "SMALL_NC", "NEWTON_FIRST_BLOCKS", "NEWTON_FIRST_MIN_NC",
-        "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL")
+        "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROBE_CAP", "PROBE_PREDICT")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 

@@ -204,6 +204,16 @@ PLAIN_MAX_ITER = 200
 #: are often solved by NSGS in a few sweeps, where Newton's set-up and factorizations
 #: cost 10x more (formulations/auto.md)
 PROBE_SWEEPS = 30
+#: (a study knob, session 45; None: off) the probe's sweeps may go on up to this cap while
+#: NSGS's rate over the last :data:`PROBE_PREDICT` sweeps predicts that the cap reaches
+#: ``tol`` (NSGS's option ``predict_window``, the small chain's early hand-off turned around:
+#: there it stops NSGS early, here it lets the probe run on)
+PROBE_CAP = None
+#: ... the window of that prediction (the probe's first verdict comes after two windows)
+PROBE_PREDICT = 15
+#: ... and a probe that went on past PROBE_SWEEPS and missed ``tol`` counts as far (Newton
+#: then starts afresh): NSGS slowed down where its rate had promised more
+PROBE_MISS_COLD = False
 #: local exact-Coulomb problems with at most SMALL_NC contacts start with NSGS capped at
 #: this many sweeps (None: NSGS's own default, 1000); NSGS runs again, uncapped, from the
 #: best iterate as the chain's last stage (formulations/auto.md, "The first NSGS stage")
@@ -805,7 +815,8 @@ def route(problem, *, tol, max_iter, r0, time_limit):
             handoff = (HANDOFF_SWEEPS, int(HANDOFF_WORK))
             predict = _predict_window(problem)
     elif PROBE_SWEEPS > 0:
-        method, cap = "nsgs_probe", min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
+        method = "nsgs_probe"
+        cap, predict = _probe_plan(max_iter)
     else:
         return None
     t0 = _clock()
@@ -815,6 +826,16 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     if out is None:
         return None
     return _stage_outcome(problem, out, method, handoff, tol, max_iter, time_limit, t0)
+
+
+def _probe_plan(max_iter):
+    """``(sweep cap, prediction window)`` of the NSGS probe under the caller's ``max_iter``
+    (None: none): :data:`PROBE_SWEEPS` sweeps and no prediction, or with :data:`PROBE_CAP`
+    set, up to that cap with NSGS's rate prediction over :data:`PROBE_PREDICT` sweeps."""
+    if PROBE_CAP is None:
+        return min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS), 0
+    cap = max(int(PROBE_CAP), PROBE_SWEEPS)
+    return min(cap, max_iter or cap), int(PROBE_PREDICT)
 
 
 def _stage_limit(method, left):
@@ -1328,7 +1349,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 if max_iter is None:
                     stage_max_iter = PLAIN_MAX_ITER
             if method == "nsgs_probe" and PROBE_SWEEPS > 0:  # a probe: at most PROBE_SWEEPS sweeps
-                stage_max_iter = min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS)
+                stage_max_iter, window = _probe_plan(max_iter)
+                if window:
+                    opts["predict_window"] = window
             elif small_first and handoff is not None:
                 stage_max_iter = handoff
                 window = _predict_window(problem)
@@ -1395,7 +1418,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         missed_first = method in _FIRST_STAGES and not err <= tol
         if method == "nsgs_probe" or (FAR_NSGS_COLD and methods is None
                                       and method in ("nsgs", "nsgs_mid", "nsgs_rest")):
-            after_far_probe = not min(err, chain_err) <= WARM_MAX
+            after_far_probe = not min(err, chain_err) <= WARM_MAX or (
+                method == "nsgs_probe" and PROBE_MISS_COLD and its > PROBE_SWEEPS
+                and not err <= tol)
         elif method == "newton_trial" or missed_first:
             pass        # a trial hands the NSGS stages' verdict on to the next stage
         elif method not in COLD_STAGES or err < chain_err:
@@ -1481,7 +1506,7 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS", "HANDOFF_WORK", "TRIAL_STEPS",
            "TRIAL_STALL", "HANDOFF_PREDICT",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
-           "PLAIN_STALL_LARGE", "COLD_PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "LARGE_2D_NC", "RETRY_REFUSED",
+           "PLAIN_STALL_LARGE", "COLD_PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "PROBE_CAP", "PROBE_PREDICT", "PROBE_MISS_COLD", "LARGE_2D_NC", "RETRY_REFUSED",
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
