@@ -400,19 +400,22 @@ def test_cold_split_adds_a_second_cold_plain_stage_on_large_problems(monkeypatch
     assert auto._plain_stall("newton_plain_cold_split", False) == auto.COLD_PLAIN_STALL_LARGE
 
 
-def _recording_stage(log, name, result_r):
-    """A fake stage recording ``r0``, ``max_iter`` and the options it was called with."""
+def _recording_stage(log, name, result_r, iterations=1):
+    """A fake stage recording ``r0``, ``max_iter`` and the options it was called with (it
+    reports ``iterations``)."""
     def func(problem, formulation, *, tol, max_iter, r0, history, time_limit, verbose,
              inner_settings, **options):
         log.append({"name": name, "r0": None if r0 is None else r0.copy(), "max_iter": max_iter,
                     "options": dict(options)})
         r = result_r(problem) if callable(result_r) else result_r
-        return SolverResult(r=r, status="max_iter", iterations=1)
+        return SolverResult(r=r, status="max_iter", iterations=iterations)
     return SolverSpec(name, func, ("coulomb",), global_native=("coulomb",))
 
 
 @pytest.mark.parametrize("close", [False, True])
 def test_probe_is_capped_and_newton_starts_afresh_after_a_far_probe(monkeypatch, close):
+    # (the probe of PROBE_SWEEPS alone; going on up to PROBE_CAP: the test after this one)
+    monkeypatch.setattr(auto, "PROBE_CAP", None)
     p = _local(4, 3, 2)
     a, _ = contact_scales(p)
     ref = socp_cd.solve(p, "nsgs", tol=1e-14, max_iter=5000).r / a      # balanced units
@@ -435,6 +438,67 @@ def test_probe_is_capped_and_newton_starts_afresh_after_a_far_probe(monkeypatch,
         else:          # far: Newton from the caller's start (none), default proximal term
             assert newton_stage["r0"] is None and "alpha0" not in newton_stage["options"]
         assert np.allclose(res.r, a * probe_r, rtol=1e-15, atol=0)   # the best iterate is returned
+
+
+@pytest.mark.parametrize("went_on", [False, True])
+def test_a_probe_may_go_on_and_one_that_went_on_and_missed_counts_as_far(monkeypatch, went_on):
+    # PROBE_CAP: the probe's cap is PROBE_CAP with NSGS's rate prediction over PROBE_PREDICT
+    # sweeps (the caller's max_iter still bounds it); PROBE_MISS_COLD: a probe that ran past
+    # PROBE_SWEEPS and missed tol is far even when it ended within WARM_MAX
+    p = _local(4, 3, 2)
+    a, _ = contact_scales(p)
+    ref = socp_cd.solve(p, "nsgs", tol=1e-14, max_iter=5000).r / a      # balanced units
+    probe_r = ref * (1 + 1e-8)                                          # within WARM_MAX
+    monkeypatch.setattr(auto, "PROBE_CAP", 300)
+    monkeypatch.setattr(auto, "PROBE_MISS_COLD", True)
+    log = []
+    sweeps = auto.PROBE_SWEEPS + 1 if went_on else auto.PROBE_SWEEPS
+    monkeypatch.setitem(auto._STAGES, "nsgs_probe",
+                        (_recording_stage(log, "probe", probe_r, iterations=sweeps), {}))
+    monkeypatch.setitem(auto._STAGES, "newton",
+                        (_recording_stage(log, "newton", lambda q: np.full(q.m, np.nan)), {}))
+    for max_iter, cap in ((None, 300), (5, 5), (10 ** 6, 300)):
+        log.clear()
+        res = socp_cd.solve(p, "auto", tol=1e-15, max_iter=max_iter,
+                            methods=("nsgs_probe", "newton"))
+        probe, newton_stage = log
+        assert probe["max_iter"] == cap
+        assert probe["options"]["predict_window"] == auto.PROBE_PREDICT
+        assert res.info["path"][0]["error"] <= auto.WARM_MAX
+        if went_on:     # far by the rule: Newton from the caller's start, default proximal term
+            assert newton_stage["r0"] is None and "alpha0" not in newton_stage["options"]
+        else:           # the probe's own sweeps: near, Newton goes on from it
+            assert np.array_equal(newton_stage["r0"], probe_r)
+            assert newton_stage["options"]["alpha0"] == auto.newton.WARM_ALPHA0
+    monkeypatch.setattr(auto, "PROBE_CAP", None)        # off: PROBE_SWEEPS, no prediction
+    log.clear()
+    socp_cd.solve(p, "auto", tol=1e-15, methods=("nsgs_probe", "newton"))
+    assert log[0]["max_iter"] == auto.PROBE_SWEEPS and "predict_window" not in log[0]["options"]
+
+
+def test_a_probe_goes_on_where_nsgs_rate_predicts_tol_on_both_paths(monkeypatch):
+    # the shared granular flow (667 contacts, 2D): NSGS meets 1e-8 within a few dozen
+    # sweeps more than the probe's 30 (without PROBE_CAP, Newton finished from there in
+    # ~5 ms, 4x the sweeps).  With PROBE_CAP the probe goes on and solves it,
+    # the same sweeps on the compiled route (a plain call) and in auto_backend (methods=)
+    from pathlib import Path
+    from socp_cd.data import shared_problems_dir
+    p = socp_cd.read_problem(Path(shared_problems_dir()) / "fc2d_granularflowonwall_00667_00000.dat")
+    assert auto.PROBE_CAP == 300        # the default (session 45)
+    monkeypatch.setattr(auto, "PROBE_CAP", None)
+    off = socp_cd.solve(p, tol=1e-8)
+    assert off.info["path"][0]["iterations"] == auto.PROBE_SWEEPS
+    assert off.info["path"][1]["method"] == "newton"
+    monkeypatch.setattr(auto, "PROBE_CAP", 300)
+    for res in (socp_cd.solve(p, tol=1e-8),
+                socp_cd.solve(p, tol=1e-8, methods=("nsgs_probe", "newton"))):
+        (probe,) = res.info["path"]
+        assert res.converged and probe["method"] == "nsgs_probe"
+        assert auto.PROBE_SWEEPS < probe["iterations"] < 300
+    routed, general = (socp_cd.solve(p, tol=1e-8),
+                       socp_cd.solve(p, tol=1e-8, methods=("nsgs_probe", "newton")))
+    assert routed.info["path"][0]["iterations"] == general.info["path"][0]["iterations"]
+    assert np.array_equal(routed.r, general.r)
 
 
 def test_large_2d_local_problems_run_the_fixed_point_before_newton():
@@ -1177,6 +1241,8 @@ def test_redundant_contacts_run_the_fixed_point_after_the_probe(monkeypatch):
     assert names(faces) == default
     assert auto.features(faces, "coulomb")["redundancy"] is None
     monkeypatch.setattr(auto, "REDUNDANT_SHARE", 0.9)
+    # (the probe of PROBE_SWEEPS alone: going on up to PROBE_CAP, NSGS solves this chain)
+    monkeypatch.setattr(auto, "PROBE_CAP", None)
     # a plain call (the compiled route runs the probe) and the general path take one path
     plain = socp_cd.solve(faces, "auto", tol=1e-8)
     general = socp_cd.solve(faces, "auto", tol=1e-8, max_iter=10 ** 6)
@@ -1267,6 +1333,7 @@ def test_a_refused_clarabel_first_is_polished_by_newton_which_stops_when_accepte
     tightened tolerance with the chain's judge as its ``accepted`` hook; a Newton stage aiming
     at ``tol`` itself gets no hook."""
     import dataclasses
+    monkeypatch.setattr(auto, "PROBE_CAP", None)    # (going on, the probe would solve it)
     faces, _ = _faces_and_spheres()
     a, _ = contact_scales(faces)
     exact = socp_cd.solve(faces, "clarabel", tol=1e-12).r

@@ -25,9 +25,10 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   (:mod:`socp_cd.solvers.newton`), plain Newton steps from its iterate and from
   ``r = 0``, the proximal method from ``r = 0`` with the proximal parameter
   :data:`ALT_ALPHA0` (``"newton_cold_alt"``), the Clarabel De Saxcé fixed point and
-  Newton again; larger local problems: an NSGS *probe* of at most
-  :data:`PROBE_SWEEPS` sweeps first (then Newton starts afresh unless the probe
-  came within :data:`WARM_MAX`); 2D local problems of more than
+  Newton again; larger local problems: an NSGS *probe* of
+  :data:`PROBE_SWEEPS` sweeps first, going on up to :data:`PROBE_CAP` while
+  NSGS's rate predicts ``tol`` (then Newton starts afresh unless the probe ended
+  within :data:`WARM_MAX` without going on, :data:`PROBE_MISS_COLD`); 2D local problems of more than
   :data:`LARGE_2D_NC` contacts run the fixed point right after the probe, before
   Newton; 3D local ones whose contacts come in groups between the same two bodies
   (:func:`contact_redundancy` at least :data:`REDUNDANT_SHARE`: box faces) run a short
@@ -204,16 +205,19 @@ PLAIN_MAX_ITER = 200
 #: are often solved by NSGS in a few sweeps, where Newton's set-up and factorizations
 #: cost 10x more (formulations/auto.md)
 PROBE_SWEEPS = 30
-#: (a study knob, session 45; None: off) the probe's sweeps may go on up to this cap while
-#: NSGS's rate over the last :data:`PROBE_PREDICT` sweeps predicts that the cap reaches
-#: ``tol`` (NSGS's option ``predict_window``, the small chain's early hand-off turned around:
-#: there it stops NSGS early, here it lets the probe run on)
-PROBE_CAP = None
-#: ... the window of that prediction (the probe's first verdict comes after two windows)
+#: the probe goes on past PROBE_SWEEPS, up to this cap, while NSGS's rate over the last
+#: :data:`PROBE_PREDICT` sweeps predicts that the cap reaches ``tol`` (NSGS's option
+#: ``predict_window``: the small chain's early hand-off turned around, there it stops NSGS
+#: early, here it lets the probe run on; None: off, the probe's PROBE_SWEEPS alone; session
+#: 45, formulations/auto.md "The probe goes on where NSGS's rate predicts tol")
+PROBE_CAP = 300
+#: ... the window of that prediction (two windows: the probe's first verdict comes at
+#: PROBE_SWEEPS, so a probe the prediction stops is the probe as before)
 PROBE_PREDICT = 15
 #: ... and a probe that went on past PROBE_SWEEPS and missed ``tol`` counts as far (Newton
-#: then starts afresh): NSGS slowed down where its rate had promised more
-PROBE_MISS_COLD = False
+#: then starts afresh): NSGS slowed down where its rate had promised more, and Newton from
+#: such an iterate took 17 instead of 7 steps on a capsule pile (False: the WARM_MAX rule)
+PROBE_MISS_COLD = True
 #: local exact-Coulomb problems with at most SMALL_NC contacts start with NSGS capped at
 #: this many sweeps (None: NSGS's own default, 1000); NSGS runs again, uncapped, from the
 #: best iterate as the chain's last stage (formulations/auto.md, "The first NSGS stage")
@@ -798,7 +802,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
         ``r0`` (the general path then keeps ``r0`` as its best iterate).
     """
     # the chain's first stage on a local problem with friction (stage_order): NSGS, or on
-    # more than SMALL_NC contacts the NSGS probe of at most PROBE_SWEEPS sweeps
+    # more than SMALL_NC contacts the NSGS probe (_probe_plan: its cap and prediction)
     nc = problem.mu.shape[0]
     stall, handoff, predict = None, (0, 0), 0
     if nc <= SMALL_NC:
@@ -1348,7 +1352,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 opts["stall_window"] = _plain_stall(method, _small_local(feats))
                 if max_iter is None:
                     stage_max_iter = PLAIN_MAX_ITER
-            if method == "nsgs_probe" and PROBE_SWEEPS > 0:  # a probe: at most PROBE_SWEEPS sweeps
+            if method == "nsgs_probe" and PROBE_SWEEPS > 0:  # a probe: _probe_plan's cap
                 stage_max_iter, window = _probe_plan(max_iter)
                 if window:
                     opts["predict_window"] = window
@@ -1506,7 +1510,8 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS", "HANDOFF_WORK", "TRIAL_STEPS",
            "TRIAL_STALL", "HANDOFF_PREDICT",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
-           "PLAIN_STALL_LARGE", "COLD_PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS", "PROBE_CAP", "PROBE_PREDICT", "PROBE_MISS_COLD", "LARGE_2D_NC", "RETRY_REFUSED",
+           "PLAIN_STALL_LARGE", "COLD_PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS",
+           "PROBE_CAP", "PROBE_PREDICT", "PROBE_MISS_COLD", "LARGE_2D_NC", "RETRY_REFUSED",
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
