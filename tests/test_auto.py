@@ -490,15 +490,36 @@ def test_a_probe_goes_on_where_nsgs_rate_predicts_tol_on_both_paths(monkeypatch)
     assert off.info["path"][0]["iterations"] == auto.PROBE_SWEEPS
     assert off.info["path"][1]["method"] == "newton"
     monkeypatch.setattr(auto, "PROBE_CAP", 300)
-    for res in (socp_cd.solve(p, tol=1e-8),
-                socp_cd.solve(p, tol=1e-8, methods=("nsgs_probe", "newton"))):
+    routed, general = (socp_cd.solve(p, tol=1e-8),
+                       socp_cd.solve(p, tol=1e-8, methods=("nsgs_probe", "newton")))
+    for res in (routed, general):
         (probe,) = res.info["path"]
         assert res.converged and probe["method"] == "nsgs_probe"
         assert auto.PROBE_SWEEPS < probe["iterations"] < 300
-    routed, general = (socp_cd.solve(p, tol=1e-8),
-                       socp_cd.solve(p, tol=1e-8, methods=("nsgs_probe", "newton")))
     assert routed.info["path"][0]["iterations"] == general.info["path"][0]["iterations"]
     assert np.array_equal(routed.r, general.r)
+
+
+def test_a_probe_the_prediction_stops_after_going_on_is_far_on_both_paths():
+    # the shared Capsules-i125 pile (286 contacts): the probe goes on past 30 sweeps, the
+    # prediction stops it short of tol within WARM_MAX; Newton then starts afresh (7 outer
+    # iterations; warm from the probe it took 17), after the compiled route's probe (a plain
+    # call) as in auto_backend, under a time limit (NSGS in blocks) as without
+    from pathlib import Path
+    from socp_cd.data import shared_problems_dir
+    p = socp_cd.read_problem(Path(shared_problems_dir()) / "Capsules-i125-1213.hdf5")
+    runs = [socp_cd.solve(p, tol=1e-8), socp_cd.solve(p, tol=1e-8, time_limit=100.0),
+            socp_cd.solve(p, tol=1e-8, methods=("nsgs_probe", "newton"))]
+    for res in runs:
+        probe, newton_stage = res.info["path"][:2]
+        assert probe["method"] == "nsgs_probe" and newton_stage["method"] == "newton"
+        assert auto.PROBE_SWEEPS < probe["iterations"] < auto.PROBE_CAP
+        assert probe["status"] == "max_iter" and 1e-8 < probe["error"] <= auto.WARM_MAX
+        assert res.converged
+    assert len({res.info["path"][0]["iterations"] for res in runs}) == 1
+    assert len({res.info["path"][1]["iterations"] for res in runs}) == 1
+    cold = socp_cd.solve(p, "newton", tol=1e-8)     # Newton alone, from r = 0
+    assert runs[0].info["path"][1]["iterations"] == cold.iterations
 
 
 def test_large_2d_local_problems_run_the_fixed_point_before_newton():

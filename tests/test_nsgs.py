@@ -505,6 +505,29 @@ def test_next_block_rule():
     assert next_block(STATUS_CONVERGED, 5, 20, 25, 1000, 1e-9, 20) == (0, -1.0)
     assert next_block(STATUS_MAX_ITER, 20, 20, 1000, 1000, 1e-3, 20) == (0, -1.0)
     assert next_block(STATUS_MAX_ITER, 7, 20, 27, 1000, 1e-3, 20) == (0, -1.0)
+    # ... or stopped by the prediction on the block's last sweep (session 45)
+    from socp_cd.solvers.nsgs_kernels import STATUS_NAMES, STATUS_PREDICTED
+    assert next_block(STATUS_PREDICTED, 20, 20, 40, 1000, 1e-3, 20) == (0, -1.0)
+    assert STATUS_NAMES[STATUS_PREDICTED] == "max_iter"
+
+
+@pytest.mark.parametrize("solver,name,tol,stop", [
+    ("nsgs", "BoxesStack1-i100000-32.hdf5.dat", 1e-6, 45),
+    ("nsgs", "OneObject-i1028-138.hdf5.dat", 1e-5, 105),
+    ("projection", "BoxesStack1-i100000-32.hdf5.dat", 1e-6, 45)])
+def test_rate_prediction_stops_at_the_same_sweep_in_blocks_as_in_one_run(solver, name, tol,
+                                                                        stop):
+    # under a time limit the sweeps run in blocks of whole windows (15, 30, 60, ...: blocks
+    # end at 45, 105, 225); a verdict due on a block's last sweep was skipped until session 45
+    # (the block's own cap hid it), so a timed run stopped a window later than an untimed one
+    from pathlib import Path
+    from socp_cd.data import shared_problems_dir
+    p = socp_cd.read_problem(Path(shared_problems_dir()) / name)
+    one = solve(p, solver, tol=tol, max_iter=300, predict_window=15)
+    blocks = solve(p, solver, tol=tol, max_iter=300, predict_window=15, time_limit=100.0)
+    assert one.status == blocks.status == "max_iter"
+    assert one.iterations == blocks.iterations == stop     # (a block's last sweep)
+    assert np.array_equal(blocks.r, one.r)
 
 
 # --------------------------------------------------------------------------- the sweep's code

@@ -842,6 +842,14 @@ def _probe_plan(max_iter):
     return min(cap, max_iter or cap), int(PROBE_PREDICT)
 
 
+def _went_on_and_missed(sweeps, status, err, tol) -> bool:
+    """:data:`PROBE_MISS_COLD`'s rule: a probe that went on past :data:`PROBE_SWEEPS` under
+    :data:`PROBE_CAP` (``sweeps`` of them, ending ``status`` at the judge's error ``err``)
+    missed ``tol`` where NSGS's rate had promised it (not cut by the time limit)."""
+    return (PROBE_MISS_COLD and PROBE_CAP is not None and 0 < PROBE_SWEEPS < sweeps
+            and status != "time_limit" and not err <= tol)
+
+
 def _stage_limit(method, left):
     """The time limit of stage ``method`` that is not the order's last, ``left`` seconds of
     the budget left (None: no limit): its share of them (:data:`_SHARES`, else
@@ -1423,8 +1431,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         if method == "nsgs_probe" or (FAR_NSGS_COLD and methods is None
                                       and method in ("nsgs", "nsgs_mid", "nsgs_rest")):
             after_far_probe = not min(err, chain_err) <= WARM_MAX or (
-                method == "nsgs_probe" and PROBE_MISS_COLD and its > PROBE_SWEEPS
-                and not err <= tol)
+                method == "nsgs_probe" and _went_on_and_missed(its, st, err, tol))
         elif method == "newton_trial" or missed_first:
             pass        # a trial hands the NSGS stages' verdict on to the next stage
         elif method not in COLD_STAGES or err < chain_err:

@@ -23,11 +23,15 @@ STATUS_MAX_ITER = 1
 STATUS_STALLED = 2
 STATUS_NUMERICAL = 3
 STATUS_TIME_LIMIT = 4       # (the clock passed the sweeps' deadline)
+#: stopped by the rate prediction (reported as ``"max_iter"``): a code of its own, so that a
+#: run in blocks ends there even when the verdict falls on a block's last sweep, where the
+#: block's own cap gives ``STATUS_MAX_ITER`` and the same count of sweeps
+STATUS_PREDICTED = 5
 #: with a deadline, the sweeps read the clock every ``max(1, CHECK_BLOCKS // nnzb)`` sweeps
 #: (``nnzb``: blocks of ``W``): about every 10 µs of work (a clock read costs ~25 ns, a
 #: block visit ~5 ns), so a run stops within one sweep or ~10 µs of its deadline
 CHECK_BLOCKS = 2000
-STATUS_NAMES = ("converged", "max_iter", "stalled", "numerical_error", "time_limit")
+STATUS_NAMES = ("converged", "max_iter", "stalled", "numerical_error", "time_limit", "max_iter")
 
 
 @njit(cache=True, inline="always")
@@ -224,8 +228,10 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
     mean rate over the last ``w`` sweeps, ``c = (e_k / e_{k-w})^(1/w)``,
     predicts ``k + log(e_k / tol) / log(1 / c)`` sweeps to reach ``tol``
     (infinitely many when ``c >= 1``); when that exceeds ``predict_budget``
-    the loop stops with ``STATUS_MAX_ITER`` after ``k`` sweeps: the cap would
-    be reached first (``solver="auto"`` hands such an NSGS stage over early).
+    the loop stops with ``STATUS_PREDICTED`` (reported as ``"max_iter"``) after
+    ``k`` sweeps: the cap would be reached first (``solver="auto"`` hands such an
+    NSGS stage over early).  The verdict is made at every window's end before
+    the run's last sweep, a block's last sweep included.
 
     Deadline (``sweeps.deadline < inf``): the clock is read after every
     ``max(1, CHECK_BLOCKS // nnzb)`` sweeps that did not end the run; past the
@@ -356,9 +362,12 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
             elif stall_window > 0 and it - best_iter >= stall_window:
                 return STATUS_STALLED, it, err, n_full, n_fail, light, hist
             if window_end:
-                if window_err > 0.0 and it < max_iter and predicted_sweeps(
+                # (the run's last sweep, it == budget, needs no verdict; a block's last one
+                # does: until session 45 `it < max_iter` skipped it, so a run in blocks made
+                # its verdicts a window later than one run did)
+                if window_err > 0.0 and it < budget and predicted_sweeps(
                         it, window, window_err, err, tol) > budget:
-                    return STATUS_MAX_ITER, it, err, n_full, n_fail, light, hist
+                    return STATUS_PREDICTED, it, err, n_full, n_fail, light, hist
                 window_err = err
         if it % check_every == 0 and it < max_iter and past(deadline):
             if not full_now:        # (the error of the iterate returned, as at a block's end)
@@ -407,7 +416,7 @@ def next_block(status, its, block, done, max_iter, err, window):
     block of ``block`` sweeps that ran ``its`` of them (``done`` in all, the last full error
     ``err``): ``(sweeps of the next block, the error the rate prediction carries into it)``,
     ``(0, -1)`` when the run is over (converged, stalled, broken, out of sweeps, or stopped
-    by the rate prediction: fewer sweeps than the block)."""
+    by the rate prediction: ``STATUS_PREDICTED``)."""
     if status != STATUS_MAX_ITER or done >= max_iter or its < block:
         return 0, -1.0
     prev = err if window > 0 and done % window == 0 else -1.0

@@ -23,8 +23,8 @@ import numpy as np
 from numba import njit
 
 from .cone import EPS, error_parts, law_projection, law_velocity, relative_error
-from ..nsgs_kernels import (STATUS_CONVERGED, STATUS_MAX_ITER, STATUS_NUMERICAL, STATUS_STALLED,
-                            predicted_sweeps, recorded)
+from ..nsgs_kernels import (STATUS_CONVERGED, STATUS_MAX_ITER, STATUS_NUMERICAL,
+                            STATUS_PREDICTED, STATUS_STALLED, predicted_sweeps, recorded)
 
 #: The step rule: the acceptance and growth thresholds ``L``, ``L_min``, the shrink and
 #: growth factors ``tau``, ``tau_min`` and the retries of one step.
@@ -77,8 +77,9 @@ def projection_loop(indptr, indices, data, q, mu, g, dim, law, r, best_r, rho, t
         ``"stalled"`` after that many steps without a 1 % drop of the best error (0: never).
     predict_window, predict_budget, predict_prev : int, int, float
         Rate prediction (NSGS's, :func:`~socp_cd.solvers.nsgs_kernels.predicted_sweeps`):
-        at the end of each window of ``predict_window`` steps (0: off), stop with
-        ``"max_iter"`` when the error's mean rate over the window predicts more than
+        at the end of each window of ``predict_window`` steps (0: off; a block's last step
+        included, the run's last one not), stop with ``STATUS_PREDICTED`` (reported as
+        ``"max_iter"``) when the error's mean rate over the window predicts more than
         ``predict_budget`` steps to reach ``tol``; ``predict_prev``: the error at the
         end of the window before this call (-1: none).
     record : bool
@@ -175,8 +176,8 @@ def projection_loop(indptr, indices, data, q, mu, g, dim, law, r, best_r, rho, t
         elif stall_window > 0 and it - best_iter >= stall_window:
             return STATUS_STALLED, it, best_err, rho, products, err, hist
         if predict_window > 0 and it % predict_window == 0:
-            if window_err > 0.0 and it < max_iter and predicted_sweeps(
+            if window_err > 0.0 and it < predict_budget and predicted_sweeps(
                     it, predict_window, window_err, err, tol) > predict_budget:
-                return STATUS_MAX_ITER, it, best_err, rho, products, err, hist
+                return STATUS_PREDICTED, it, best_err, rho, products, err, hist
             window_err = err
     return STATUS_MAX_ITER, max_iter, best_err, rho, products, err, hist
