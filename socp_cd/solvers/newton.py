@@ -1806,7 +1806,8 @@ def warmup() -> float:
     :func:`~.kernels.newton_dense.plain_newton_dense`) on tiny dense problems in 2D and
     3D, with and without a time limit, with the written-out LU and with LAPACK's
     (:func:`~.kernels.dense.dense_solve`), and the compiled routes' run-and-checks call
-    (:func:`compiled_runs`), and the other equations' kernels (``equation=...``).
+    (:func:`compiled_runs`) with the calls of a continued run (``nsgs_route.trial_runner``,
+    ``trial_outcome``), and the other equations' kernels (``equation=...``).
     A benchmark calls it before timing: otherwise
     the first solve that reaches a twin pays its compilation (``solver="auto"`` reaches
     the plain one only when its first Newton stage misses ``tol``).
@@ -1824,6 +1825,15 @@ def warmup() -> float:
                 # (the compiled route's and auto's trials' one call, nsgs_route.newton_checked)
                 compiled_runs(prob, -1.0, np.zeros(prob.m), 1e-14, 2, prox=policy == "prox",
                               stall_window=DEFAULT_STALL_WINDOW, constants=trial_constants())
+                # (a run continued as continued_runs goes on after one that met tol in balanced
+                # units only: nsgs_route.trial_runner's run and trial_outcome's checks; until
+                # session 45 no warm-up reached them, and the first such call compiled them,
+                # 13-24 s, inside a benchmark's timed call)
+                norm_q = nsgs_route.judge_units(prob)[1]
+                run = nsgs_route.trial_runner(prob, norm_q, policy == "prox",
+                                              DEFAULT_STALL_WINDOW, trial_constants())
+                status, r_s = run(np.zeros(prob.m), 1e-14, 2, COLD_ALPHA0, None)[:2]
+                nsgs_route.trial_outcome(prob, norm_q, status, r_s)
         # (the other equations' kernels as the Python loop calls them, history forcing it:
         # the compiled loops above reach them inlined)
         for equation in EQUATIONS[1:]:
