@@ -483,7 +483,8 @@ def test_a_probe_goes_on_where_nsgs_rate_predicts_tol_on_both_paths(monkeypatch)
     # the same sweeps on the compiled route (a plain call) and in auto_backend (methods=)
     from pathlib import Path
     from socp_cd.data import shared_problems_dir
-    p = socp_cd.read_problem(Path(shared_problems_dir()) / "fc2d_granularflowonwall_00667_00000.dat")
+    p = socp_cd.read_problem(Path(shared_problems_dir())
+                             / "fc2d_granularflowonwall_00667_00000.dat")
     assert auto.PROBE_CAP == 300        # the default (session 45)
     monkeypatch.setattr(auto, "PROBE_CAP", None)
     off = socp_cd.solve(p, tol=1e-8)

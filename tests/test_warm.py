@@ -74,7 +74,8 @@ CHECK = textwrap.dedent('''
     from pathlib import Path
     from socp_cd.bench.evalset import MIXES, manufacture
     from socp_cd.data import shared_problems_dir
-    crank = socp_cd.read_problem(Path(shared_problems_dir()) / "FC2D_SliderCrankLagrangian00000.dat")
+    crank = socp_cd.read_problem(Path(shared_problems_dir())
+                                 / "FC2D_SliderCrankLagrangian00000.dat")
     continued = socp_cd.solve(manufacture(crank, 0.1, MIXES["mixed"], 0), "newton",
                               time_limit=1.0).info["continued"]
     # Clarabel's Newton polish above the compiled loop's size (a 2D deposit-sized problem)

@@ -28,9 +28,9 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   Newton again; larger local problems: an NSGS *probe* of
   :data:`PROBE_SWEEPS` sweeps first, going on up to :data:`PROBE_CAP` while
   NSGS's rate predicts ``tol`` (then Newton starts afresh unless the probe ended
-  within :data:`WARM_MAX` without going on, :data:`PROBE_MISS_COLD`); 2D local problems of more than
-  :data:`LARGE_2D_NC` contacts run the fixed point right after the probe, before
-  Newton; 3D local ones whose contacts come in groups between the same two bodies
+  within :data:`WARM_MAX` without going on, :data:`PROBE_MISS_COLD`); 2D local
+  problems of more than :data:`LARGE_2D_NC` contacts run the fixed point right after
+  the probe, before Newton; 3D local ones whose contacts come in groups between the same two bodies
   (:func:`contact_redundancy` at least :data:`REDUNDANT_SHARE`: box faces) run a short
   fixed point (``"clarabel_first"``, at most :data:`REDUNDANT_FIRST_ITER` outer iterations)
   right after the probe, then the chain as without it; larger or global problems: Newton, then — ordered by friction
@@ -1517,8 +1517,8 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "SMALL_SWEEPS", "SMALL_STALL", "HANDOFF_SWEEPS", "HANDOFF_WORK", "TRIAL_STEPS",
            "TRIAL_STALL", "HANDOFF_PREDICT",
            "COLD_STAGES", "WARM_MAX", "STAGE_SHARE", "SMALL_NC", "ALWAYS_COLD", "PLAIN_STALL",
-           "PLAIN_STALL_LARGE", "COLD_PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "PLAIN_SHARE", "PROBE_SWEEPS",
-           "PROBE_CAP", "PROBE_PREDICT", "PROBE_MISS_COLD", "LARGE_2D_NC", "RETRY_REFUSED",
+           "PLAIN_STALL_LARGE", "COLD_PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "PLAIN_SHARE",
+           "PROBE_SWEEPS", "PROBE_CAP", "PROBE_PREDICT", "PROBE_MISS_COLD", "LARGE_2D_NC", "RETRY_REFUSED",
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
