@@ -836,10 +836,8 @@ def _probe_plan(max_iter):
     """``(sweep cap, prediction window)`` of the NSGS probe under the caller's ``max_iter``
     (None: none): :data:`PROBE_SWEEPS` sweeps and no prediction, or with :data:`PROBE_CAP`
     set, up to that cap with NSGS's rate prediction over :data:`PROBE_PREDICT` sweeps."""
-    if PROBE_CAP is None:
-        return min(PROBE_SWEEPS, max_iter or PROBE_SWEEPS), 0
-    cap = max(int(PROBE_CAP), PROBE_SWEEPS)
-    return min(cap, max_iter or cap), int(PROBE_PREDICT)
+    cap = PROBE_SWEEPS if PROBE_CAP is None else max(int(PROBE_CAP), PROBE_SWEEPS)
+    return min(cap, max_iter or cap), 0 if PROBE_CAP is None else int(PROBE_PREDICT)
 
 
 def _went_on_and_missed(sweeps, status, err, tol) -> bool:
