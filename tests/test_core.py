@@ -152,7 +152,8 @@ def test_siconos_error_kernel_on_frictionless_contacts(dim):
 
 # ------------------------------------------------------------------ one options contract
 SOLVER_CASES = [("auto", "coulomb", 3), ("nsgs", "coulomb", 3), ("clarabel", "coulomb", 3), ("newton", "coulomb", 3), ("cvxpy", "coulomb", 3),
-                ("proxsuite", "faceted", 3), ("projection", "coulomb", 3)]
+                ("proxsuite", "faceted", 3), ("projection", "coulomb", 3),
+                ("lemke", "coulomb", 2)]
 
 
 def test_cases_cover_the_table():

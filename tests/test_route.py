@@ -27,6 +27,15 @@ from socp_cd.solvers.kernels.scaling import GUARD_KEYS, balanced_guard
 from _cases import coupled_pair
 
 
+@pytest.fixture(autouse=True)
+def _nsgs_first_in_2d(monkeypatch):
+    """This module tests the NSGS and Newton routes, on 2D problems too: ``auto``'s chain on
+    small 2D problems starts with Lemke's method (``auto.LEMKE_MAX_NC``), whose route
+    ``tests/test_lemke.py`` tests; off here."""
+    from socp_cd.solvers import auto
+    monkeypatch.setattr(auto, "LEMKE_MAX_NC", None)
+
+
 def _random(nc, dim, seed, mu=0.5, spread=3.0):
     """A random SPD local problem with contacts of very different stiffness."""
     rng = np.random.default_rng(seed)

@@ -36,7 +36,8 @@ CHECK = textwrap.dedent('''
     before = signatures()
     from socp_cd.bench.generators import manufactured
     cases = [(1, 3, 0.5, "tree"), (4, 3, 0.5, "redundant"), (30, 3, 1.0, "redundant"),
-             (12, 2, 0.5, "redundant"), (150, 3, 0.3, "tree"), (120, 2, 0.3, "tree")]
+             (12, 2, 0.5, "redundant"), (150, 3, 0.3, "tree"), (120, 2, 0.3, "tree"),
+             (5, 2, 0.5, "redundant")]      # (auto's Lemke stage: 2D, at most LEMKE_MAX_NC)
     for k, (n, d, mu, s) in enumerate(cases):
         p = manufactured(n, d, mu, structure=s, seed=k)
         for tl in (None, 1.0):
@@ -51,6 +52,9 @@ CHECK = textwrap.dedent('''
         if n <= 12:
             for form in ("associated", "frictionless"):
                 socp_cd.solve(p, formulation=form)
+            socp_cd.solve(p, "lemke", formulation="frictionless", time_limit=1.0)
+            if d == 2:
+                socp_cd.solve(p, "lemke", time_limit=1.0)
             socp_cd.solve(p, formulation="tresca", threshold=np.full(n, 0.1))
             socp_cd.solve(p, "nsgs", history=True)
             socp_cd.solve(p, "newton", history=True)

@@ -157,6 +157,11 @@ Session 45's:
     reaches ``tol`` (None: off, the probe's 30 sweeps); ``PROBE_MISS_COLD``: a probe that went
     on and missed counts as far (Newton starts afresh).
 
+Session 46's:
+
+``LEMKE_MAX_NC``
+    2D local problems of at most this many contacts start with Lemke's method (None: off).
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``), ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``, or
@@ -203,7 +208,7 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "SEED_BY_GUARD", "TIGHTEN_FROM_SEED", "SMALL_NC", "NEWTON_FIRST_BLOCKS",
          "NEWTON_FIRST_MIN_NC", "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROX_EARLY", "REDUNDANT_SHARE",
          "LAST_RESORT", "REDUNDANT_RETRY", "ACCEPT_STOP", "CLARABEL_RETRY", "PROBE_CAP",
-         "PROBE_PREDICT", "PROBE_MISS_COLD")
+         "PROBE_PREDICT", "PROBE_MISS_COLD", "LEMKE_MAX_NC")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -222,14 +227,14 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "NEWTON_FIRST_STEPS": 10, "NEWTON_FIRST_STALL": 2, "PROX_EARLY": False,
         "REDUNDANT_SHARE": None, "LAST_RESORT": False, "REDUNDANT_RETRY": "clarabel",
         "ACCEPT_STOP": False, "CLARABEL_RETRY": "clarabel", "PROBE_CAP": None,
-        "PROBE_PREDICT": 15, "PROBE_MISS_COLD": False}
+        "PROBE_PREDICT": 15, "PROBE_MISS_COLD": False, "LEMKE_MAX_NC": None}
 #: rules whose values are names
 STRINGS = ("REDUNDANT_RETRY", "CLARABEL_RETRY")
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M", "HANDOFF_PREDICT",
         "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "HANDOFF_SWEEPS", "HANDOFF_WORK",
         "COLD_PLAIN_STALL_LARGE", "SMALL_NC", "NEWTON_FIRST_BLOCKS", "NEWTON_FIRST_MIN_NC",
-        "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROBE_CAP", "PROBE_PREDICT")
+        "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROBE_CAP", "PROBE_PREDICT", "LEMKE_MAX_NC")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 
@@ -368,6 +373,8 @@ def main(argv=None) -> int:
                     help="simulation collections (folders under validation/) to add, e.g. "
                          "evalset_sim_small (validation/build_sim_collections.py --small)")
     ap.add_argument("--tag", default="", help="suffix of the output files")
+    ap.add_argument("--dim", type=int, choices=(2, 3), default=None,
+                    help="only problems of this dimension")
     ap.add_argument("--from-csv", nargs="+", type=Path, default=None,
                     help="no run: the rows of these CSVs (earlier runs of this script) whose "
                          "case is in --split by the evaluation set's current rule, reported "
@@ -382,6 +389,8 @@ def main(argv=None) -> int:
     sims = [Path(__file__).resolve().parent / f for f in args.sim] if args.sim else None
     its = items(args.split, args.max_contacts, args.min_contacts,
                 sets=tuple(args.sets) + (("sim",) if sims else ()), sims=sims)
+    if args.dim is not None:
+        its = [it for it in its if it[2].dim == args.dim]
     print(f"{len(its)} problems", flush=True)
     for dim in (2, 3):      # every kernel and stage of auto loaded (the campaign's warm-up)
         warm_up(SolverChoice("auto", "coulomb"), dim)

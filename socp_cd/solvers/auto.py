@@ -11,7 +11,9 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   Newton / NSGS on the law asked for;
 * ``"associated"``: one SOCP (Clarabel), then NSGS;
 * ``"tresca"``: NSGS, then Clarabel;
-* ``"coulomb"`` (exact law): local problems with at most :data:`SMALL_NC`
+* ``"coulomb"`` (exact law): 2D local problems of at most :data:`LEMKE_MAX_NC` contacts
+  first Lemke's method on the law's LCP (``"lemke"``, :mod:`socp_cd.solvers.lemke`), then as
+  below; local problems with at most :data:`SMALL_NC`
   contacts: NSGS (handing off after :func:`_handoff_cap` sweeps — or earlier,
   at the end of a window of :data:`HANDOFF_PREDICT` sweeps after which its rate
   predicts that the cap will not reach ``tol`` — to a trial of at most
@@ -96,7 +98,7 @@ from ..errors import InvalidProblemError, UnsupportedError
 from ..laws import LAW_RESIDUALS, law_parameters
 from ..problem import kernel_array
 from ..residuals import guard
-from . import checks, clarabel_backend, newton, nsgs, nsgs_route
+from . import checks, clarabel_backend, lemke, newton, nsgs, nsgs_route
 from .kernels.cone import siconos_error
 from .kernels.dense import csr_matvec_add
 from .kernels.patterns import KEY_MULTIPLIER, pattern_redundancy
@@ -120,6 +122,11 @@ _NSGS_MAX_ITER, _TIME_CHECK_SWEEPS = nsgs.DEFAULT_MAX_ITER, nsgs_route.TIME_CHEC
 _SWEEPS_OK = nsgs.DEFAULT_MAX_ITER <= MAX_ITER
 #: local problems with at most this many contacts start with NSGS
 SMALL_NC = 100
+#: 2D local exact-Coulomb problems with friction of at most this many contacts start with
+#: Lemke's method on the law's LCP (stage ``"lemke"``, :mod:`socp_cd.solvers.lemke`; session
+#: 46, formulations/auto.md "Lemke's method first on small 2D problems"), then the small
+#: chain; None or 0: off.  Its dense tableau costs ``O(nc²)`` a pivot and ~3 nc pivots
+LEMKE_MAX_NC = 8
 #: (a study knob, session 33; None: off) local exact-Coulomb problems of more than
 #: NEWTON_FIRST_MIN_NC and at most SMALL_NC contacts whose ``W`` stores at least this many
 #: ``dim x dim`` blocks per contact (``nnz(W) / (n_contacts dim²)``, :func:`_newton_first`)
@@ -357,6 +364,7 @@ CLARABEL_RETRY = "newton"
 ACCEPT_STOP = True
 #: stage name -> (spec, solver-specific options passed to it)
 _STAGES = {
+    "lemke": (lemke.SPEC, {}),
     "newton": (newton.SPEC, {}),
     "newton_first": (newton.SPEC, {}),     # + NEWTON_FIRST_STEPS (first, small dense W)
     "nsgs_probe": (nsgs.SPEC, {}),
@@ -509,6 +517,14 @@ def _redundancy_feature(problem):
     return contact_redundancy(problem)
 
 
+def _lemke_first(feats) -> bool:
+    """Whether the chain of the problem of ``feats`` starts with ``"lemke"``: a 2D local
+    problem of at most :data:`LEMKE_MAX_NC` contacts (with friction: the frictionless law's
+    order comes first in :func:`stage_order`)."""
+    return (feats["dim"] == 2 and not feats["global"]
+            and 0 < feats["n_contacts"] <= (LEMKE_MAX_NC or 0))
+
+
 def _small_local(feats) -> bool:
     """Whether the problem of ``feats`` (:func:`features`) takes the small local chain: a
     local problem of at most :data:`SMALL_NC` contacts (NSGS first, the hand-off)."""
@@ -569,6 +585,8 @@ def stage_order(problem, formulation, feats) -> tuple:
                     ("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
                    if HANDOFF_SWEEPS is not None and not last else ())
         first = (("newton_first", "coulomb"),) if _newton_first(problem) else ()
+        if _lemke_first(feats):
+            first = (("lemke", "coulomb"),) + first
         return (first + (("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),) + plain
                 + (("clarabel", "coulomb"), ("newton", "coulomb")) + last)
     if feats["mu_max"] >= HIGH_MU or feats["dim"] == 2:
@@ -804,6 +822,8 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     # the chain's first stage on a local problem with friction (stage_order): NSGS, or on
     # more than SMALL_NC contacts the NSGS probe (_probe_plan: its cap and prediction)
     nc = problem.mu.shape[0]
+    if problem.dim == 2 and 0 < nc <= (LEMKE_MAX_NC or 0):
+        return None         # the chain starts with Lemke's method (plain runs it compiled)
     stall, handoff, predict = None, (0, 0), 0
     if nc <= SMALL_NC:
         if NEWTON_FIRST_BLOCKS is not None and _newton_first(problem):
@@ -877,10 +897,12 @@ def plain(problem, tol, time_limit, t0):
     guard_value, resume)`` or None) for the dispatcher to judge, as :func:`route` returns
     it.  The answer is the route's, bit for bit (``tests/test_route.py``)."""
     dim = problem.dim
+    nc = problem.mu.shape[0]
+    if dim == 2 and 0 < nc <= (LEMKE_MAX_NC or 0):
+        return _lemke_plain(problem, nc, tol, time_limit, t0)
     plan = _PLANS.get(dim)
     if plan is None:
         plan = small_plan(dim)
-    nc = problem.mu.shape[0]
     if plan is False or nc > plan[0] or nc == 0 or nc > nsgs_route.MAX_CONTACTS:
         # a study's knobs (or a bad value, which route reports), a larger problem, or one
         # beyond the compiled route's bounds (nsgs_route.run_prepared's, read on each call)
@@ -925,6 +947,34 @@ def plain(problem, tol, time_limit, t0):
                                      "coulomb", tol, s)
     return _stage_outcome(problem, nsgs_route.flat_outcome(got, out), "nsgs", plan[2], tol, None,
                           time_limit, t0)
+
+
+def _lemke_plain(problem, nc, tol, time_limit, t0):
+    """:func:`plain` on a 2D problem whose chain starts with ``"lemke"`` (:func:`_lemke_first`):
+    the stage and the dispatcher's checks in one compiled call
+    (:func:`~socp_cd.solvers.nsgs_route.lemke_checked_flat`, the general path's kernels on the
+    same arrays: the same answer); the judged result when its three measures are clear of
+    ``tol`` as in :func:`plain`, else None (the general path runs the chain, this stage
+    first: a failed pivoting run is paid twice, a few µs on these sizes)."""
+    blocked = time_limit is not None
+    if blocked and not _CLOCK.AVAILABLE:
+        return None
+    indptr, indices, data = problem.csr_parts
+    m = problem.q.shape[0]
+    out = _empty((3 - (-_N_OUT // m), m))
+    got = nsgs_route.lemke_checked_flat(indptr, indices, data, problem.q, problem.mu,
+                                        lemke.pivot_cap(4 * nc, None), blocked,
+                                        _stage_limit("lemke", time_limit) if blocked else 0.0,
+                                        out)
+    code, pivots, stage_error, error, guard_value, zero_error = got
+    lo = tol * _JUDGE_LO
+    if code >= 0 and stage_error <= lo and guard_value <= lo and error <= lo:
+        s = _clock() - t0
+        return SolverResult.of_local(out[1], out[2], "converged", error, pivots,
+                                     LazyInfo((_flat_route_info, 2, nc, out, "lemke", s, code)),
+                                     "lemke met tol", zero_error <= tol, True, "auto",
+                                     "coulomb", tol, s)
+    return None
 
 
 #: :func:`plain`'s small call in dimension ``d``, prepared once (:func:`small_plan`); emptied

@@ -63,11 +63,13 @@ from .kernels.cone import LAW_COULOMB, error_parts, relative_error, siconos_erro
 from .kernels import newton_dense as nd
 from .kernels.dense import csr_matvec_add, csr_matvec_add_into, csr_to_dense, matvec_into
 from .kernels.entry import F64_VECTOR, entry_point, index_vector
+from .kernels.lemke import lemke_coulomb_2d
 from .kernels.newton_ac import block_rho_dense
 from .kernels.scaling import GUARD_KEYS, balance_csr, balanced_guard, factor_summary, origin_error
 from .options import MAX_ITER
-from .nsgs_kernels import (STATUS_NAMES, STATUS_TIME_LIMIT, BlockW, Law, LocalSolver, Origin,
-                           Sweeps, local_parameters, next_block, nsgs_loop, whole_windows)
+from .nsgs_kernels import (STATUS_CONVERGED, STATUS_MAX_ITER, STATUS_NAMES, STATUS_NUMERICAL,
+                           STATUS_TIME_LIMIT, BlockW, Law, LocalSolver, Origin, Sweeps,
+                           local_parameters, next_block, nsgs_loop, whole_windows)
 
 #: the route runs on local problems with at most this many contacts (it builds the balanced
 #: copy and the block storage in every call, where the general path keeps them on the
@@ -624,6 +626,60 @@ def flat_settings(dim, max_iter, first_block, tail) -> np.ndarray:
     return out
 
 
+#: :func:`lemke_checked_flat`'s code by Lemke's outcome
+#: (:data:`~socp_cd.solvers.kernels.lemke.SOLVED`, ``RAY``, ``MAX_PIVOTS``, ``TIME_LIMIT``): the
+#: NSGS statuses whose names (:data:`STATUS_NAMES`) the backend ``"lemke"`` reports
+LEMKE_CODES = (STATUS_CONVERGED, STATUS_NUMERICAL, STATUS_MAX_ITER, STATUS_TIME_LIMIT)
+
+
+@njit(cache=True)
+def lemke_checked_flat(indptr, indices, data, q, mu, max_pivots, blocked, time_left, out):
+    """Balance, Lemke's method on the 2D Coulomb LCP, map back and the dispatcher's checks, in
+    one call: the compiled route of ``solver="auto"``'s ``"lemke"`` stage
+    (:func:`socp_cd.solvers.auto.plain`).
+
+    The same pieces as the general path, on the same arrays: the balanced problem of
+    :func:`~socp_cd.solvers.kernels.scaling.balance_csr`, the backend's kernel
+    (:func:`~socp_cd.solvers.kernels.lemke.lemke_coulomb_2d`), the stage judge's error
+    (``||q~||`` by ``np.dot``, as :func:`newton_checked`) and :func:`checked_answer`.
+    ``out``: :func:`flat_rows` ``(m)`` rows of ``m`` as :func:`nsgs_checked_flat`'s (``SWEEPS``
+    holds the pivots).  Returns ``(code, pivots, internal_error, error, guard_value,
+    zero_error)`` as that kernel: ``code`` an NSGS status (:data:`LEMKE_CODES`) or
+    :data:`DECLINED_FRICTIONLESS` (every ``mu = 0``: the QP comes first),
+    :data:`DECLINED_NOT_FINITE`, :data:`DECLINED_SHORT_OUT`; ``guard_value`` the larger of the
+    dispatcher's units guard and the judge's (:func:`trial_checked`'s ``judge_guard``), so
+    that a caller accepting on it accepts what both would."""
+    m = q.shape[0]
+    nc = mu.shape[0]
+    if out.size < 3 * m + N_OUT or m != 2 * nc:
+        return DECLINED_SHORT_OUT, 0, np.inf, np.inf, np.inf, np.inf
+    mu_max = 0.0
+    for i in range(nc):
+        mu_max = max(mu_max, mu[i])
+    if mu_max == 0.0:
+        return DECLINED_FRICTIONLESS, 0, np.inf, np.inf, np.inf, np.inf
+    deadline = monotonic() + time_left if blocked else np.inf
+    entries = out.reshape(out.size)
+    vectors = entries[:3 * m].reshape((3, m))
+    stats = entries[3 * m:3 * m + N_OUT]
+    a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, 2)
+    norm_q = np.sqrt(np.dot(q_s, q_s))
+    outcome, pivots = lemke_coulomb_2d(indptr, indices, data_s, q_s, mu, max_pivots, deadline,
+                                       vectors[0])
+    ok, st, judge_guard = _checked_balanced(indptr, indices, data, q, mu, 2, a, b, data_s, q_s,
+                                            q_norm, q_s_norm, err0, norm_q, vectors)
+    if not ok:
+        return DECLINED_NOT_FINITE, 0, np.inf, np.inf, np.inf, np.inf
+    for k in range(N_OUT):
+        stats[k] = st[k]
+    stats[SWEEPS] = pivots
+    guard = stats[GUARD_VALUE]
+    if not judge_guard <= guard:
+        guard = judge_guard
+    return (LEMKE_CODES[outcome], pivots, stats[INTERNAL_ERROR], stats[ERROR], guard,
+            stats[ZERO_ERROR])
+
+
 def flat_rows(m) -> int:
     """Rows of :func:`nsgs_checked_flat`'s ``out`` for ``m`` unknowns: three, and those the
     :data:`N_OUT` stats fill."""
@@ -770,7 +826,7 @@ def trial_outcome(problem, norm_q, status, r_s):
     return RouteOutcome(status, vectors, x), judge_guard
 
 
-__all__ = ["nsgs_checked", "nsgs_checked_flat", "checked_work", "run", "run_prepared", "flat_entry",
+__all__ = ["nsgs_checked", "nsgs_checked_flat", "lemke_checked_flat", "LEMKE_CODES", "checked_work", "run", "run_prepared", "flat_entry",
            "flat_settings", "FLAT_SETTINGS", "N_FLAT_SETTINGS",
            "FLAT_ENTRIES", "N_OUT",
            "flat_outcome", "flat_stats", "flat_rows", "prepared", "trial_run", "trial_checked", "newton_checked", "trial_runner", "run_record", "trial_outcome", "judge_norm", "judge_units",

@@ -6,10 +6,11 @@ dispatcher reads this table.  A new solver: write its module with a ``SPEC``
 """
 from __future__ import annotations
 
-from . import auto, clarabel_backend, cvxpy_backend, newton, nsgs, projection, proxsuite_backend
+from . import (auto, clarabel_backend, cvxpy_backend, lemke, newton, nsgs, projection,
+               proxsuite_backend)
 
 #: built-in solvers, in the order :func:`socp_cd.solvers` lists them
 BUILTIN = (auto.SPEC, nsgs.SPEC, clarabel_backend.SPEC, newton.SPEC, cvxpy_backend.SPEC,
-           proxsuite_backend.SPEC, projection.SPEC)
+           proxsuite_backend.SPEC, projection.SPEC, lemke.SPEC)
 
 __all__ = ["BUILTIN"]

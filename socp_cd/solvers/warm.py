@@ -22,7 +22,7 @@ from .registry import solve
 
 #: the stages of ``solver="auto"`` run one by one (its ``methods`` option): the general path
 #: of each, on top of the plain calls' compiled routes
-AUTO_STAGES = ("nsgs", "newton_trial", "newton_trial_cold", "newton_trial_prox", "newton",
+AUTO_STAGES = ("lemke", "nsgs", "newton_trial", "newton_trial_cold", "newton_trial_prox", "newton",
                "newton_plain", "newton_plain_cold", "newton_plain_cold_split", "newton_cold_alt",
                "newton_prox_error", "nsgs_probe", "clarabel", "clarabel_first", "clarabel_qp")
 
@@ -62,7 +62,7 @@ def warmup(force: bool = False) -> float:
     the seconds this call took (0 after the first call in a process, unless ``force``).
 
     On tiny local problems in 2D and 3D: the plain calls of ``auto``, ``nsgs``, ``newton``
-    and ``projection`` (the compiled routes), with a time limit, with ``r0`` and
+    and ``projection`` (the compiled routes; ``auto``'s Lemke stage in 2D), ``lemke``, with a time limit, with ``r0`` and
     ``max_iter``, Newton's ``history``, each of ``auto``'s stages (:data:`AUTO_STAGES`, at a
     tolerance no stage meets, with and without a time limit); the backends' own warm-ups
     (:func:`socp_cd.solvers.newton.warmup`, ``nsgs``'s, ``projection``'s); a Newton system
@@ -89,6 +89,9 @@ def warmup(force: bool = False) -> float:
             solve(p, name, time_limit=5.0)
             solve(p, name, r0=np.ones(p.m), max_iter=3)
         solve(p, "newton", history=True, max_iter=3)
+        solve(p, "lemke", "frictionless", time_limit=5.0)
+        if dim == 2:
+            solve(p, "lemke", time_limit=5.0)   # (auto's plain call above: its compiled route)
         solve(_local(1, dim, 1))   # one contact: the flat kernel's call
         for tol in (1e-6, 1e-30):
             solve(p, "auto", tol=tol, max_iter=3, time_limit=5.0, methods=AUTO_STAGES)
