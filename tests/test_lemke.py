@@ -58,7 +58,9 @@ def test_kernel_equals_reference_on_coulomb_lcps(rank_deficient):
         if code == lcp.LEMKE_SOLVED:
             solved += 1
             _check_solution(M, q, z)
-    # full rank: a positive definite W always has a solution, which Lemke's method finds
+    # full rank: a positive definite W has a solution, which Lemke's method found on all of
+    # these (it is not guaranteed: M is copositive, not copositive-plus); rank-deficient W
+    # with a random q may have none
     assert solved == 60 if not rank_deficient else solved >= 40
 
 
@@ -174,7 +176,6 @@ def test_extremes():
 
 
 def test_frictionless_law_in_2d_and_3d():
-    rng = np.random.default_rng(9)
     for dim in (2, 3):
         p = manufactured(6, dim=dim, mu=0.5, seed=1)
         res = socp_cd.solve(p, solver="lemke", formulation="frictionless")
@@ -182,7 +183,6 @@ def test_frictionless_law_in_2d_and_3d():
         assert not res.r.reshape(-1, dim)[:, 1:].any()      # r_T = 0
         ref = socp_cd.solve(p, solver="nsgs", formulation="frictionless", tol=1e-12)
         np.testing.assert_allclose(res.u[0::dim], ref.u[0::dim], atol=1e-8 * (1 + abs(ref.u).max()))
-    del rng
 
 
 def test_outcomes_other_than_solved_are_reported():
@@ -216,6 +216,17 @@ def test_refused_problems_and_options():
         socp_cd.solve(big, solver="lemke")
 
 
+def _general(monkeypatch, p, **kw):
+    """``socp_cd.solve(p, **kw)`` on the general path (the compiled routes off, as
+    tests/test_route.py does: ``nsgs_route.MAX_CONTACTS = 0``)."""
+    from socp_cd.solvers import nsgs_route
+    with monkeypatch.context() as m:
+        m.setattr(nsgs_route, "MAX_CONTACTS", 0)
+        res = socp_cd.solve(p, **kw)
+    assert "route" not in res.info
+    return res
+
+
 def _auto_cases():
     """2D problems of at most auto.LEMKE_MAX_NC contacts: manufactured (tree, redundant), mu
     0.1 and 1, every state mixed, and one with mu = 0 on some contacts."""
@@ -233,13 +244,15 @@ def _auto_cases():
 
 @pytest.mark.parametrize("k", range(5))
 @pytest.mark.parametrize("time_limit", [None, 1.0])
-def test_auto_starts_small_2d_problems_with_lemke_compiled_as_the_general_path(k, time_limit):
+def test_auto_starts_small_2d_problems_with_lemke_compiled_as_the_general_path(monkeypatch, k,
+                                                                               time_limit):
     """A plain auto call on a small 2D problem (auto.plain's compiled Lemke stage) gives the
-    general path's answer bit for bit (history=True takes the general path, whose chain
-    starts with the "lemke" stage), and the path says so."""
+    general path's answer bit for bit (its chain starts with the "lemke" stage; history=True
+    takes it too), and the path says so."""
     p = _auto_cases()[k]
     plain = socp_cd.solve(p, time_limit=time_limit)
-    general = socp_cd.solve(p, time_limit=time_limit, history=True)
+    general = _general(monkeypatch, p, time_limit=time_limit)
+    assert np.array_equal(socp_cd.solve(p, time_limit=time_limit, history=True).r, plain.r)
     assert plain.converged and general.converged
     np.testing.assert_array_equal(plain.r, general.r)
     np.testing.assert_array_equal(plain.u, general.u)
@@ -272,3 +285,53 @@ def test_auto_chain_goes_on_after_a_failed_lemke_stage(monkeypatch):
     p = manufactured(3, dim=2, mu=0.5, seed=5)
     for kw in ({}, {"history": True}):
         assert socp_cd.solve(p, **kw).info["path"][0]["method"] == "nsgs"
+
+
+def test_warm_calls_start_with_nsgs_on_the_compiled_route(monkeypatch):
+    """Pivoting has no warm start: with r0 the chain starts with NSGS, through auto's compiled
+    route as before the Lemke stage (the Moreau–Jean stepper's warm-started calls), and the
+    general path agrees."""
+    p = manufactured(5, dim=2, mu=0.5, structure="redundant", seed=6)
+    r0 = socp_cd.solve(p).r * 0.9
+    warm = socp_cd.solve(p, r0=r0)
+    general = _general(monkeypatch, p, r0=r0)
+    assert warm.converged and warm.info["path"][0]["method"] == "nsgs"
+    assert warm.info.get("route") == "compiled"
+    assert general.info["path"][0]["method"] == "nsgs"
+    np.testing.assert_array_equal(warm.r, general.r)
+
+
+def test_a_failed_lemke_stage_is_handed_on_not_run_again(monkeypatch):
+    """A pivot cap of 2 (monkeypatched): the plain call's compiled stage misses tol and hands
+    it to the chain as its first stage (one "lemke" record, not two), whose iterate is not
+    the seed (NSGS starts from zero: the general path, which runs the stage itself, takes the
+    same path to the same answer)."""
+    from socp_cd.solvers import lemke as backend
+    monkeypatch.setattr(backend, "pivot_cap", lambda n, max_iter: 2)
+    p = manufactured(6, dim=2, mu=0.5, mix=(0, 0, 1, 0), seed=7)
+    plain = socp_cd.solve(p, time_limit=1.0)
+    general = _general(monkeypatch, p, time_limit=1.0)
+    methods = [s["method"] for s in plain.info["path"]]
+    assert plain.converged and methods[0] == "lemke" and methods.count("lemke") == 1
+    assert plain.info["path"][0]["status"] == "max_iter" and plain.info["path"][0]["iterations"] == 2
+    assert methods == [s["method"] for s in general.info["path"]]
+    np.testing.assert_array_equal(plain.r, general.r)
+    assert plain.time >= plain.info["path"][0]["time"]      # the stage's time counts
+
+
+def test_frictionless_and_bounds_of_the_lemke_rule(monkeypatch):
+    """All mu = 0: the QP first (the compiled stage declines); LEMKE_MAX_NC within SMALL_NC
+    (one test for plain, route and stage_order); a bad value is named."""
+    from socp_cd.errors import InvalidProblemError
+    from socp_cd.solvers import auto
+    p = manufactured(3, dim=2, mu=0.0, seed=8)
+    res = socp_cd.solve(p)
+    assert res.converged and res.info["path"][0]["method"] == "clarabel_qp"
+    q = manufactured(4, dim=2, mu=0.5, seed=9)
+    monkeypatch.setattr(auto, "SMALL_NC", 2)
+    for kw in ({}, {"history": True}):
+        assert socp_cd.solve(q, **kw).info["path"][0]["method"] == "nsgs_probe"
+    monkeypatch.setattr(auto, "SMALL_NC", 100)
+    monkeypatch.setattr(auto, "LEMKE_MAX_NC", "8")
+    with pytest.raises(InvalidProblemError, match="LEMKE_MAX_NC"):
+        socp_cd.solve(q)

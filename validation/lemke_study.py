@@ -1,6 +1,6 @@
 """Lemke's method on small 2D problems: its pivot tolerance, its accuracy and its cost (issue #10).
 
-Two tables (``formulations/lemke.md``):
+Three tables (``formulations/lemke.md``):
 
 1. **Pivot tolerance.**  For each candidate ``socp_cd.lcp.PIVOT_TOL`` (an entry of the
    entering column counts as positive above this share of the column's largest), Lemke's
@@ -12,7 +12,9 @@ Two tables (``formulations/lemke.md``):
    and 300 manufactured problems on rank-deficient ``W`` (``generators.manufactured``,
    ``structure="redundant"``); ``holdout``: ``validation/evalset_sim_small2d`` and the
    evaluation set's held-out 2D manufactured cases.
-2. **Cost.**  ``solver="lemke"``'s compiled kernel (balanced problem, min of 50 calls) and the
+2. **Large μ.**  Random 5-contact problems with positive definite ``W`` (six seeds), as
+   written and balanced, ``μ`` from 0.5 to 1e6: how many runs end on a secondary ray.
+3. **Cost.**  ``solver="lemke"``'s compiled kernel (balanced problem, min of 50 calls) and the
    pivots, by contacts, next to ``solver="auto"`` with the ``"lemke"`` stage off
    (``auto.LEMKE_MAX_NC = None``: NSGS first) and ``solver="newton"`` (min of 5 calls each,
    ``time_limit=1``), on the same problems.
@@ -38,7 +40,7 @@ from socp_cd.bench.evalset import collection_cases, manufactured_cases
 from socp_cd.bench.generators import manufactured
 from socp_cd.bench.reports import emit
 from socp_cd.data import shared_problems_dir
-from socp_cd.problem import kernel_array
+from socp_cd.problem import FrictionContactProblem, kernel_array
 from socp_cd.solvers import auto
 from socp_cd.solvers.kernels.lemke import lemke_coulomb_2d
 from socp_cd.solvers.scaling import balanced
@@ -75,13 +77,13 @@ def problems(split, max_contacts):
 
 
 def tolerance_table(probs) -> list:
-    lines = ["| PIVOT_TOL | problems | solved, error ≤ 1e-10 | 'solved', error > 1e-10 | "
-             "secondary ray | pivot cap |", "|---|---|---|---|---|---|"]
+    lines = ["| PIVOT_TOL | problems | solved, error ≤ 1e-10 | 'solved', error > 1e-10 (the "
+             "largest) | secondary ray | pivot cap |", "|---|---|---|---|---|---|"]
     kept = lcp.PIVOT_TOL
     try:
         for tol in TOLS:
             lcp.PIVOT_TOL = tol
-            counts = defaultdict(int)
+            counts, worst = defaultdict(int), 0.0
             for _, p in probs:
                 b = balanced(p).problem
                 M, q = lcp.coulomb_lcp_2d(b.W.toarray(), b.q, b.mu)
@@ -89,14 +91,36 @@ def tolerance_table(probs) -> list:
                 if code == lcp.LEMKE_SOLVED:
                     e = socp_cd.error(b, lcp.coulomb_impulses(z, b.n_contacts))
                     counts["good" if e <= 1e-10 else "bad"] += 1
+                    worst = max(worst, e) if e > 1e-10 else worst
                 else:
                     counts[code] += 1
             lines.append(f"| {tol:g}{' (adopted)' if tol == kept else ''} | {len(probs)} | "
-                         f"{counts['good']} | {counts['bad']} | {counts[lcp.LEMKE_RAY]} | "
+                         f"{counts['good']} | {counts['bad']}"
+                         + (f" ({worst:.1e})" if counts["bad"] else "") + f" | {counts[lcp.LEMKE_RAY]} | "
                          f"{counts[lcp.LEMKE_MAX_PIVOTS]} |")
     finally:
         lcp.PIVOT_TOL = kept
     return lines
+
+
+def mu_table() -> list:
+    """Lemke's method (the reference) on random 5-contact problems with positive definite
+    ``W`` (six seeds), as written and balanced, for friction coefficients up to 1e6: the runs
+    that end on a secondary ray (a solution exists: ``W`` is positive definite)."""
+    mus = (0.5, 10.0, 1e2, 1e3, 1e4, 1e6)
+    rays = {mu: 0 for mu in mus}
+    for seed in range(8, 14):
+        rng = np.random.default_rng(seed)
+        A = rng.standard_normal((10, 10))
+        W, q = A @ A.T, rng.standard_normal(10)
+        for mu in mus:
+            p = FrictionContactProblem(W, q, np.full(5, mu), dim=2)
+            for b in (p, balanced(p).problem):
+                M, ql = lcp.coulomb_lcp_2d(b.W.toarray(), b.q, b.mu)
+                rays[mu] += lcp.lemke_reference(M, ql, lcp_cap(20))[1] == lcp.LEMKE_RAY
+    return (["| μ | " + " | ".join(f"{mu:g}" for mu in mus) + " |",
+             "|---|" + "---|" * len(mus),
+             "| runs ending on a ray, of 12 | " + " | ".join(str(rays[mu]) for mu in mus) + " |"])
 
 
 def lcp_cap(n):
@@ -152,6 +176,8 @@ def main(argv=None) -> int:
              f"`validation/lemke_study.py --split {args.split}`: {len(probs)} problems of at most "
              f"{args.max_contacts} contacts (see the script's docstring).", "",
              "## The pivot tolerance", ""] + tolerance_table(probs)
+    lines += ["", "## Large friction coefficients (random problems, not the split's)", ""]
+    lines += mu_table()
     lines += ["", "## Cost by size (this machine, one process)", ""] + cost_table(probs)
     emit(lines, args.out)
     return 0

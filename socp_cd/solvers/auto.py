@@ -11,8 +11,9 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   Newton / NSGS on the law asked for;
 * ``"associated"``: one SOCP (Clarabel), then NSGS;
 * ``"tresca"``: NSGS, then Clarabel;
-* ``"coulomb"`` (exact law): 2D local problems of at most :data:`LEMKE_MAX_NC` contacts
-  first Lemke's method on the law's LCP (``"lemke"``, :mod:`socp_cd.solvers.lemke`), then as
+* ``"coulomb"`` (exact law): 2D local problems of at most :data:`LEMKE_MAX_NC` contacts,
+  without ``r0``, first Lemke's method on the law's LCP (``"lemke"``,
+  :mod:`socp_cd.solvers.lemke`; a refused answer of it is polished by Newton), then as
   below; local problems with at most :data:`SMALL_NC`
   contacts: NSGS (handing off after :func:`_handoff_cap` sweeps — or earlier,
   at the end of a window of :data:`HANDOFF_PREDICT` sweeps after which its rate
@@ -52,8 +53,8 @@ units guard (:func:`socp_cd.residuals.guard`, the dispatcher's second test)
 does too (on a local Coulomb problem, with Siconos' error of the problem as
 written: the chain runs on the dispatcher's balanced copy, and the dispatcher
 judges by that error first); after a stage that met the first and not the second, that stage runs
-once more from the seed (:data:`RETRY_REFUSED`; after a Newton-family stage, and on the exact
-Coulomb law after ``"clarabel_first"`` and ``"clarabel"``, the warm proximal Newton method:
+once more from the seed (:data:`RETRY_REFUSED`; after a Newton-family stage or ``"lemke"``, and
+on the exact Coulomb law after ``"clarabel_first"`` and ``"clarabel"``, the warm proximal Newton method:
 :data:`REDUNDANT_RETRY`, :data:`CLARABEL_RETRY`) and the later stages aim at
 the dispatcher's retry tolerance
 (:func:`~socp_cd.solvers.options.tightened_tolerance`), a Newton stage among them stopping at
@@ -72,7 +73,7 @@ methods : sequence of str, optional
     ``"newton_plain_cold"``, ``"newton_plain_cold_split"``, ``"newton_trial"``,
     ``"newton_trial_cold"``, ``"newton_trial_prox"``, ``"newton_cold_alt"``,
     ``"newton_prox_error"``, ``"nsgs"``,
-    ``"nsgs_probe"``, ``"clarabel"``
+    ``"nsgs_probe"``, ``"lemke"`` (2D, or the frictionless law), ``"clarabel"``
     and ``"clarabel_qp"`` (Clarabel on the frictionless QP))
     instead of the feature-based one (no hand-off then).
 
@@ -81,7 +82,8 @@ Common options (:mod:`socp_cd.solvers.options`): ``tol``; ``max_iter`` caps
 fixed-point outer iterations; None: each method's default); ``time_limit`` is
 a *total* budget in seconds: each stage receives a share of what remains (the
 last stage all of it) and no stage starts once it is spent; ``r0`` is the
-warm start of the first stage; ``inner_settings`` does not apply (stages run
+warm start of the first stage (a small 2D problem's chain then starts with NSGS, not Lemke's
+method, which has no warm start); ``inner_settings`` does not apply (stages run
 with their own defaults) and is rejected when non-empty.  ``info["path"]``
 lists every stage: ``{"method", "formulation", "iterations", "time", "error",
 "status"}``; ``info["features"]`` the features the order was chosen from.
@@ -120,9 +122,11 @@ _empty, _INF, _CLOCK = np.empty, float("inf"), nsgs_route.clock
 _FLAT_ENTRIES, _N_OUT = nsgs_route.FLAT_ENTRIES, nsgs_route.N_OUT
 _NSGS_MAX_ITER, _TIME_CHECK_SWEEPS = nsgs.DEFAULT_MAX_ITER, nsgs_route.TIME_CHECK_SWEEPS
 _SWEEPS_OK = nsgs.DEFAULT_MAX_ITER <= MAX_ITER
-#: local problems with at most this many contacts start with NSGS
+#: local problems with at most this many contacts start with NSGS (2D ones of at most
+#: LEMKE_MAX_NC, cold, with Lemke's method)
 SMALL_NC = 100
-#: 2D local exact-Coulomb problems with friction of at most this many contacts start with
+#: 2D local exact-Coulomb problems with friction of at most this many contacts start a cold
+#: call (no ``r0``: pivoting has no warm start; from an ``r0`` NSGS starts, as before) with
 #: Lemke's method on the law's LCP (stage ``"lemke"``, :mod:`socp_cd.solvers.lemke`; session
 #: 46, formulations/auto.md "Lemke's method first on small 2D problems"), then the small
 #: chain; None or 0: off.  Its dense tableau costs ``O(nc²)`` a pivot and ~3 nc pivots
@@ -409,7 +413,7 @@ ALWAYS_COLD = ("newton_plain_cold", "newton_plain_cold_split", "newton_trial_col
 _COLD_TRIALS = ("newton_trial_cold", "newton_trial_prox")
 #: first stages whose iterate, when it misses ``tol``, is not the seed (the chain after them
 #: runs as without them)
-_FIRST_STAGES = ("newton_first", "clarabel_first")
+_FIRST_STAGES = ("newton_first", "clarabel_first", "lemke")
 #: stages of the Newton method: a refused answer of one is retried as ``"newton"`` (warm)
 _NEWTON_FAMILY = tuple(name for name, (spec, _) in _STAGES.items() if spec is newton.SPEC)
 #: stages with their own stall window (:data:`PLAIN_STALL`, :data:`PLAIN_STALL_LARGE`) and,
@@ -429,12 +433,12 @@ _SHARES = types.MappingProxyType({"newton_plain": PLAIN_SHARE, "newton_plain_col
 OPTIONS = {
     "methods": "explicit stage order, names among 'newton', 'newton_plain', 'newton_plain_cold', "
                "'newton_plain_cold_split', 'newton_trial', 'newton_trial_cold', 'newton_trial_prox', 'newton_cold_alt', 'newton_prox_error', "
-               "'nsgs', 'nsgs_probe', "
+               "'nsgs', 'nsgs_probe', 'lemke' (2D, or the frictionless law), "
                "'clarabel', 'clarabel_first' (the fixed point stopped after REDUNDANT_FIRST_ITER outer "
                "iterations; its iterate is not the seed when it misses tol), 'clarabel_qp' "
                "(default: chosen from the problem's features); a stage whose answer the units "
                "guard refuses is followed by its retry, which on the exact Coulomb law is 'newton' "
-               "after a Newton-family or a fixed-point stage (RETRY_REFUSED), listed or not",
+               "after a Newton-family, a fixed-point or the 'lemke' stage (RETRY_REFUSED), listed or not",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
 }
 
@@ -517,12 +521,25 @@ def _redundancy_feature(problem):
     return contact_redundancy(problem)
 
 
+def lemke_bound() -> int:
+    """The most contacts of a 2D local problem whose cold call starts with ``"lemke"``:
+    :data:`LEMKE_MAX_NC` (None: 0), within :data:`SMALL_NC` (the small chain it heads) and the
+    backend's bound (``lemke.MAX_UNKNOWNS``, four LCP unknowns a contact); the one test of
+    :func:`stage_order`, :func:`route` and :func:`plain`."""
+    bound = LEMKE_MAX_NC
+    if bound is None:
+        return 0
+    if type(bound) is not int:
+        raise InvalidProblemError("auto.LEMKE_MAX_NC", f"must be an int or None, got {bound!r}")
+    return min(bound, SMALL_NC, lemke.MAX_UNKNOWNS // 4)
+
+
 def _lemke_first(feats) -> bool:
-    """Whether the chain of the problem of ``feats`` starts with ``"lemke"``: a 2D local
-    problem of at most :data:`LEMKE_MAX_NC` contacts (with friction: the frictionless law's
-    order comes first in :func:`stage_order`)."""
+    """Whether the chain of the problem of ``feats`` starts with ``"lemke"`` on a cold call:
+    a 2D local problem of at most :func:`lemke_bound` contacts (with friction: the
+    frictionless law's order comes first in :func:`stage_order`)."""
     return (feats["dim"] == 2 and not feats["global"]
-            and 0 < feats["n_contacts"] <= (LEMKE_MAX_NC or 0))
+            and 0 < feats["n_contacts"] <= lemke_bound())
 
 
 def _small_local(feats) -> bool:
@@ -822,8 +839,8 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     # the chain's first stage on a local problem with friction (stage_order): NSGS, or on
     # more than SMALL_NC contacts the NSGS probe (_probe_plan: its cap and prediction)
     nc = problem.mu.shape[0]
-    if problem.dim == 2 and 0 < nc <= (LEMKE_MAX_NC or 0):
-        return None         # the chain starts with Lemke's method (plain runs it compiled)
+    if problem.dim == 2 and r0 is None and nc <= lemke_bound():
+        return None         # a cold chain starts with Lemke's method (plain runs it compiled)
     stall, handoff, predict = None, (0, 0), 0
     if nc <= SMALL_NC:
         if NEWTON_FIRST_BLOCKS is not None and _newton_first(problem):
@@ -898,7 +915,7 @@ def plain(problem, tol, time_limit, t0):
     it.  The answer is the route's, bit for bit (``tests/test_route.py``)."""
     dim = problem.dim
     nc = problem.mu.shape[0]
-    if dim == 2 and 0 < nc <= (LEMKE_MAX_NC or 0):
+    if dim == 2 and nc <= lemke_bound():
         return _lemke_plain(problem, nc, tol, time_limit, t0)
     plan = _PLANS.get(dim)
     if plan is None:
@@ -954,27 +971,32 @@ def _lemke_plain(problem, nc, tol, time_limit, t0):
     the stage and the dispatcher's checks in one compiled call
     (:func:`~socp_cd.solvers.nsgs_route.lemke_checked_flat`, the general path's kernels on the
     same arrays: the same answer); the judged result when its three measures are clear of
-    ``tol`` as in :func:`plain`, else None (the general path runs the chain, this stage
-    first: a failed pivoting run is paid twice, a few µs on these sizes)."""
+    ``tol`` as in :func:`plain`, else the stage handed on as :func:`route`'s resume (the chain
+    goes on from the second stage, the stage's time counted), or None when the kernel
+    declined (all ``mu = 0``, non-finite answers: the general path from the start)."""
     blocked = time_limit is not None
-    if blocked and not _CLOCK.AVAILABLE:
-        return None
+    if (blocked and not _CLOCK.AVAILABLE) or nc > nsgs_route.MAX_CONTACTS:
+        return None     # (the compiled route's bounds, as for NSGS: the general path)
     indptr, indices, data = problem.csr_parts
     m = problem.q.shape[0]
     out = _empty((3 - (-_N_OUT // m), m))
-    got = nsgs_route.lemke_checked_flat(indptr, indices, data, problem.q, problem.mu,
-                                        lemke.pivot_cap(4 * nc, None), blocked,
-                                        _stage_limit("lemke", time_limit) if blocked else 0.0,
-                                        out)
+    # (through its entry point: numba's dispatcher would type the 9 arguments on each call)
+    got = nsgs_route.lemke_entry(indptr, indices)(
+        indptr, indices, data, problem.q, problem.mu, lemke.pivot_cap(4 * nc, None), blocked,
+        _stage_limit("lemke", time_limit) if blocked else 0.0, out)
     code, pivots, stage_error, error, guard_value, zero_error = got
+    if code < 0:
+        return None
+    s = _clock() - t0
     lo = tol * _JUDGE_LO
-    if code >= 0 and stage_error <= lo and guard_value <= lo and error <= lo:
-        s = _clock() - t0
+    if stage_error <= lo and guard_value <= lo and error <= lo:
         return SolverResult.of_local(out[1], out[2], "converged", error, pivots,
                                      LazyInfo((_flat_route_info, 2, nc, out, "lemke", s, code)),
                                      "lemke met tol", zero_error <= tol, True, "auto",
                                      "coulomb", tol, s)
-    return None
+    stage = {"method": "lemke", "formulation": "coulomb", "iterations": pivots, "time": s,
+             "error": stage_error, "status": nsgs_route.STATUS_NAMES[code]}
+    return None, None, {"r": out[0], "stage": stage, "trials": []}
 
 
 #: :func:`plain`'s small call in dimension ``d``, prepared once (:func:`small_plan`); emptied
@@ -1259,6 +1281,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     methods = options.get("methods")
     order = (_explicit_order(methods, formulation) if methods is not None
              else stage_order(problem, formulation, feats))
+    if methods is None and r0 is not None and order[0][0] == "lemke":
+        order = order[1:]       # (a warm call: NSGS from r0 first; pivoting has no warm start)
     judge = _Judge(problem, formulation, params, tol)
     best_r = None if r0 is None else np.array(r0, dtype=np.float64)
     best_err = judge(best_r) if best_r is not None else np.inf
@@ -1532,7 +1556,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 # fixed point's answer to the exact Coulomb law as REDUNDANT_RETRY and
                 # CLARABEL_RETRY say (Newton solves that law only)
                 coulomb = form == "coulomb"
-                again = ("newton" if method in _NEWTON_FAMILY
+                again = ("newton" if method in _NEWTON_FAMILY or method == "lemke"
                          else REDUNDANT_RETRY if method == "clarabel_first" and coulomb
                          else CLARABEL_RETRY if method == "clarabel" and coulomb else method)
                 order = order[:k + 1] + ((again, form),) + order[k + 1:]

@@ -17,8 +17,9 @@ Options: none.  Common options: ``max_iter`` caps the pivots (default ``max(``
 :data:`~socp_cd.solvers.kernels.lemke.CLOCK_EVERY` pivots; ``r0`` is not used (pivoting
 starts from the basis of ``w``); ``history``: not recorded; ``inner_settings``: rejected.
 Status: ``converged`` (provisional: the dispatcher recomputes the error), ``numerical_error``
-(a secondary ray: Lemke's method found no solution; for the LCPs here with a positive
-semidefinite ``W`` that means none exists), ``max_iter``, ``time_limit``.
+(a secondary ray: Lemke's method found no solution; the LCP may have none, or the method may
+miss one: its matrix is copositive, not copositive-plus, and rounding can end the pivots on a
+false ray at large ``μ``, ``formulations/lemke.md``), ``max_iter``, ``time_limit``.
 ``info``: ``pivots``, ``lcp_unknowns``, ``lemke`` (the outcome's name).
 """
 from __future__ import annotations
@@ -38,7 +39,8 @@ from .spec import SolverSpec
 
 #: the least pivot cap when ``max_iter`` is None (the cap is ``max(this, 20 n)``)
 DEFAULT_MAX_ITER = 1000
-#: the largest LCP this backend builds (the tableau's ``n (2n + 1)`` floats: 41 MB)
+#: the largest LCP this backend builds (the tableau's ``n (2n + 1)`` floats, ``M`` and the
+#: final solve's basis, ``n²`` each: ~82 MB at this size)
 MAX_UNKNOWNS = 1600
 #: outcome names (``info["lemke"]``) by code
 _OUTCOMES = ("solved", "secondary ray", "pivot cap", "time limit")
@@ -101,7 +103,7 @@ def lemke_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=
     info = {"pivots": int(pivots), "lcp_unknowns": n, "lemke": _OUTCOMES[code],
             "loop_time": time.perf_counter() - t0}
     message = {"secondary ray": "Lemke's method ended on a secondary ray: no solution found "
-                                "(with W positive semidefinite, the LCP has none)",
+                                "(the LCP may have none, or the pivots missed one)",
                "pivot cap": f"{cap} pivots without a solution",
                "time limit": f"time_limit {time_limit!r} s reached after {pivots} pivots"
                }.get(info["lemke"], "")

@@ -707,6 +707,7 @@ def flat_outcome(numbers, out):
 #: calls the kernel itself, a Python layer less: 0.1-0.3 µs of a one-contact call)
 _CHECKED = {}
 FLAT_ENTRIES = {}
+LEMKE_ENTRIES = {}
 _INDEX_DTYPES = (np.dtype(np.int32), np.dtype(np.int64))
 
 
@@ -714,6 +715,12 @@ def _checked_entry(indptr, indices):
     """:func:`nsgs_checked`'s entry point for these index arrays (recorded in :data:`_CHECKED`
     when both have the same dtype; else the dispatcher, which checks every argument)."""
     return _entry(indptr, indices, nsgs_checked, _CHECKED, _CHECKED_ARGS)
+
+
+def lemke_entry(indptr, indices):
+    """:func:`lemke_checked_flat`'s entry point, as :func:`_checked_entry` (recorded in
+    :data:`LEMKE_ENTRIES`)."""
+    return _entry(indptr, indices, lemke_checked_flat, LEMKE_ENTRIES, _LEMKE_ARGS)
 
 
 def flat_entry(indptr, indices):
@@ -729,6 +736,8 @@ _OUT = types.Array(types.float64, 2, "C")
 _CHECKED_ARGS = (F64_VECTOR, F64_VECTOR, F64_VECTOR, _I, _B, _F, _I, _B, _I, _F, _I, _F, _I, _I,
                  _F, _I, _I, _B, _I, _I, _I, _OUT)
 _FLAT_ARGS = (F64_VECTOR, F64_VECTOR, F64_VECTOR, F64_VECTOR, _B, _F, _B, _F, _OUT)
+#: :func:`lemke_checked_flat`'s, after the index arrays
+_LEMKE_ARGS = (F64_VECTOR, F64_VECTOR, F64_VECTOR, _I, _B, _F, _OUT)
 
 
 def _entry(indptr, indices, kernel, table, args):
@@ -826,7 +835,7 @@ def trial_outcome(problem, norm_q, status, r_s):
     return RouteOutcome(status, vectors, x), judge_guard
 
 
-__all__ = ["nsgs_checked", "nsgs_checked_flat", "lemke_checked_flat", "LEMKE_CODES", "checked_work", "run", "run_prepared", "flat_entry",
+__all__ = ["nsgs_checked", "nsgs_checked_flat", "lemke_checked_flat", "lemke_entry", "LEMKE_CODES", "checked_work", "run", "run_prepared", "flat_entry",
            "flat_settings", "FLAT_SETTINGS", "N_FLAT_SETTINGS",
            "FLAT_ENTRIES", "N_OUT",
            "flat_outcome", "flat_stats", "flat_rows", "prepared", "trial_run", "trial_checked", "newton_checked", "trial_runner", "run_record", "trial_outcome", "judge_norm", "judge_units",

@@ -414,7 +414,8 @@ def solve(problem, solver="auto", formulation: str = "coulomb", *, tol: float = 
     solver : str or callable
         ``"auto"`` (default: a portfolio of the methods below, see
         :mod:`socp_cd.solvers.auto`), ``"newton"``, ``"nsgs"``, ``"clarabel"``,
-        ``"cvxpy"``, ``"proxsuite"`` (see :func:`solvers`), or a solver function with the signature of
+        ``"cvxpy"``, ``"proxsuite"``, ``"projection"``, ``"lemke"`` (see :func:`solvers`), or a
+        solver function with the signature of
         :class:`~socp_cd.solvers.spec.SolverSpec` ``func``.
     formulation : str
         Contact law: ``"coulomb"`` (exact, default), ``"associated"``,

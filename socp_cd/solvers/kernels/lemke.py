@@ -120,11 +120,13 @@ def lemke(M, q, max_pivots, deadline, z):
         for i in range(n):
             cmax = max(cmax, abs(T[i, enter]))
         theta = np.inf
+        found = False
         for i in range(n):
             c = T[i, enter]
             if cmax > 0.0 and c > PIVOT_TOL * cmax:
                 theta = min(theta, b[i] / c)
-        if theta == np.inf:
+                found = True
+        if not found:
             code = RAY
             break
         gap = TIE_TOL * max(1.0, abs(theta))
