@@ -563,8 +563,8 @@ def write(rows, args, have_sic) -> None:
             lines += size_rho_lines(table, kr, solvers)
         lines.append("")
         summary["kinds"][kind] = ksum
-        if kind == "local3":
-            _figure(table, args.out / "newton_vs_siconos_profile.png", tol)
+        if kind in FIGURES:
+            _figure(table, args.out / FIGURES[kind][0], tol, FIGURES[kind][1])
     # tolerance sweep
     sweep = sorted({r["tol"] for r in rows}, reverse=True)
     if len(sweep) > 1:
@@ -597,7 +597,12 @@ def write(rows, args, have_sic) -> None:
     print("\n".join(lines))
 
 
-def _figure(table, path, tol) -> None:
+#: the performance profiles drawn: kind -> (file, what the title calls the problems)
+FIGURES = {"local3": ("newton_vs_siconos_profile.png", "3D local problems"),
+           "local2": ("newton_vs_siconos_profile_2d.png", "2D local problems")}
+
+
+def _figure(table, path, tol, what) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -613,7 +618,7 @@ def _figure(table, path, tol) -> None:
     ax.set_ylim(0, 1.02)
     ax.set_xlabel("τ (time / fastest time)")
     ax.set_ylabel("ρ(τ): fraction of problems")
-    ax.set_title(f"3D local problems, tol {tol:g}: performance profile (ours solid)")
+    ax.set_title(f"{what}, tol {tol:g}: performance profile (ours solid)")
     ax.legend(fontsize=7, ncol=2, loc="lower right")
     ax.grid(alpha=0.3)
     fig.tight_layout()
