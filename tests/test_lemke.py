@@ -216,6 +216,13 @@ def test_refused_problems_and_options():
         socp_cd.solve(big, solver="lemke")
 
 
+@pytest.fixture(autouse=True)
+def _table_loaded():
+    """The dispatcher finds a plain call's compiled route in a table made when the solver table
+    is first loaded (a process's first solve takes the general path): load it."""
+    socp_cd.solvers()
+
+
 def _general(monkeypatch, p, **kw):
     """``socp_cd.solve(p, **kw)`` on the general path (the compiled routes off, as
     tests/test_route.py does: ``nsgs_route.MAX_CONTACTS = 0``)."""

@@ -24,22 +24,23 @@ CLOCK_EVERY = 16
 
 
 @njit(cache=True)
-def _lex_row(T, b, c, ties, count, n):
-    """The lexicographic minimum over ``ties[:count]`` of ``[b_i, T_i,0:n] / c_i``."""
+def _lex_row(T, b, col, ties, count, n):
+    """The lexicographic minimum over ``ties[:count]`` of ``[b_i, T_i,0:n] / c_i``, ``c`` the
+    tableau's column ``col``."""
     for k in range(-1, n):
         if count == 1:
             break
         lo = np.inf
         for t in range(count):
             i = ties[t]
-            v = (b[i] if k < 0 else T[i, k]) / c[i]
+            v = (b[i] if k < 0 else T[i, k]) / T[i, col]
             if v < lo:
                 lo = v
         gap = TIE_TOL * max(1.0, abs(lo))
         kept = 0
         for t in range(count):
             i = ties[t]
-            v = (b[i] if k < 0 else T[i, k]) / c[i]
+            v = (b[i] if k < 0 else T[i, k]) / T[i, col]
             if v <= lo + gap:
                 ties[kept] = i
                 kept += 1
@@ -89,6 +90,7 @@ def lemke(M, q, max_pivots, deadline, z):
         T[i, 2 * n] = -1.0
         basis[i] = i
     ties = np.empty(n, np.int64)
+    nonzero = np.empty(width, np.int64)      # (the pivot row's nonzero columns)
     enter = 2 * n
     pivots = 0
     code = MAX_PIVOTS
@@ -97,13 +99,19 @@ def lemke(M, q, max_pivots, deadline, z):
             code = TIME_LIMIT
             break
         p = T[r, enter]
+        nnz = 0
         for j in range(width):
             T[r, j] /= p
+            if T[r, j] != 0.0:
+                nonzero[nnz] = j
+                nnz += 1
         b[r] /= p
         for i in range(n):
             f = T[i, enter]
             if i != r and f != 0.0:
-                for j in range(width):
+                # (x - f * 0 is x: the pivot row's zeros skipped, the same numbers)
+                for t in range(nnz):
+                    j = nonzero[t]
                     T[i, j] -= f * T[r, j]
                 b[i] -= f * b[r]
         for i in range(n):
@@ -140,7 +148,7 @@ def lemke(M, q, max_pivots, deadline, z):
                 if r < 0 and basis[i] == 2 * n:
                     r = i
         if r < 0:
-            r = _lex_row(T, b, T[:, enter].copy(), ties, count, n)
+            r = _lex_row(T, b, enter, ties, count, n)
     vals = np.empty(n)
     for i in range(n):
         vals[i] = max(b[i], 0.0)
