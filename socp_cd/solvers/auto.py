@@ -129,7 +129,7 @@ SMALL_NC = 100
 #: call (no ``r0``: pivoting has no warm start; from an ``r0`` NSGS starts, as before) with
 #: Lemke's method on the law's LCP (stage ``"lemke"``, :mod:`socp_cd.solvers.lemke`; session
 #: 46, formulations/auto.md "Lemke's method first on small 2D problems"), then the small
-#: chain; None or 0: off.  Its dense tableau costs ``O(nc²)`` a pivot and ~3 nc pivots
+#: chain; None or 0 (or less): off.  Its dense tableau costs ``O(nc²)`` a pivot and ~3 nc pivots
 LEMKE_MAX_NC = 8
 #: (a study knob, session 33; None: off) local exact-Coulomb problems of more than
 #: NEWTON_FIRST_MIN_NC and at most SMALL_NC contacts whose ``W`` stores at least this many
@@ -529,9 +529,9 @@ def lemke_bound() -> int:
     bound = LEMKE_MAX_NC
     if bound is None:
         return 0
-    if type(bound) is not int:
+    if not isinstance(bound, (int, np.integer)) or isinstance(bound, bool):
         raise InvalidProblemError("auto.LEMKE_MAX_NC", f"must be an int or None, got {bound!r}")
-    return min(bound, SMALL_NC, lemke.MAX_UNKNOWNS // 4)
+    return max(0, min(int(bound), SMALL_NC, lemke.MAX_UNKNOWNS // 4))
 
 
 def _lemke_first(feats) -> bool:
@@ -1556,7 +1556,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 # fixed point's answer to the exact Coulomb law as REDUNDANT_RETRY and
                 # CLARABEL_RETRY say (Newton solves that law only)
                 coulomb = form == "coulomb"
-                again = ("newton" if method in _NEWTON_FAMILY or method == "lemke"
+                again = ("newton" if method in _NEWTON_FAMILY or (method == "lemke" and coulomb)
                          else REDUNDANT_RETRY if method == "clarabel_first" and coulomb
                          else CLARABEL_RETRY if method == "clarabel" and coulomb else method)
                 order = order[:k + 1] + ((again, form),) + order[k + 1:]
