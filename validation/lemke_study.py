@@ -96,7 +96,8 @@ def tolerance_table(probs) -> list:
                     counts[code] += 1
             lines.append(f"| {tol:g}{' (adopted)' if tol == kept else ''} | {len(probs)} | "
                          f"{counts['good']} | {counts['bad']}"
-                         + (f" ({worst:.1e})" if counts["bad"] else "") + f" | {counts[lcp.LEMKE_RAY]} | "
+                         + (f" ({worst:.1e})" if counts["bad"] else "")
+                         + f" | {counts[lcp.LEMKE_RAY]} | "
                          f"{counts[lcp.LEMKE_MAX_PIVOTS]} |")
     finally:
         lcp.PIVOT_TOL = kept

@@ -53,8 +53,9 @@ units guard (:func:`socp_cd.residuals.guard`, the dispatcher's second test)
 does too (on a local Coulomb problem, with Siconos' error of the problem as
 written: the chain runs on the dispatcher's balanced copy, and the dispatcher
 judges by that error first); after a stage that met the first and not the second, that stage runs
-once more from the seed (:data:`RETRY_REFUSED`; after a Newton-family stage or ``"lemke"``, and
-on the exact Coulomb law after ``"clarabel_first"`` and ``"clarabel"``, the warm proximal Newton method:
+once more from the seed (:data:`RETRY_REFUSED`; after a Newton-family stage, and on the exact
+Coulomb law after ``"lemke"``, ``"clarabel_first"`` and ``"clarabel"``, the warm proximal Newton
+method:
 :data:`REDUNDANT_RETRY`, :data:`CLARABEL_RETRY`) and the later stages aim at
 the dispatcher's retry tolerance
 (:func:`~socp_cd.solvers.options.tightened_tolerance`), a Newton stage among them stopping at
@@ -438,7 +439,8 @@ OPTIONS = {
                "iterations; its iterate is not the seed when it misses tol), 'clarabel_qp' "
                "(default: chosen from the problem's features); a stage whose answer the units "
                "guard refuses is followed by its retry, which on the exact Coulomb law is 'newton' "
-               "after a Newton-family, a fixed-point or the 'lemke' stage (RETRY_REFUSED), listed or not",
+               "after a Newton-family, a fixed-point or the 'lemke' stage (RETRY_REFUSED), "
+               "listed or not",
     "threshold": "Tresca threshold per contact (formulation 'tresca')",
 }
 

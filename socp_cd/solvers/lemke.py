@@ -119,4 +119,5 @@ SPEC = SolverSpec(
     default_max_iter=DEFAULT_MAX_ITER, options={},
     inner_settings="not applicable (rejected)", check=check)
 
-__all__ = ["SPEC", "lemke_backend", "check", "lcp_unknowns", "pivot_cap", "DEFAULT_MAX_ITER", "MAX_UNKNOWNS"]
+__all__ = ["SPEC", "lemke_backend", "check", "lcp_unknowns", "pivot_cap", "DEFAULT_MAX_ITER",
+           "MAX_UNKNOWNS"]

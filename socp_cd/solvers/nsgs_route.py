@@ -835,7 +835,8 @@ def trial_outcome(problem, norm_q, status, r_s):
     return RouteOutcome(status, vectors, x), judge_guard
 
 
-__all__ = ["nsgs_checked", "nsgs_checked_flat", "lemke_checked_flat", "lemke_entry", "LEMKE_CODES", "checked_work", "run", "run_prepared", "flat_entry",
+__all__ = ["nsgs_checked", "nsgs_checked_flat", "lemke_checked_flat", "lemke_entry", "LEMKE_CODES",
+           "checked_work", "run", "run_prepared", "flat_entry",
            "flat_settings", "FLAT_SETTINGS", "N_FLAT_SETTINGS",
            "FLAT_ENTRIES", "N_OUT",
            "flat_outcome", "flat_stats", "flat_rows", "prepared", "trial_run", "trial_checked", "newton_checked", "trial_runner", "run_record", "trial_outcome", "judge_norm", "judge_units",

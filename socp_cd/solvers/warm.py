@@ -62,8 +62,8 @@ def warmup(force: bool = False) -> float:
     the seconds this call took (0 after the first call in a process, unless ``force``).
 
     On tiny local problems in 2D and 3D: the plain calls of ``auto``, ``nsgs``, ``newton``
-    and ``projection`` (the compiled routes; ``auto``'s Lemke stage in 2D), ``lemke``, with a time limit, with ``r0`` and
-    ``max_iter``, Newton's ``history``, each of ``auto``'s stages (:data:`AUTO_STAGES`, at a
+    and ``projection`` (the compiled routes; ``auto``'s Lemke stage in 2D), ``lemke``, with a
+    time limit, with ``r0`` and ``max_iter``, Newton's ``history``, each of ``auto``'s stages (:data:`AUTO_STAGES`, at a
     tolerance no stage meets, with and without a time limit); the backends' own warm-ups
     (:func:`socp_cd.solvers.newton.warmup`, ``nsgs``'s, ``projection``'s); a Newton system
     of more than 60 unknowns (it factorizes with one BLAS thread, whose controller is built

@@ -238,5 +238,6 @@ def lemke_coulomb_2d(indptr, indices, data, q, mu, max_pivots, deadline, r):
     return code, pivots
 
 
-__all__ = ["lemke", "coulomb_lcp_2d", "lemke_coulomb_2d", "SOLVED", "RAY", "MAX_PIVOTS", "TIME_LIMIT", "PIVOT_TOL", "TIE_TOL",
+__all__ = ["lemke", "coulomb_lcp_2d", "lemke_coulomb_2d", "SOLVED", "RAY", "MAX_PIVOTS",
+           "TIME_LIMIT", "PIVOT_TOL", "TIE_TOL",
            "CLOCK_EVERY"]
