@@ -39,6 +39,9 @@ def test_constants_match_the_reference():
     assert (kern.PIVOT_TOL, kern.TIE_TOL) == (lcp.PIVOT_TOL, lcp.TIE_TOL)
     from socp_cd.solvers.kernels.dense import PIVOT_TOL
     assert lcp.LU_PIVOT_TOL == PIVOT_TOL
+    # the compiled route reports Lemke's outcomes as NSGS status codes: the same names
+    from socp_cd.solvers.nsgs_route import LEMKE_CODES, STATUS_NAMES
+    assert tuple(STATUS_NAMES[c] for c in LEMKE_CODES) == lcp.LEMKE_STATUS
 
 
 @pytest.mark.parametrize("rank_deficient", [False, True])

@@ -43,6 +43,7 @@ from socp_cd.data import shared_problems_dir
 from socp_cd.problem import FrictionContactProblem, kernel_array
 from socp_cd.solvers import auto
 from socp_cd.solvers.kernels.lemke import lemke_coulomb_2d
+from socp_cd.solvers.lemke import pivot_cap
 from socp_cd.solvers.scaling import balanced
 
 HERE = Path(__file__).resolve().parent
@@ -87,7 +88,7 @@ def tolerance_table(probs) -> list:
             for _, p in probs:
                 b = balanced(p).problem
                 M, q = lcp.coulomb_lcp_2d(b.W.toarray(), b.q, b.mu)
-                z, code, _ = lcp.lemke_reference(M, q, lcp_cap(q.shape[0]))
+                z, code, _ = lcp.lemke_reference(M, q, pivot_cap(q.shape[0], None))
                 if code == lcp.LEMKE_SOLVED:
                     e = socp_cd.error(b, lcp.coulomb_impulses(z, b.n_contacts))
                     counts["good" if e <= 1e-10 else "bad"] += 1
@@ -118,15 +119,10 @@ def mu_table() -> list:
             p = FrictionContactProblem(W, q, np.full(5, mu), dim=2)
             for b in (p, balanced(p).problem):
                 M, ql = lcp.coulomb_lcp_2d(b.W.toarray(), b.q, b.mu)
-                rays[mu] += lcp.lemke_reference(M, ql, lcp_cap(20))[1] == lcp.LEMKE_RAY
+                rays[mu] += lcp.lemke_reference(M, ql, pivot_cap(20, None))[1] == lcp.LEMKE_RAY
     return (["| μ | " + " | ".join(f"{mu:g}" for mu in mus) + " |",
              "|---|" + "---|" * len(mus),
              "| runs ending on a ray, of 12 | " + " | ".join(str(rays[mu]) for mu in mus) + " |"])
-
-
-def lcp_cap(n):
-    from socp_cd.solvers.lemke import pivot_cap
-    return pivot_cap(n, None)
 
 
 def best_time(fn, repeats):
@@ -146,7 +142,7 @@ def cost_table(probs) -> list:
         ip, ix, d = b.csr_parts
         q, mu, r = kernel_array(b.q), kernel_array(b.mu), np.empty(b.m)
         t_kernel, (code, piv) = best_time(
-            lambda: lemke_coulomb_2d(ip, ix, d, q, mu, lcp_cap(4 * b.n_contacts), np.inf, r), 50)
+            lambda: lemke_coulomb_2d(ip, ix, d, q, mu, pivot_cap(4 * b.n_contacts, None), np.inf, r), 50)
         try:
             auto.LEMKE_MAX_NC = None
             t_nsgs_first, _ = best_time(lambda: socp_cd.solve(p, time_limit=1.0), 5)

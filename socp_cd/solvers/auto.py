@@ -996,8 +996,8 @@ def _lemke_plain(problem, nc, tol, time_limit, t0):
                                      LazyInfo((_flat_route_info, 2, nc, out, "lemke", s, code)),
                                      "lemke met tol", zero_error <= tol, True, "auto",
                                      "coulomb", tol, s)
-    stage = {"method": "lemke", "formulation": "coulomb", "iterations": pivots, "time": s,
-             "error": stage_error, "status": nsgs_route.STATUS_NAMES[code]}
+    # (the stage's record as the route's NSGS resume makes it: _route_info of the stats)
+    stage = _flat_route_info(2, nc, out, "lemke", s, code)["path"][0]
     return None, None, {"r": out[0], "stage": stage, "trials": []}
 
 
