@@ -232,6 +232,17 @@ def test_time_limit_is_a_total_budget(monkeypatch):
     assert log[1]["time_limit"] == pytest.approx(0.25)      # of the 0.5 s left
 
 
+def test_a_budget_spent_in_the_compiled_route_is_reported_without_a_negative_figure():
+    # the compiled route runs the first stages, the chain after it gets what is left of the
+    # budget, which under a tiny budget is below zero: the message read "time budget
+    # -0.0005 s spent" (session 47)
+    p = _local(auto.SMALL_NC + 40, 3, 9, mu=1.0)
+    res = socp_cd.solve(p, "auto", tol=1e-14, time_limit=1e-9)
+    assert res.status == "time_limit" and not res.converged
+    assert res.message == auto.BUDGET_SPENT
+    assert res.info["path"]            # the route's first stage ran and is recorded
+
+
 @pytest.mark.parametrize("formulation,first", [("coulomb", ("clarabel_qp", "frictionless")),
                                                ("frictionless", ("clarabel_qp", "frictionless")),
                                                ("associated", ("clarabel", "associated"))])

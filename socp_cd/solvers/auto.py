@@ -113,6 +113,9 @@ from .result import LazyInfo, SolverResult
 from .scaling import balanced, origin
 from .spec import SolverSpec
 
+#: the message of a chain stopped by its time budget (without the budget's figure: after a
+#: compiled route the chain runs on what the route left, which can be below zero)
+BUDGET_SPENT = "time budget spent"
 #: the clock of the time budget (a module attribute so tests can drive it)
 _clock = time.perf_counter
 #: :func:`plain`'s names for its kernel call, bound once (a module attribute's look-up costs
@@ -1328,7 +1331,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             if not (more or last):
                 break
             if time_limit is not None and _clock() - t_start >= time_limit:
-                status, message = "time_limit", f"time budget {time_limit:g} s spent"
+                status, message = "time_limit", BUDGET_SPENT
                 break       # (a stage would follow: the budget, not the methods, ran out)
             if last:
                 order = order + (("newton_prox_error", "coulomb"),)
@@ -1402,7 +1405,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             if time_limit is not None:
                 left = time_limit - (_clock() - t_start)
                 if left <= 0.0:
-                    status, message = "time_limit", f"time budget {time_limit:g} s spent"
+                    status, message = "time_limit", BUDGET_SPENT
                     break
                 if method in SLOW_TO_STOP and took.get(method, 0.0) > left:
                     short = (f"{method} not run again: it took {took[method]:.3g} s, "
