@@ -137,10 +137,13 @@ def block_csr(W, dim: int) -> BlockCSR:
 
 
 def block_csr_arrays(indptr, indices, data, dim: int) -> BlockCSR:
-    """:func:`block_csr` of a square matrix given by its CSR arrays (no scipy matrix needed)."""
+    """:func:`block_csr` of a square matrix given by its CSR arrays (no scipy matrix needed).
+
+    The index arrays go to the kernel as they are: a problem's are int32 (as the compiled
+    route passes them), and a cast to int64 here compiled the kernel a second time on a
+    fresh install."""
     nc = (indptr.shape[0] - 1) // dim
-    out = csr_to_bsr(indptr.astype(np.int64, copy=False), indices.astype(np.int64, copy=False),
-                      data.astype(np.float64, copy=False), dim, nc)
+    out = csr_to_bsr(indptr, indices, data.astype(np.float64, copy=False), dim, nc)
     return BlockCSR(dim, nc, *out)
 
 

@@ -291,7 +291,7 @@ def nsgs_loop(d, W, q, law, local, sweeps, r, hist, origin):
         if shuffle:
             np.random.shuffle(order)
         dsum = 0.0
-        kk = 0
+        kk = np.int64(0)      # (not the literal 0: numba would compile sweep_span for it apart)
         while kk < nc:
             if projection_only:
                 # every contact takes the rest of the chain: no span to run first

@@ -150,7 +150,8 @@ def checked_answer(indptr, indices, data, q, mu, dim, a, b, q_norm, q_s_norm, r_
     for j in range(m):
         if not (np.isfinite(r[j]) and np.isfinite(u[j])):
             return False
-    f2, r2, u2 = error_parts(r, u, mu, mu, dim, LAW_COULOMB)  # (mu for the unread thresholds)
+    # (mu for the unread thresholds)
+    f2, r2, u2 = error_parts(r, u, mu, mu, dim, np.int64(LAW_COULOMB))
     g_finite, guard = balanced_guard(r, u, a, b, mu, dim, q_s_norm)
     sigma, d_min, d_max = factor_summary(a, b, dim)
     stats[ERROR] = relative_error(f2, r2, u2, q_norm)
@@ -662,11 +663,12 @@ def lemke_checked_flat(indptr, indices, data, q, mu, max_pivots, blocked, time_l
     entries = out.reshape(out.size)
     vectors = entries[:3 * m].reshape((3, m))
     stats = entries[3 * m:3 * m + N_OUT]
-    a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, 2)
+    dim = np.int64(2)   # (not the literal 2: the kernels below would be compiled apart for it)
+    a, b, data_s, q_s, q_norm, q_s_norm, err0 = balance_csr(indptr, indices, data, q, mu, dim)
     norm_q = np.sqrt(np.dot(q_s, q_s))
     outcome, pivots = lemke_coulomb_2d(indptr, indices, data_s, q_s, mu, max_pivots, deadline,
                                        vectors[0])
-    ok, st, judge_guard = _checked_balanced(indptr, indices, data, q, mu, 2, a, b, data_s, q_s,
+    ok, st, judge_guard = _checked_balanced(indptr, indices, data, q, mu, dim, a, b, data_s, q_s,
                                             q_norm, q_s_norm, err0, norm_q, vectors)
     if not ok:
         return DECLINED_NOT_FINITE, 0, np.inf, np.inf, np.inf, np.inf

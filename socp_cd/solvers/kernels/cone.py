@@ -53,7 +53,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-#: contact-law codes of the compiled kernels
+#: contact-law codes of the compiled kernels (compiled code passes a code to a kernel that
+#: is not inlined as ``np.int64(LAW_COULOMB)``: numba compiles a kernel apart for each
+#: literal argument, and a fresh install pays for every version, ``validation/compile_cost.py``)
 LAW_COULOMB = 0
 LAW_ASSOCIATED = 1
 LAW_TRESCA = 2
@@ -336,7 +338,7 @@ def law_error(r, u, mu, g, dim, law, norm_q):
 @njit(cache=True)
 def siconos_error(r, u, mu, dim, norm_q):
     """Siconos' relative error (Coulomb law) of ``r`` with velocities ``u`` given."""
-    return law_error(r, u, mu, np.zeros(mu.shape[0]), dim, LAW_COULOMB, norm_q)
+    return law_error(r, u, mu, np.zeros(mu.shape[0]), dim, np.int64(LAW_COULOMB), norm_q)
 
 
 @njit(cache=True)

@@ -71,13 +71,18 @@ def law_blocks(law, r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch):
     """The kernel of the equation ``law`` (:data:`LAW_CODES`):
     :func:`~.newton_ac.ac_blocks`, :func:`~.newton_nm.nm_blocks` or
     :func:`~.newton_fb.fb_blocks`, same arguments and return value (``||F||``); an unknown
-    code fills ``F`` with NaN and returns NaN (the loops then end ``NUMERICAL_ERROR``)."""
+    code fills ``F`` with NaN and returns NaN (the loops then end ``NUMERICAL_ERROR``).
+
+    ``want_jac`` goes on as a run-time ``bool``: the loops pass the literals ``True`` and
+    ``False``, for which numba would compile each kernel apart, twice more than the
+    backend's own calls need (a fresh install's compile time, ``validation/compile_cost.py``)."""
+    jac = np.bool_(want_jac)
     if law == LAW_AC:
-        return ac_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch)
+        return ac_blocks(r, u, mu, rho_n, rho_t, d, jac, F, Dr, Du, branch)
     if law == LAW_NM:
-        return nm_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch)
+        return nm_blocks(r, u, mu, rho_n, rho_t, d, jac, F, Dr, Du, branch)
     if law == LAW_FB:
-        return fb_blocks(r, u, mu, rho_n, rho_t, d, want_jac, F, Dr, Du, branch)
+        return fb_blocks(r, u, mu, rho_n, rho_t, d, jac, F, Dr, Du, branch)
     F[:] = np.nan
     return np.nan
 
@@ -224,8 +229,9 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
     """
     m = r.shape[0]
     nc = mu.shape[0]
+    # (flags as run-time bools, not literals, here and below: see law_blocks)
     u, status, it, best_it, err, best_err = _start(W, q, norm_q, mu, d, tol, r, best_r, fstate,
-                                                   istate, False)
+                                                   istate, np.bool_(False))
     alpha = fstate[F_ALPHA]
     alpha_max_used = fstate[F_ALPHA_MAX_USED]
     n_newton = n_backtrack = n_ls_fail = n_singular = n_rejected = n_fact = 0
@@ -251,7 +257,7 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
             dense_jacobian(Dr, Du, W, alpha, d, J)
             for k in range(m):
                 mF[k] = -F[k]
-            dr, ok = dense_solve(J, mF, lapack, False)
+            dr, ok = dense_solve(J, mF, lapack, np.bool_(False))
             if not ok:
                 n_singular += 1
                 sub_ok = False
@@ -285,7 +291,7 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
                 solved = True
                 break
         err, best_it, best_err, status = _measure(W, q, norm_q, mu, d, tol, r, rk, u, best_r,
-                                                  it, best_it, best_err, False)
+                                                  it, best_it, best_err, np.bool_(False))
         if status != RUNNING:
             break
         if solved and err < err_k:
@@ -357,13 +363,13 @@ def _plain_direction(W, Dr, Du, F, d, reg, J, mF, lapack, reg_first):
     for k in range(m):
         mF[k] = -F[k]
     dense_jacobian(Dr, Du, W, reg if reg_first else 0.0, d, J)
-    dr, ok = dense_solve(J, mF, lapack, True)
+    dr, ok = dense_solve(J, mF, lapack, np.bool_(True))
     n_fact = 1
     if not ok:
         for k in range(m):
             mF[k] = -F[k]
         dense_jacobian(Dr, Du, W, 0.0 if reg_first else reg, d, J)
-        dr, ok = dense_solve(J, mF, lapack, False)
+        dr, ok = dense_solve(J, mF, lapack, np.bool_(False))
         n_fact = 2
     if not ok:
         return dr, dr, False, n_fact
@@ -393,7 +399,7 @@ def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stal
     m = r.shape[0]
     nc = mu.shape[0]
     u, status, it, best_it, err, best_err = _start(W, q, norm_q, mu, d, tol, r, best_r, fstate,
-                                                   istate, True)
+                                                   istate, np.bool_(True))
     n_newton = n_backtrack = n_ls_fail = n_singular = n_fact = 0
     F, Ft, mF, _, rk, rt, ut, J, Dr, Du, branch = _buffers(m, nc, d)
     while status == RUNNING and it < it_end:
@@ -435,7 +441,7 @@ def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stal
         if not ls_ok:
             n_ls_fail += 1
         err, best_it, best_err, status = _measure(W, q, norm_q, mu, d, tol, r, rk, u, best_r,
-                                                  it, best_it, best_err, True)
+                                                  it, best_it, best_err, np.bool_(True))
         if status != RUNNING:
             break
         if stall_window > 0 and it - best_it >= stall_window:
@@ -445,7 +451,7 @@ def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stal
             status = TIME_LIMIT
             break
     _store(istate, fstate, status, it, best_it, n_newton, n_backtrack, n_ls_fail, n_singular,
-           0, n_fact, err, best_err)
+           np.int64(0), n_fact, err, best_err)
 
 
 @njit(cache=True)

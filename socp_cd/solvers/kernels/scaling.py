@@ -184,7 +184,7 @@ def coulomb_zero_error(q, mu, dim, q_norm):
 def coulomb_zero_error_of(zeros, q, mu, dim, q_norm):
     """:func:`coulomb_zero_error` with ``zeros`` (a zero vector of ``q``'s length) for ``r``."""
     # (``mu`` stands in for the thresholds, which the Coulomb law never reads)
-    f2, r2, u2 = error_parts(zeros, q, mu, mu, dim, LAW_COULOMB)
+    f2, r2, u2 = error_parts(zeros, q, mu, mu, dim, np.int64(LAW_COULOMB))
     return relative_error(f2, r2, u2, q_norm)
 
 
@@ -214,7 +214,7 @@ def guard_parts_into(r, u, a, b, mu, dim, both):
         us[j] = u[j] / b[j]
         if not (np.isfinite(rs[j]) and np.isfinite(us[j])):
             return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    f2, r2, u2 = error_parts(rs, us, mu, mu, dim, LAW_COULOMB)   # (mu: unread thresholds)
+    f2, r2, u2 = error_parts(rs, us, mu, mu, dim, np.int64(LAW_COULOMB))   # (mu: unread thresholds)
     cone, normal, gap = coulomb_violations(rs, us, mu, dim)
     return True, f2, r2, u2, cone, normal, gap
 
@@ -239,7 +239,7 @@ def origin_error(r, u, a, b, mu, dim, q_norm):
     """
     # (no temporaries: a one-contact NSGS call runs this once, and three allocations cost
     # 0.2 us of its 8; ``mu`` stands in for the thresholds, which the Coulomb law never reads)
-    f2, r2, u2 = scaled_error_parts(r, u, a, b, mu, mu, dim, LAW_COULOMB)
+    f2, r2, u2 = scaled_error_parts(r, u, a, b, mu, mu, dim, np.int64(LAW_COULOMB))
     return relative_error(f2, r2, u2, q_norm)
 
 
