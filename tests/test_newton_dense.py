@@ -22,7 +22,7 @@ from socp_cd.problem import FrictionContactProblem
 from socp_cd.solvers import newton as nt
 from socp_cd.solvers import nsgs_route
 from socp_cd.solvers.kernels.cone import project_cone_stacked, siconos_error
-from socp_cd.solvers.kernels.dense import envelope_fraction
+from socp_cd.solvers.kernels.dense import LAPACK_LU, WRITTEN_OUT, envelope_fraction
 
 #: settings of a cold solve (newton_backend's defaults) and of the polish (newton_polish)
 COLD = dict(alpha0=nt.COLD_ALPHA0, alpha_min=1e-10, inner_max_iter=10, stall_window=50)
@@ -76,19 +76,19 @@ def test_dispatch_rules():
     with pytest.raises(UnsupportedError):      # the twin keeps no history
         nt.prox_newton(system, mu, np.zeros(p.m), tol=1e-10, max_iter=5, time_limit=None,
                        history=True, compiled=True, **COLD)
-    assert system.lapack is None                   # the written-out LU
+    assert system.lapack == WRITTEN_OUT            # the written-out LU
     # m = 75 > COMPILED_LU_MAX_M: the written-out LU on a contact graph's pattern (a small
     # envelope), LAPACK's on a full W
     big = manufactured(25, 3, 0.5, seed=0)
     indptr, indices, _ = big.csr_parts
     assert envelope_fraction(indptr, indices, big.m) < 0.3
     system = nt.LocalSystem(big, "auto")
-    assert system.compiled and system.lapack is None
+    assert system.compiled and system.lapack == WRITTEN_OUT
     rng = np.random.default_rng(0)
     A = rng.standard_normal((big.m, big.m))
     full = FrictionContactProblem(A @ A.T + np.eye(big.m), big.q, big.mu, 3)
     system = nt.LocalSystem(full, "auto")
-    assert system.compiled and system.lapack is not None
+    assert system.compiled and system.lapack == LAPACK_LU
     assert not nt.LocalSystem(p, "splu").compiled
     huge = manufactured(210, 3, 0.5, seed=0)       # m = 630 > DENSE_MAX_M
     assert not nt.LocalSystem(huge, "dense").compiled
@@ -127,7 +127,7 @@ def test_twin_equals_python_loop_on_manufactured_problems(dim, structure, mu, m,
         p = manufactured(nc, dim, mu, structure=structure, mix=mix, seed=seed)
         assert bool(p.is_rank_deficient) == (structure == "redundant")
         if lapack or m > nt.COMPILED_LU_MAX_M:
-            assert (nt.LocalSystem(p, "auto").lapack is not None) == (
+            assert (nt.LocalSystem(p, "auto").lapack == LAPACK_LU) == (
                 lapack or structure == "redundant")
         a, b = _both(p, np.zeros(p.m), 1e-10)
         _assert_equal(a, b)
@@ -464,18 +464,18 @@ def test_both_lus_of_dense_solve_agree_and_report_singular_matrices(n):
     entry; LAPACK with ``strict`` the same (its verdict is scipy's LU's pivot against
     PIVOT_TOL: the same getrf), without it an exact zero pivot only (scipy's test)."""
     import scipy.linalg as sla
-    from socp_cd.solvers.kernels.dense import LAPACK_LU, PIVOT_TOL, dense_solve
+    from socp_cd.solvers.kernels.dense import PIVOT_TOL, dense_solve
     rng = np.random.default_rng(n)
     A = rng.standard_normal((n, n)) + n * np.eye(n)
     b = rng.standard_normal(n)
-    x1, ok1 = dense_solve(A.copy(), b.copy(), None, True)
+    x1, ok1 = dense_solve(A.copy(), b.copy(), WRITTEN_OUT, True)
     x2, ok2 = dense_solve(A, b, LAPACK_LU, True)
     assert ok1 and ok2
     np.testing.assert_allclose(x2, np.linalg.solve(A, b), rtol=1e-10)
     np.testing.assert_allclose(x1, x2, rtol=1e-10)
     Z = A.copy()
     Z[:, 0] = 0.0                                # an exact zero column: singular for all
-    assert not dense_solve(Z.copy(), b.copy(), None, False)[1]
+    assert not dense_solve(Z.copy(), b.copy(), WRITTEN_OUT, False)[1]
     for strict in (True, False):
         assert not dense_solve(Z, b, LAPACK_LU, strict)[1]
     # rank n - 1 in floating point: rounding leaves a tiny, non-zero pivot
@@ -486,10 +486,10 @@ def test_both_lus_of_dense_solve_agree_and_report_singular_matrices(n):
     assert dense_solve(S, b, LAPACK_LU, False)[1]      # a huge, finite "solution"
     if n <= 5:
         assert pivot <= PIVOT_TOL
-        assert not dense_solve(S.copy(), b.copy(), None, False)[1]
+        assert not dense_solve(S.copy(), b.copy(), WRITTEN_OUT, False)[1]
     bad = A.copy()
     bad[1, 2] = np.nan
-    assert not dense_solve(bad.copy(), b.copy(), None, True)[1]
+    assert not dense_solve(bad.copy(), b.copy(), WRITTEN_OUT, True)[1]
     assert not dense_solve(bad, b, LAPACK_LU, False)[1]
 
 
@@ -535,7 +535,7 @@ def test_twin_on_a_rank_deficient_w_ordered_to_a_small_envelope():
         indptr, indices, _ = p.csr_parts
         assert p.is_rank_deficient and p.m > nt.COMPILED_LU_MAX_M
         assert envelope_fraction(indptr, indices, p.m) <= nt.COMPILED_LU_MAX_ENVELOPE
-        assert nt.LocalSystem(p, "auto").lapack is None
+        assert nt.LocalSystem(p, "auto").lapack == WRITTEN_OUT
         _assert_equal(*_both(p, np.zeros(p.m), 1e-10))
         _assert_equal(*_both(p, np.zeros(p.m), 1e-10, policy="plain"))
         res = socp_cd.solve(p, "newton", tol=1e-8)

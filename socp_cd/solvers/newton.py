@@ -115,7 +115,7 @@ from .sparse_lu import NewtonLU, SingularMatrix, csc_without_zeros, entry_positi
 from .kernels import clock
 from .kernels import newton_dense as nd
 from .kernels.cone import project_cone_stacked, siconos_error
-from .kernels.dense import (LAPACK_LU, NAIVE_LU_MAX_N, PIVOT_TOL, csr_to_dense, dense_solve,
+from .kernels.dense import (LAPACK_LU, WRITTEN_OUT, NAIVE_LU_MAX_N, PIVOT_TOL, csr_to_dense, dense_solve,
                             envelope_fraction, matvec, matvec_into)
 from .kernels.newton_ac import ac_blocks, block_jacobian, block_rho_dense, dense_jacobian
 from .kernels.newton_fb import fb_blocks
@@ -291,7 +291,7 @@ def _one_blas_thread(system):
     compiled ones with the written-out LU: no BLAS)."""
     m = system.m
     if m < SINGLE_THREAD_MIN_M or (getattr(system, "compiled", False)
-                                   and getattr(system, "lapack", None) is None):
+                                   and getattr(system, "lapack", WRITTEN_OUT) == WRITTEN_OUT):
         return contextlib.nullcontext()
     return one_blas_thread()
 
@@ -361,12 +361,13 @@ def _linear_solver(indptr, indices, m, choice):
     dense up to DENSE_ALWAYS_M unknowns, and up to DENSE_MAX_M when the fill is at least
     DENSE_MIN_FILL, else "sparse"); the compiled loop on dense systems of at most COMPILED_LOOP_MAX_M;
     LAPACK's LU (:data:`~.kernels.dense.LAPACK_LU`) above COMPILED_LU_MAX_M unknowns
-    when the envelope fraction exceeds COMPILED_LU_MAX_ENVELOPE, else None (written out)."""
+    when the envelope fraction exceeds COMPILED_LU_MAX_ENVELOPE, else
+    :data:`~.kernels.dense.WRITTEN_OUT` (the written-out LU)."""
     if choice == "auto":
         dense_kind = m <= DENSE_ALWAYS_M or (
             m <= DENSE_MAX_M and int(indptr[-1]) / float(m * m) >= DENSE_MIN_FILL)
         choice = "dense" if dense_kind else "sparse"
-    lapack = None
+    lapack = WRITTEN_OUT
     if choice == "dense" and m > COMPILED_LU_MAX_M and (
             envelope_fraction(indptr, indices, m) > COMPILED_LU_MAX_ENVELOPE):
         lapack = LAPACK_LU
@@ -380,7 +381,7 @@ def compiled_written_out(problem) -> bool:
     :func:`socp_cd.solvers.nsgs_route.trial_run`)."""
     indptr, indices, _ = problem.csr_parts
     _, compiled, lapack = _linear_solver(indptr, indices, problem.m, "auto")
-    return compiled and lapack is None
+    return compiled and lapack == WRITTEN_OUT
 
 
 class LocalSystem:

@@ -420,18 +420,22 @@ def _balanced_run(W, q_s, a, b, q_norm, mu, dim, start, norm_q, tol, max_iter, s
     r_s[:] = start
     best_r = np.empty(m)
     max_backtrack = int(constants[C_MAX_BACKTRACK])
+    # the written-out LU (dense.WRITTEN_OUT) and the equation as run-time values, not literals:
+    # the backend's calls and these share the loops' compiled versions
+    written_out = (np.int64(0), np.int64(0))
+    law = np.int64(nd.LAW_AC)
     if prox:
         nd.prox_newton_dense(W, q_s, norm_q, mu, rho, rho, dim, tol, max_iter,
                              constants[C_ALPHA_MIN] * wscale, constants[C_ALPHA_MAX] * wscale,
                              int(constants[C_INNER_MAX_ITER]), stall_window, constants[C_ARMIJO],
                              max_backtrack, constants[C_NONMONOTONE], constants[C_INNER_GATE],
                              constants[C_INNER_DECREASE], r_s, best_r, fstate, istate,
-                             None, nd.LAW_AC)
+                             written_out, law)
     else:
         nd.plain_newton_dense(W, q_s, norm_q, mu, rho, rho, dim, tol, max_iter,
                               constants[C_PLAIN_REGULARIZATION] * wscale, stall_window,
                               constants[C_GOLDSTEIN_M1], max_backtrack, r_s, best_r, fstate,
-                              istate, None, nd.LAW_AC)
+                              istate, written_out, law)
     status = istate[nd.I_STATUS]
     err, best_err = fstate[nd.F_ERR], fstate[nd.F_BEST_ERR]
     if status != nd.CONVERGED and best_err < err:

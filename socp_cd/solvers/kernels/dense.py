@@ -16,11 +16,11 @@ recomputed, through :func:`socp_cd.solvers.kernels.cone.law_error`.
 """
 from __future__ import annotations
 
-import ctypes
-
 import numpy as np
-from numba import njit
-from numba.extending import get_cython_function_address
+from llvmlite import ir
+from numba import njit, types
+from numba.core.errors import TypingError
+from numba.extending import get_cython_function_address, intrinsic
 
 from .cone import law_error
 
@@ -165,21 +165,49 @@ def envelope_fraction(indptr, indices, m):
     return s / (0.5 * m * m) if m > 0 else 0.0
 
 
-def _lapack_functions():
-    """``(getrf, getrs)``: LAPACK's double-precision LU factorization and solve from
-    ``scipy.linalg.cython_lapack`` (scipy's LAPACK, the one ``scipy.linalg.lu_factor``
-    calls), as ctypes functions that compiled code takes as arguments (numba cannot cache
-    a function that holds a ctypes pointer as a global)."""
-    ptr = ctypes.c_void_p
-    getrf = ctypes.CFUNCTYPE(None, *(ptr,) * 6)(
-        get_cython_function_address("scipy.linalg.cython_lapack", "dgetrf"))
-    getrs = ctypes.CFUNCTYPE(None, *(ptr,) * 9)(
-        get_cython_function_address("scipy.linalg.cython_lapack", "dgetrs"))
-    return getrf, getrs
+def _lowered_c_call(context, builder, signature, args):
+    """Lowering of :func:`_c_call6` / :func:`_c_call9`: the C function ``void f(void *, ...)``
+    at the address ``args[0]`` called with the data pointers of the ``ctypes`` views after it."""
+    p8 = ir.IntType(8).as_pointer()
+    fnty = ir.FunctionType(ir.VoidType(), [p8] * (len(args) - 1))
+    f = builder.inttoptr(args[0], fnty.as_pointer())
+    ptrs = [builder.bitcast(context.make_helper(builder, ty, val).data, p8)
+            for ty, val in zip(signature.args[1:], args[1:])]
+    builder.call(f, ptrs)
+    return context.get_dummy_value()
 
 
-#: the ``lapack`` argument of :func:`dense_solve` above :data:`NAIVE_LU_MAX_N` unknowns
-LAPACK_LU = _lapack_functions()
+def _c_call_signature(addr, views):
+    """The signature of a C call at ``addr`` (an integer) on ``views`` (arrays' ``.ctypes``:
+    each holds its array alive through the call, where a bare address would not)."""
+    if not isinstance(addr, types.Integer) or not all(isinstance(v, types.ArrayCTypes)
+                                                      for v in views):
+        raise TypingError("a C call takes an integer address and arrays' .ctypes views")
+    return types.void(addr, *views)
+
+
+@intrinsic
+def _c_call6(typingctx, addr, a0, a1, a2, a3, a4, a5):
+    """``f(a0, ..., a5)`` for the C function at the address ``addr`` (LAPACK's ``getrf``)."""
+    return _c_call_signature(addr, (a0, a1, a2, a3, a4, a5)), _lowered_c_call
+
+
+@intrinsic
+def _c_call9(typingctx, addr, a0, a1, a2, a3, a4, a5, a6, a7, a8):
+    """``f(a0, ..., a8)`` for the C function at the address ``addr`` (LAPACK's ``getrs``)."""
+    return _c_call_signature(addr, (a0, a1, a2, a3, a4, a5, a6, a7, a8)), _lowered_c_call
+
+
+#: the ``lapack`` argument of :func:`dense_solve` above :data:`NAIVE_LU_MAX_N` unknowns: the
+#: addresses of ``dgetrf`` and ``dgetrs`` in ``scipy.linalg.cython_lapack`` (scipy's
+#: LAPACK, the one ``scipy.linalg.lu_factor`` calls).  Addresses, not ctypes functions:
+#: numba cannot cache a kernel holding a ctypes pointer as a global, a ctypes argument costs
+#: ~1 µs a call, and its type differs from :data:`WRITTEN_OUT`'s, so every kernel that takes
+#: the argument was compiled twice (session 47, ``validation/compile_cost.py``)
+LAPACK_LU = (get_cython_function_address("scipy.linalg.cython_lapack", "dgetrf"),
+             get_cython_function_address("scipy.linalg.cython_lapack", "dgetrs"))
+#: the ``lapack`` argument of :func:`dense_solve` for the written-out LU (:func:`lu_solve`)
+WRITTEN_OUT = (0, 0)
 
 
 @njit(cache=True)
@@ -201,7 +229,7 @@ def _lapack_solve(A, b, lapack, strict):
                 scale = abs(a)
     dims = np.array([n, 1, 0], dtype=np.int32)      # n, nrhs, info
     piv = np.empty(n, dtype=np.int32)
-    getrf(dims.ctypes, dims.ctypes, F.ctypes, dims.ctypes, piv.ctypes, dims[2:].ctypes)
+    _c_call6(getrf, dims.ctypes, dims.ctypes, F.ctypes, dims.ctypes, piv.ctypes, dims[2:].ctypes)
     if dims[2] < 0:
         return np.zeros(n), False
     tiny = 1e-300 + PIVOT_TOL * scale if strict else 0.0
@@ -210,8 +238,8 @@ def _lapack_solve(A, b, lapack, strict):
             return np.zeros(n), False
     x = b.copy()
     trans = np.array([78], dtype=np.uint8)      # "N"
-    getrs(trans.ctypes, dims.ctypes, dims[1:].ctypes, F.ctypes, dims.ctypes, piv.ctypes,
-          x.ctypes, dims.ctypes, dims[2:].ctypes)
+    _c_call9(getrs, trans.ctypes, dims.ctypes, dims[1:].ctypes, F.ctypes, dims.ctypes,
+             piv.ctypes, x.ctypes, dims.ctypes, dims[2:].ctypes)
     for k in range(n):
         if not np.isfinite(x[k]):
             return x, False
@@ -220,8 +248,8 @@ def _lapack_solve(A, b, lapack, strict):
 
 @njit(cache=True)
 def dense_solve(A, b, lapack, strict):
-    """Solve ``A x = b``: :func:`lu_solve` (``A`` destroyed) when ``lapack`` is None,
-    else LAPACK (``lapack``: :data:`LAPACK_LU`; ``A`` kept).  Returns ``(x, ok)``; ``ok``
+    """Solve ``A x = b``: :func:`lu_solve` (``A`` destroyed) when ``lapack`` is
+    :data:`WRITTEN_OUT`, else LAPACK (``lapack``: :data:`LAPACK_LU`; ``A`` kept).  Returns ``(x, ok)``; ``ok``
     is False on a singular matrix (the caller regularizes or gives up) or a non-finite
     solution.  Singular: a pivot below ``PIVOT_TOL max|A|`` (the written-out LU always;
     LAPACK when ``strict``, else an exact zero pivot, scipy's test).
@@ -234,10 +262,10 @@ def dense_solve(A, b, lapack, strict):
     must not fail where scipy's test had let a usable step through (formulations/newton.md
     §5, "The dense LU").
 
-    Callers pass ``None`` up to :data:`NAIVE_LU_MAX_N` unknowns and on patterns of a small
-    :func:`envelope_fraction` (numba compiles the two
-    cases apart; a ctypes argument costs ~1 µs a call)."""
-    if lapack is None:
+    Callers pass :data:`WRITTEN_OUT` up to :data:`NAIVE_LU_MAX_N` unknowns and on patterns
+    of a small :func:`envelope_fraction` (one compiled version for both: the two are tuples
+    of two integers)."""
+    if lapack[0] == 0:
         return lu_solve(A, b)
     return _lapack_solve(A, b, lapack, strict)
 
@@ -370,4 +398,4 @@ def matvec(A, x):
 
 __all__ = ["csr_to_dense", "dense_error", "dense_condense", "dense_split", "dense_solve", "matvec",
            "lu_solve", "lu_solve_many", "normal_matrix", "matvec_into", "NAIVE_LU_MAX_N",
-           "LAPACK_LU", "PIVOT_TOL", "envelope_fraction", "csr_matvec_add", "csr_matvec_add_into"]
+           "LAPACK_LU", "WRITTEN_OUT", "PIVOT_TOL", "envelope_fraction", "csr_matvec_add", "csr_matvec_add_into"]

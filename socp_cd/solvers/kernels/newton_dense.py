@@ -215,8 +215,9 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
         Current and best iterate, updated in place (``r`` is the start on the first call).
     fstate, istate : ndarray
         Run state (:func:`new_state`), updated in place.
-    lapack : None or tuple
-        The LU of :func:`~.dense.dense_solve` (None: the written-out one).
+    lapack : tuple of two ints
+        The LU of :func:`~.dense.dense_solve` (:data:`~.dense.LAPACK_LU`, or
+        :data:`~.dense.WRITTEN_OUT`: the written-out one).
     law : int
         The equation of the law (:data:`LAW_CODES`; ``rho_t`` is read by Alart–Curnier's only).
 
