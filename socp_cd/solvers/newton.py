@@ -115,8 +115,8 @@ from .sparse_lu import NewtonLU, SingularMatrix, csc_without_zeros, entry_positi
 from .kernels import clock
 from .kernels import newton_dense as nd
 from .kernels.cone import project_cone_stacked, siconos_error
-from .kernels.dense import (LAPACK_LU, WRITTEN_OUT, NAIVE_LU_MAX_N, PIVOT_TOL, csr_to_dense, dense_solve,
-                            envelope_fraction, matvec, matvec_into)
+from .kernels.dense import (LAPACK_LU, NAIVE_LU_MAX_N, PIVOT_TOL, WRITTEN_OUT, csr_to_dense,
+                            dense_solve, envelope_fraction, matvec, matvec_into)
 from .kernels.newton_ac import ac_blocks, block_jacobian, block_rho_dense, dense_jacobian
 from .kernels.newton_fb import fb_blocks
 from .kernels.newton_nm import nm_blocks

@@ -249,10 +249,10 @@ def _lapack_solve(A, b, lapack, strict):
 @njit(cache=True)
 def dense_solve(A, b, lapack, strict):
     """Solve ``A x = b``: :func:`lu_solve` (``A`` destroyed) when ``lapack`` is
-    :data:`WRITTEN_OUT`, else LAPACK (``lapack``: :data:`LAPACK_LU`; ``A`` kept).  Returns ``(x, ok)``; ``ok``
-    is False on a singular matrix (the caller regularizes or gives up) or a non-finite
-    solution.  Singular: a pivot below ``PIVOT_TOL max|A|`` (the written-out LU always;
-    LAPACK when ``strict``, else an exact zero pivot, scipy's test).
+    :data:`WRITTEN_OUT`, else LAPACK (``lapack``: :data:`LAPACK_LU`; ``A`` kept).  Returns
+    ``(x, ok)``; ``ok`` is False on a singular matrix (the caller regularizes or gives up) or
+    a non-finite solution.  Singular: a pivot below ``PIVOT_TOL max|A|`` (the written-out LU
+    always; LAPACK when ``strict``, else an exact zero pivot, scipy's test).
 
     Which pivots rounding leaves on a singular matrix depends on the algorithm and the
     size (~1e-17 of the largest entry on a rank-deficient 5 x 5, up to 7e-14 on a
@@ -398,4 +398,5 @@ def matvec(A, x):
 
 __all__ = ["csr_to_dense", "dense_error", "dense_condense", "dense_split", "dense_solve", "matvec",
            "lu_solve", "lu_solve_many", "normal_matrix", "matvec_into", "NAIVE_LU_MAX_N",
-           "LAPACK_LU", "WRITTEN_OUT", "PIVOT_TOL", "envelope_fraction", "csr_matvec_add", "csr_matvec_add_into"]
+           "LAPACK_LU", "WRITTEN_OUT", "PIVOT_TOL", "envelope_fraction", "csr_matvec_add",
+           "csr_matvec_add_into"]
