@@ -456,6 +456,25 @@ def test_warmup_runs_both_twins(monkeypatch):
                                                           "plain_newton_dense") for d in (2, 3)}
 
 
+def test_no_kernel_reads_the_lapack_addresses_as_a_global():
+    # dense.LAPACK_LU holds this process's addresses of getrf/getrs; a cached kernel that
+    # named it as a global would keep them as constants and call them in a later process
+    # (another address space), so the kernels take it as an argument only (session 47)
+    import importlib
+    import pkgutil
+    from numba.core.registry import CPUDispatcher
+    import socp_cd as pkg
+    seen = 0
+    for info in pkgutil.walk_packages(pkg.__path__, "socp_cd."):
+        mod = importlib.import_module(info.name)
+        for obj in vars(mod).values():
+            if isinstance(obj, CPUDispatcher):
+                seen += 1
+                names = obj.py_func.__code__.co_names
+                assert "LAPACK_LU" not in names, obj.py_func.__qualname__
+    assert seen > 50
+
+
 # --------------------------------------------------------------------------- dense solves
 @pytest.mark.parametrize("n", [5, 40, 90, 150])
 def test_both_lus_of_dense_solve_agree_and_report_singular_matrices(n):

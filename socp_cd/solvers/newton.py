@@ -415,7 +415,7 @@ class LocalSystem:
         indptr, indices, data = problem.csr_parts      # no scipy matrix needed on the dense path
         self.d, self.m = problem.dim, problem.m
         #: dense system: compiled mat-vecs and solves (and the compiled loop); the LU of
-        #: dense_solve (None: written out; read on the compiled dense path only)
+        #: dense_solve (WRITTEN_OUT or LAPACK_LU; read on the compiled dense path only)
         self.kind, self.compiled, self.lapack = _linear_solver(indptr, indices, self.m,
                                                                linear_solver)
         given = dense if self.compiled else None

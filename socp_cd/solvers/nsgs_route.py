@@ -401,12 +401,14 @@ def trial_run(indptr, indices, data, q, mu, dim, start, norm_q, tol, max_iter, s
                          stall_window, prox, constants, alpha0, r_s, fstate, istate)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _balanced_run(W, q_s, a, b, q_norm, mu, dim, start, norm_q, tol, max_iter, stall_window,
                   prox, constants, alpha0, r_s, fstate, istate):
     """:func:`trial_run` on the balanced problem ``W~`` (dense), ``q~`` of
     :func:`~socp_cd.solvers.kernels.scaling.balance_csr` (``a``, ``b``, ``q_norm`` its unit
-    factors and ``||q||``): the same returns."""
+    factors and ``||q||``): the same returns.  (Called, not inlined, as
+    :func:`_checked_balanced`: once per route call, and inlined into each caller it was
+    compiled once per caller, ~25 s of a fresh install's warm-up for the two; session 47.)"""
     nc = mu.shape[0]
     m = q_s.shape[0]
     rho = np.empty(nc)
@@ -465,11 +467,12 @@ def trial_checked(indptr, indices, data, q, mu, dim, r_s, norm_q, vectors):
                              q_s_norm, err0, norm_q, vectors)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _checked_balanced(indptr, indices, data, q, mu, dim, a, b, data_s, q_s, q_norm, q_s_norm,
                       err0, norm_q, vectors):
     """:func:`trial_checked` of the balanced answer ``vectors[0]``, the outputs of
-    :func:`~socp_cd.solvers.kernels.scaling.balance_csr` given: the same returns."""
+    :func:`~socp_cd.solvers.kernels.scaling.balance_csr` given: the same returns (called,
+    not inlined: see :func:`_balanced_run`)."""
     nc = mu.shape[0]
     m = q.shape[0]
     stats = np.zeros(N_OUT)

@@ -203,7 +203,10 @@ def _c_call9(typingctx, addr, a0, a1, a2, a3, a4, a5, a6, a7, a8):
 #: LAPACK, the one ``scipy.linalg.lu_factor`` calls).  Addresses, not ctypes functions:
 #: numba cannot cache a kernel holding a ctypes pointer as a global, a ctypes argument costs
 #: ~1 µs a call, and its type differs from :data:`WRITTEN_OUT`'s, so every kernel that takes
-#: the argument was compiled twice (session 47, ``validation/compile_cost.py``)
+#: the argument was compiled twice (session 47, ``validation/compile_cost.py``).  Pass it as
+#: an argument only: a kernel that read it as a global would cache this process's addresses
+#: as constants, and a later process (another address space) would call them
+#: (``tests/test_newton_dense.py`` checks that no kernel names it)
 LAPACK_LU = (get_cython_function_address("scipy.linalg.cython_lapack", "dgetrf"),
              get_cython_function_address("scipy.linalg.cython_lapack", "dgetrs"))
 #: the ``lapack`` argument of :func:`dense_solve` for the written-out LU (:func:`lu_solve`)
@@ -265,7 +268,7 @@ def dense_solve(A, b, lapack, strict):
     Callers pass :data:`WRITTEN_OUT` up to :data:`NAIVE_LU_MAX_N` unknowns and on patterns
     of a small :func:`envelope_fraction` (one compiled version for both: the two are tuples
     of two integers)."""
-    if lapack[0] == 0:
+    if lapack[0] == 0 or lapack[1] == 0:       # (no address: the written-out LU)
         return lu_solve(A, b)
     return _lapack_solve(A, b, lapack, strict)
 

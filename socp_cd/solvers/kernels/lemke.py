@@ -138,7 +138,7 @@ def lemke(M, q, max_pivots, deadline, z):
             code = RAY
             break
         gap = TIE_TOL * max(1.0, abs(theta))
-        count = 0
+        count = np.int64(0)     # (not the literal 0: _lex_row is compiled once)
         r = -1
         for i in range(n):
             c = T[i, enter]

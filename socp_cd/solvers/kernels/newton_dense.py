@@ -235,7 +235,8 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
                                                    istate, np.bool_(False))
     alpha = fstate[F_ALPHA]
     alpha_max_used = fstate[F_ALPHA_MAX_USED]
-    n_newton = n_backtrack = n_ls_fail = n_singular = n_rejected = n_fact = 0
+    # (counters start as int64, not the literal 0: _store is compiled once)
+    n_newton = n_backtrack = n_ls_fail = n_singular = n_rejected = n_fact = np.int64(0)
     F, Ft, mF, ua, rk, rt, ut, J, Dr, Du, branch = _buffers(m, nc, d)
     while status == RUNNING and it < it_end:
         it += 1
@@ -401,7 +402,7 @@ def plain_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, reg, stal
     nc = mu.shape[0]
     u, status, it, best_it, err, best_err = _start(W, q, norm_q, mu, d, tol, r, best_r, fstate,
                                                    istate, np.bool_(True))
-    n_newton = n_backtrack = n_ls_fail = n_singular = n_fact = 0
+    n_newton = n_backtrack = n_ls_fail = n_singular = n_fact = np.int64(0)
     F, Ft, mF, _, rk, rt, ut, J, Dr, Du, branch = _buffers(m, nc, d)
     while status == RUNNING and it < it_end:
         it += 1
