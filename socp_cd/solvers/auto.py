@@ -539,12 +539,18 @@ def lemke_bound() -> int:
     return max(0, min(int(bound), SMALL_NC, lemke.MAX_UNKNOWNS // 4))
 
 
+def _lemke_sized(dim, nc) -> bool:
+    """Whether a local problem of dimension ``dim`` with ``nc`` contacts is one whose cold
+    chain starts with ``"lemke"``: 2D, at most :func:`lemke_bound` contacts (the test of
+    :func:`_lemke_first`, :func:`route` and :func:`plain`)."""
+    return dim == 2 and 0 < nc <= lemke_bound()
+
+
 def _lemke_first(feats) -> bool:
     """Whether the chain of the problem of ``feats`` starts with ``"lemke"`` on a cold call:
-    a 2D local problem of at most :func:`lemke_bound` contacts (with friction: the
-    frictionless law's order comes first in :func:`stage_order`)."""
-    return (feats["dim"] == 2 and not feats["global"]
-            and 0 < feats["n_contacts"] <= lemke_bound())
+    a local problem :func:`_lemke_sized` (with friction: the frictionless law's order comes
+    first in :func:`stage_order`)."""
+    return not feats["global"] and _lemke_sized(feats["dim"], feats["n_contacts"])
 
 
 def _small_local(feats) -> bool:
@@ -844,7 +850,7 @@ def route(problem, *, tol, max_iter, r0, time_limit):
     # the chain's first stage on a local problem with friction (stage_order): NSGS, or on
     # more than SMALL_NC contacts the NSGS probe (_probe_plan: its cap and prediction)
     nc = problem.mu.shape[0]
-    if problem.dim == 2 and r0 is None and nc <= lemke_bound():
+    if r0 is None and _lemke_sized(problem.dim, nc):
         return None         # a cold chain starts with Lemke's method (plain runs it compiled)
     stall, handoff, predict = None, (0, 0), 0
     if nc <= SMALL_NC:
@@ -920,7 +926,7 @@ def plain(problem, tol, time_limit, t0):
     it.  The answer is the route's, bit for bit (``tests/test_route.py``)."""
     dim = problem.dim
     nc = problem.mu.shape[0]
-    if dim == 2 and nc <= lemke_bound():
+    if _lemke_sized(dim, nc):
         return _lemke_plain(problem, nc, tol, time_limit, t0)
     plan = _PLANS.get(dim)
     if plan is None:
