@@ -81,6 +81,13 @@ def main() -> None:
            for pr, row in table.items()}
     _, rho = performance_profile(sub, [1.0, 2.0, 4.0, 10.0])
     lines.append("- `auto` ρ(1) / ρ(2) / ρ(4) / ρ(10): " + " / ".join(f"{x:.2f}" for x in rho["auto"]))
+    parts = []
+    for name, groups in GROUPS.items():     # (the same profile, on each group's problems)
+        _, rho_g = performance_profile({pr: row for pr, row in sub.items() if pr[:2] in groups},
+                                       [1.0, 2.0, 4.0, 10.0])
+        parts.append(f"{name} ({sum(pr[:2] in groups for pr in sub)}) "
+                     + " / ".join(f"{x:.2f}" for x in rho_g["auto"]))
+    lines.append("- the same by group: " + "; ".join(parts))
     # shifted geometric means
 
     def sgm(solver, keys):      # (a failure charged the time limit, as the run's report does)
