@@ -195,6 +195,44 @@ def test_random_packing_places_disjoint_bodies_inside_the_region(tmp_path):
     np.testing.assert_array_equal(P, [b["position"] for b in again.bodies])
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_random_orientation_turns_each_body_and_keeps_the_positions(tmp_path, dim):
+    """``random_orientation``: the same positions as without it (the rotations are drawn
+    after them), every body turned differently (unit quaternions spread over the sphere in
+    3D, angles over the circle in 2D), still disjoint, and the same turns for the same seed."""
+    body = ('{shape = "box", size = [0.1, 0.06, 0.04]}' if dim == 3
+            else '{shape = "polygon", sides = 5, radius = 0.05}')
+    lo, hi = ("[0, 0, 0.5]", "[1, 1, 1.5]") if dim == 3 else ("[0, 0.5]", "[1, 1.5]")
+    head = BASE2 if dim == 2 else "[scene]\ndim = 3\n"
+    plain = head + f"""
+    [[generate]]
+    kind = "random_packing"
+    lo = {lo}
+    hi = {hi}
+    count = 40
+    seed = 5
+    body = {body}
+    """
+    turned = plain.replace("seed = 5", "seed = 5\n    random_orientation = true")
+    a = load_scene_file(_write(tmp_path, plain)).bodies
+    b = load_scene_file(_write(tmp_path, turned, "turned.toml")).bodies
+    again = load_scene_file(_write(tmp_path, turned, "again.toml")).bodies
+    np.testing.assert_array_equal([x["position"] for x in a], [x["position"] for x in b])
+    key = "orientation" if dim == 3 else "angle"
+    turns = np.array([x[key] for x in b], dtype=float).reshape(40, -1)
+    np.testing.assert_array_equal(turns, np.array([x[key] for x in again]).reshape(40, -1))
+    assert all(np.all(np.asarray(x[key]) == np.asarray(a[0][key])) for x in a)   # none without
+    assert len(np.unique(turns.round(12), axis=0)) == 40
+    if dim == 3:
+        np.testing.assert_allclose(np.linalg.norm(turns, axis=1), 1.0, rtol=1e-12)
+        # uniform on the rotations: the rotated x axes spread over every octant
+        axes = np.array([quat_to_matrix(q)[:, 0] for q in turns])
+        assert len({tuple(np.sign(v)) for v in axes}) >= 6
+    else:
+        assert turns.min() >= 0.0 and turns.max() < 2 * math.pi and np.ptp(turns) > math.pi
+        assert _min_gap(build_scene(load_scene_file(_write(tmp_path, turned, "t2.toml")))) > 0
+
+
 @pytest.mark.parametrize("tilt", [0.0, -25.0])
 def test_stack_bodies_touch_without_overlap(tmp_path, tilt):
     text = f"""

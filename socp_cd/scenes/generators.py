@@ -5,7 +5,9 @@ table without ``position``) to many positions:
 
 * ``random_packing`` — ``count`` non-overlapping bodies at uniform random
   positions in the box ``lo``–``hi`` (``seed``; ``radius_range = [rmin, rmax]``
-  draws a radius per body for disks/spheres/regular polygons);
+  draws a radius per body for disks/spheres/regular polygons; ``random_orientation =
+  true`` turns each body by a uniformly random rotation after its template's own, drawn
+  after the positions, so the positions are those of the same seed without it);
 * ``hopper`` — a pile to be deposited: ``count`` bodies on a lattice inside a
   funnel above the outlet ``outlet`` of width ``opening``, whose walls make
   ``wall_angle`` degrees with the vertical (2D: two thin fixed boxes; 3D: four,
@@ -35,7 +37,7 @@ import numpy as np
 from .rotations import quat_from_axis_angle, quat_mul
 
 _KINDS = {
-    "random_packing": {"lo", "hi", "count", "seed", "radius_range"},
+    "random_packing": {"lo", "hi", "count", "seed", "radius_range", "random_orientation"},
     "hopper": {"outlet", "opening", "wall_angle", "count", "seed", "jitter", "walls", "wall_thickness",
                "wall_height"},
     "stack": {"base", "count", "gap", "tilt"},
@@ -186,9 +188,25 @@ def _random_packing(ck, t, path, dim, tmpl):
                 pos[k] = p
                 grid.setdefault(c, []).append(k)
                 break
-    if radii is None:
-        return [_place(tmpl, p) for p in pos], []
-    return [_place(_scaled(tmpl, r), p) for p, r in zip(pos, radii)], []
+    bodies = ([_place(tmpl, p) for p in pos] if radii is None
+              else [_place(_scaled(tmpl, r), p) for p, r in zip(pos, radii)])
+    if ck.boolean(t.get("random_orientation", False), f"{path}.random_orientation"):
+        # (the bounding disk or sphere placed each body: any rotation keeps them apart)
+        for b in bodies:
+            if dim == 2:
+                b["angle"] = float(b.get("angle", 0.0) + rng.uniform(0.0, 2.0 * math.pi))
+            else:
+                b["orientation"] = quat_mul(random_rotation(rng), b["orientation"])
+    return bodies, []
+
+
+def random_rotation(rng) -> np.ndarray:
+    """A uniformly distributed unit quaternion ``(w, x, y, z)`` (Shoemake's method: three
+    uniform numbers, no rejection)."""
+    u1, u2, u3 = rng.uniform(0.0, 1.0, 3)
+    a, b = math.sqrt(1.0 - u1), math.sqrt(u1)
+    return np.array([b * math.cos(2 * math.pi * u3), a * math.sin(2 * math.pi * u2),
+                     a * math.cos(2 * math.pi * u2), b * math.sin(2 * math.pi * u3)])
 
 
 def _hopper(ck, t, path, dim, tmpl):
