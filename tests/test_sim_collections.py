@@ -6,6 +6,7 @@ from __future__ import annotations
 import itertools
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import socp_cd
@@ -59,3 +60,27 @@ def test_a_box_wall_step_has_redundant_contacts_and_a_sphere_heap_does_not(scrip
     assert problem.n_contacts > 0
     share = auto.contact_redundancy(problem)
     assert (share == 1.0) if redundant else (share < 0.5)
+
+
+def test_the_new_kinds_load_and_are_apart_from_every_draw(script, tmp_path):
+    """``--new-kinds`` and ``--new-kinds-fresh`` (session 48): four valid scenes each, each
+    named as its collection, that no other draw holds, their heaps dropped in random
+    orientations."""
+    from socp_cd.scenes import load_simulation, load_scene_file
+    (tmp_path / "new").mkdir()
+    (tmp_path / "new_fresh").mkdir()
+    first = script.new_kinds_runs(tmp_path / "new")
+    fresh = script.new_kinds_runs(tmp_path / "new_fresh", fresh=True)
+    assert [n for n, *_ in first] == list(script.NEW_KINDS)
+    assert [n for n, *_ in fresh] == list(script.NEW_KINDS_FRESH)
+    runs = first + fresh
+    for name, scene, steps, every in runs:
+        spec, sim = load_simulation(scene)
+        assert spec.name == name and len(spec.bodies) > 0 and sim.h > 0 and steps > every > 0
+        if "pile" in name or "pentagons" in name:
+            turns = {tuple(np.atleast_1d(b["orientation" if spec.dim == 3 else "angle"]))
+                     for b in load_scene_file(scene).bodies}
+            assert len(turns) == len(spec.bodies), name
+    old = {Path(s).read_text() for rs in _draws(script, tmp_path).values() for _, s, *_ in rs}
+    assert not old & {Path(s).read_text() for _, s, *_ in runs}
+    assert not {Path(s).read_text() for _, s, *_ in first} & {Path(s).read_text() for _, s, *_ in fresh}

@@ -53,6 +53,16 @@ chose it on ``--kinds --tune``, so this draw is the one nothing was looked at on
 ``validation/evalset_sim_kinds_fresh2/``: session 43 looked at the third draw's walls before
 choosing a rule (``auto.REDUNDANT_RETRY``), so the fourth is the clean check of that rule.
 
+``--new-kinds`` (session 48) builds a fifth draw, of kinds no collection had
+(:data:`NEW_KINDS`), into ``validation/evalset_sim_newkinds/``: a heap of 40 boxes and one of 30
+irregular polyhedra, both dropped in random orientations (the packing's ``random_orientation``);
+a chain of 16 toppling dominoes; a 2D heap of 150 pentagons in a box.  Built after every rule of
+``auto`` was chosen and held out: nothing is tuned on them; they check ``auto`` against
+Siconos on problems no session had looked at.  Session 48 then looked at that draw (a rule's
+need was found there); ``--new-kinds-fresh`` builds a second draw of the same kinds
+(:data:`NEW_KINDS_FRESH`: other sizes, seeds and parameters, fixed before the rule was measured)
+into ``validation/evalset_sim_newkinds_fresh/``, the held-out check of that rule.
+
 ``--tune`` builds *other* scenes of the same kinds into
 ``validation/evalset_sim_tune/`` (1 500 disks with packing seed 11, 250
 spheres with seed 2): the simulation problems ``auto``'s rules may be chosen
@@ -185,15 +195,23 @@ def main(argv=None) -> int:
                            "see above)")
     mode.add_argument("--kinds-fresh2", action="store_true",
                       help="a fourth draw of the same kinds (session 43, see above)")
+    mode.add_argument("--new-kinds", action="store_true",
+                      help="a fifth draw, of kinds no collection had (session 48, see above)")
+    mode.add_argument("--new-kinds-fresh", action="store_true",
+                      help="a second draw of those kinds (session 48, see above)")
     ap.add_argument("--only", nargs="*", default=None)
     args = ap.parse_args(argv)
-    if args.tune and (args.fresh or args.kinds_fresh or args.kinds_fresh2 or args.quick):
+    if args.tune and (args.fresh or args.kinds_fresh or args.kinds_fresh2 or args.quick
+                      or args.new_kinds or args.new_kinds_fresh):
         ap.error("--tune goes with the default collections, --small, --small2d or --kinds")
     if args.out is None and args.fresh:
         args.out = HERE / "evalset_sim_fresh"
     if args.out is None and (args.kinds_fresh or args.kinds_fresh2):
         args.out = HERE / ("evalset_sim_kinds_fresh2" if args.kinds_fresh2
                            else "evalset_sim_kinds_fresh")
+    if args.out is None and (args.new_kinds or args.new_kinds_fresh):
+        args.out = HERE / ("evalset_sim_newkinds_fresh" if args.new_kinds_fresh
+                           else "evalset_sim_newkinds")
     if args.out is None and args.kinds:
         args.out = HERE / ("evalset_sim_kinds_tune" if args.tune else "evalset_sim_kinds")
     if args.out is None:
@@ -215,6 +233,8 @@ def main(argv=None) -> int:
         return build(kinds_runs(args.out, "tune" if args.tune else "held"), args)
     if args.kinds_fresh or args.kinds_fresh2:
         return build(kinds_runs(args.out, "fresh2" if args.kinds_fresh2 else "fresh"), args)
+    if args.new_kinds or args.new_kinds_fresh:
+        return build(new_kinds_runs(args.out, args.new_kinds_fresh), args)
     table = QUICK if args.quick else TUNE if args.tune else FULL
     for name, (n, steps, every) in table.items():
         scene = args.out / f"{name}.toml"
@@ -487,6 +507,113 @@ KINDS_EXAMPLES = {
                "talus2d-fresh2-180": ("talus_2d.toml", (("count = 200", "count = 180"),
                                                         ("seed = 3", "seed = 41")), 3000, 300)},
 }
+
+
+NEW_KINDS_HEADER = KINDS_HEADER.replace("--kinds, session 41", "--new-kinds, session 48")
+
+
+def _dropped(lo, hi, count, seed, body, radius_range=None) -> str:
+    """A ``random_packing`` table of ``count`` bodies (``body``: the template's TOML) in random
+    orientations in the box ``lo``–``hi``, to be dropped."""
+    rr = "" if radius_range is None else f"radius_range = {radius_range}\n"
+    return (f'\n[[generate]]\nkind = "random_packing"\nlo = {lo}\nhi = {hi}\ncount = {count}\n'
+            f"seed = {seed}\n{rr}random_orientation = true\nbody = {body}\n")
+
+
+#: ``--new-kinds`` (session 48): name -> (what, dim, mu, h, steps, dump every, the scene's
+#: obstacles and generators), as :data:`KINDS`
+NEW_KINDS = {
+    "boxpile3d-40": ("A heap of 40 boxes (10 x 6 x 4 cm) dropped in random orientations", 3, 0.5,
+                     2e-3, 1000, 50, FLOOR_3D + _dropped(
+                         [-0.3, -0.3, 0.02], [0.3, 0.3, 1.2], 40, 131,
+                         '{ shape = "box", size = [0.1, 0.06, 0.04], density = 700.0 }')),
+    "polypile3d-30": ("A heap of 30 irregular convex polyhedra (7 vertices) dropped in random "
+                      "orientations", 3, 0.6, 2e-3, 800, 40, FLOOR_3D + _dropped(
+                          [-0.12, -0.12, 0.02], [0.12, 0.12, 0.9], 30, 137,
+                          '{ shape = "polyhedron", density = 2500.0, vertices = [[0.03, 0.0, 0.0], '
+                          '[-0.02, 0.025, 0.0], [-0.015, -0.028, 0.005], [0.0, 0.004, 0.032], '
+                          '[0.004, -0.002, -0.027], [0.018, 0.02, 0.015], [-0.01, -0.01, -0.02]] }')),
+    "dominoes3d-16": ("A chain of 16 dominoes (2 x 10 x 20 cm, 7.5 cm apart), the first tipped "
+                      "at 4 rad/s", 3, 0.4, 1e-3, 1500, 75, FLOOR_3D + """
+[[bodies]]
+shape = "box"
+size = [0.02, 0.1, 0.2]
+density = 700.0
+position = [-0.075, 0, 0.1]
+omega = [0, 4.0, 0]
+
+[[generate]]
+kind = "row"
+start = [0.0, 0, 0.1]
+end = [1.05, 0, 0.1]
+count = 15
+body = { shape = "box", size = [0.02, 0.1, 0.2], density = 700.0 }
+"""),
+    "pentagons2d-150": ("A 2D heap of 150 pentagons (circumradius 12-20 mm) in a box, dropped in "
+                        "random orientations", 2, 0.5, 1e-3, 1500, 75, """
+[[obstacles]]
+shape = "line"
+point = [0, 0]
+normal = [0, 1]
+
+[[obstacles]]
+shape = "line"
+point = [-0.25, 0]
+normal = [1, 0]
+
+[[obstacles]]
+shape = "line"
+point = [0.25, 0]
+normal = [-1, 0]
+""" + _dropped([-0.25, 0.0], [0.25, 0.6], 150, 139,
+               '{ shape = "polygon", sides = 5, radius = 0.015, density = 2000.0 }',
+               radius_range=[0.012, 0.02])),
+}
+
+
+#: ``--new-kinds-fresh`` (session 48): a second draw of the new kinds, other sizes, seeds and
+#: parameters, fixed before any rule was measured on the first (which session 48 then looked
+#: at): name -> (the ``--new-kinds`` scene, replacements), as :data:`KINDS_FRESH`
+NEW_KINDS_FRESH = {
+    "boxpile3d-fresh-30": ("boxpile3d-40", (("count = 40", "count = 30"), ("seed = 131", "seed = 151"),
+                                            ("size = [0.1, 0.06, 0.04]", "size = [0.12, 0.05, 0.05]"))),
+    "polypile3d-fresh-24": ("polypile3d-30", (("count = 30", "count = 24"), ("seed = 137", "seed = 157"),
+                                              ("mu = 0.6", "mu = 0.5"))),
+    "dominoes3d-fresh-12": ("dominoes3d-16", (("count = 15", "count = 11"),
+                                              ("end = [1.05, 0, 0.1]", "end = [0.8, 0, 0.11]"),
+                                              ("start = [0.0, 0, 0.1]", "start = [0.0, 0, 0.11]"),
+                                              ("position = [-0.075, 0, 0.1]", "position = [-0.08, 0, 0.11]"),
+                                              ("size = [0.02, 0.1, 0.2]", "size = [0.025, 0.12, 0.22]"),
+                                              ("omega = [0, 4.0, 0]", "omega = [0, 5.0, 0]"),
+                                              ("mu = 0.4", "mu = 0.5"))),
+    "pentagons2d-fresh-120": ("pentagons2d-150", (("count = 150", "count = 120"),
+                                                  ("seed = 139", "seed = 163"))),
+}
+
+
+def new_kinds_runs(out: Path, fresh: bool = False) -> list:
+    """The ``--new-kinds`` collections (session 48): ``(name, scene file, steps, dump every)``
+    of :data:`NEW_KINDS`; with ``fresh`` those of :data:`NEW_KINDS_FRESH`."""
+    scenes = {name: (NEW_KINDS_HEADER.format(what=what, name=name, dim=dim, mu=mu, h=h,
+                                             steps=steps) + body, steps, every)
+              for name, (what, dim, mu, h, steps, every, body) in NEW_KINDS.items()}
+    if fresh:
+        derived = {}
+        for name, (base, swaps) in NEW_KINDS_FRESH.items():
+            text, steps, every = scenes[base]
+            head, rest = _swapped(name, text, swaps).split("\n", 1)
+            head = (f"# {name}: the --new-kinds scene {base} with "
+                    + "; ".join(f"{o} -> {n}" for o, n in swaps)
+                    + " (validation/build_sim_collections.py --new-kinds-fresh, session 48).")
+            derived[name] = (head + "\n" + rest.replace(f'name = "{base}"', f'name = "{name}"'),
+                             steps, every)
+        scenes = derived
+    runs = []
+    for name, (text, steps, every) in scenes.items():
+        scene = out / f"{name}.toml"
+        scene.write_text(text)
+        runs.append((name, scene, steps, every))
+    return runs
 
 
 def _swapped(name, text, swaps) -> str:
