@@ -312,6 +312,25 @@ def test_plain_newton_stages_follow_the_first_newton_stage():
         assert names[-1] == "newton"
 
 
+def test_the_early_fixed_point_knob_moves_clarabel_in_the_small_chain_only(monkeypatch):
+    # SMALL_CLARABEL_EARLY (session 48, measured, not adopted): the small local chain's fixed
+    # point right after its first proximal Newton stage, the other stages in their order; off
+    # by default, and the large chain's order either way
+    small, large = _local(4, 3, 8, mu=0.3), _local(auto.SMALL_NC + 1, 3, 8, mu=0.3)
+
+    def order(p):
+        return [m for m, _ in auto.stage_order(p, "coulomb", auto.features(p, "coulomb"))]
+    assert auto.SMALL_CLARABEL_EARLY is False
+    before, before_large = order(small), order(large)
+    k = before.index("newton")
+    assert before[k + 1] == "newton_plain" and before.count("clarabel") == 1
+    monkeypatch.setattr(auto, "SMALL_CLARABEL_EARLY", True)
+    after = order(small)
+    assert after[k:k + 3] == ["newton", "clarabel", "newton_plain"]
+    assert sorted(after) == sorted(before) and after[-1] == before[-1] == "newton"
+    assert order(large) == before_large
+
+
 def test_cold_alternative_starts_from_zero_with_its_proximal_parameter(monkeypatch):
     # "newton_cold_alt": the proximal method from r = 0 with alpha0 = ALT_ALPHA0 (session 13's
     # default), after the order's Newton stages, which start warm or with COLD_ALPHA0

@@ -325,6 +325,14 @@ ROUND = ("nsgs", "newton", "clarabel", "newton")
 ALT_ALPHA0 = 1.0
 ROUND_GAIN = 1.1
 MAX_ROUNDS = 8
+#: in the small local chain, the Clarabel fixed point right after the first proximal Newton
+#: stage, before the plain and cold Newton stages (False: after them, as in the large
+#: chain).  A study knob (session 48), measured and not adopted: on the toppled dominoes of
+#: the fifth scene draw (``build_sim_collections.py --new-kinds``) the proximal stage stalls at
+#: 2e-8 ... 3e-6 and the plain and cold stages cost 7-190 ms each before the fixed point; the
+#: knob cut that draw's sgm by 11 % but won no case there, on the tune split or held out
+#: (validation/results/auto_chain_{tune_s48newkinds,tune_s48early,holdout_s48early}.md)
+SMALL_CLARABEL_EARLY = False
 #: the last resort of a local exact-Coulomb problem that the order and its rounds leave
 #: unsolved with time left: Siconos PROX's proximal point (``"newton_prox_error"``, newton's
 #: ``policy="prox_error"``) from ``r = 0``, with the rest of the budget, at most
@@ -615,6 +623,9 @@ def stage_order(problem, formulation, feats) -> tuple:
         first = (("newton_first", "coulomb"),) if _newton_first(problem) else ()
         if _lemke_first(feats):
             first = (("lemke", "coulomb"),) + first
+        if SMALL_CLARABEL_EARLY:
+            return (first + (("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),)
+                    + (("clarabel", "coulomb"),) + plain + (("newton", "coulomb"),) + last)
         return (first + (("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),) + plain
                 + (("clarabel", "coulomb"), ("newton", "coulomb")) + last)
     if feats["mu_max"] >= HIGH_MU or feats["dim"] == 2:
