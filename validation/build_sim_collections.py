@@ -520,6 +520,11 @@ def _dropped(lo, hi, count, seed, body, radius_range=None) -> str:
             f"seed = {seed}\n{rr}random_orientation = true\nbody = {body}\n")
 
 
+def _lines_2d(*lines) -> str:
+    """Fixed 2D lines (``(point, normal)`` pairs) as ``[[obstacles]]`` tables."""
+    return "\n".join(f'\n[[obstacles]]\nshape = "line"\npoint = {p}\nnormal = {n}' for p, n in lines) + "\n"
+
+
 #: ``--new-kinds`` (session 48): name -> (what, dim, mu, h, steps, dump every, the scene's
 #: obstacles and generators), as :data:`KINDS`
 NEW_KINDS = {
@@ -550,24 +555,11 @@ count = 15
 body = { shape = "box", size = [0.02, 0.1, 0.2], density = 700.0 }
 """),
     "pentagons2d-150": ("A 2D heap of 150 pentagons (circumradius 12-20 mm) in a box, dropped in "
-                        "random orientations", 2, 0.5, 1e-3, 1500, 75, """
-[[obstacles]]
-shape = "line"
-point = [0, 0]
-normal = [0, 1]
-
-[[obstacles]]
-shape = "line"
-point = [-0.25, 0]
-normal = [1, 0]
-
-[[obstacles]]
-shape = "line"
-point = [0.25, 0]
-normal = [-1, 0]
-""" + _dropped([-0.25, 0.0], [0.25, 0.6], 150, 139,
-               '{ shape = "polygon", sides = 5, radius = 0.015, density = 2000.0 }',
-               radius_range=[0.012, 0.02])),
+                        "random orientations", 2, 0.5, 1e-3, 1500, 75,
+                        _lines_2d(([0, 0], [0, 1]), ([-0.25, 0], [1, 0]), ([0.25, 0], [-1, 0]))
+                        + _dropped([-0.25, 0.0], [0.25, 0.6], 150, 139,
+                                  '{ shape = "polygon", sides = 5, radius = 0.015, density = 2000.0 }',
+                                  radius_range=[0.012, 0.02])),
 }
 
 
@@ -598,16 +590,8 @@ def new_kinds_runs(out: Path, fresh: bool = False) -> list:
                                              steps=steps) + body, steps, every)
               for name, (what, dim, mu, h, steps, every, body) in NEW_KINDS.items()}
     if fresh:
-        derived = {}
-        for name, (base, swaps) in NEW_KINDS_FRESH.items():
-            text, steps, every = scenes[base]
-            head, rest = _swapped(name, text, swaps).split("\n", 1)
-            head = (f"# {name}: the --new-kinds scene {base} with "
-                    + "; ".join(f"{o} -> {n}" for o, n in swaps)
-                    + " (validation/build_sim_collections.py --new-kinds-fresh, session 48).")
-            derived[name] = (head + "\n" + rest.replace(f'name = "{base}"', f'name = "{name}"'),
-                             steps, every)
-        scenes = derived
+        scenes = _derived(scenes, NEW_KINDS_FRESH, "--new-kinds",
+                          "--new-kinds-fresh, session 48")
     runs = []
     for name, (text, steps, every) in scenes.items():
         scene = out / f"{name}.toml"
@@ -625,6 +609,22 @@ def _swapped(name, text, swaps) -> str:
     return text
 
 
+def _derived(scenes, table, source, option) -> dict:
+    """The scenes of ``table`` (name -> (base scene, replacements)) made from ``scenes`` (name ->
+    (text, steps, dump every), the ``source`` draw's): each one's first line says what it is
+    made from and by which ``option``, its ``[scene]`` name is its own."""
+    derived = {}
+    for name, (base, swaps) in table.items():
+        text, steps, every = scenes[base]
+        head, rest = _swapped(name, text, swaps).split("\n", 1)
+        head = (f"# {name}: the {source} scene {base} with "
+                + "; ".join(f"{o} -> {n}" for o, n in swaps)
+                + f" (validation/build_sim_collections.py {option}).")
+        derived[name] = (head + "\n" + rest.replace(f'name = "{base}"', f'name = "{name}"'),
+                         steps, every)
+    return derived
+
+
 def kinds_runs(out: Path, draw: str = "held") -> list:
     """The ``--kinds`` collections (session 41): ``(name, scene file, steps, dump every)`` of
     :data:`KINDS` and :data:`KINDS_EXAMPLES` (the Kapla tower of ``examples/``, 1 000 steps,
@@ -640,18 +640,8 @@ def kinds_runs(out: Path, draw: str = "held") -> list:
                      + body, steps, every)
               for name, (what, dim, mu, h, steps, every, body) in KINDS.items()}
     if draw != "held":
-        derived = {}
         table, option = DERIVED[draw]
-        for name, (base, swaps) in table.items():
-            text, steps, every = scenes[base]
-            # the first line said what the base scene is: say what this one is made from
-            head, rest = _swapped(name, text, swaps).split("\n", 1)
-            head = (f"# {name}: the --kinds scene {base} with "
-                    + "; ".join(f"{o} -> {n}" for o, n in swaps)
-                    + f" (validation/build_sim_collections.py {option}).")
-            derived[name] = (head + "\n" + rest.replace(f'name = "{base}"', f'name = "{name}"'),
-                             steps, every)
-        scenes = derived
+        scenes = _derived(scenes, table, "--kinds", option)
     for name, (example, swaps, steps, every) in KINDS_EXAMPLES[draw].items():
         scenes[name] = (_swapped(name, (EXAMPLES / example).read_text(), swaps), steps, every)
     runs = []
