@@ -623,11 +623,10 @@ def stage_order(problem, formulation, feats) -> tuple:
         first = (("newton_first", "coulomb"),) if _newton_first(problem) else ()
         if _lemke_first(feats):
             first = (("lemke", "coulomb"),) + first
-        if SMALL_CLARABEL_EARLY:
-            return (first + (("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),)
-                    + (("clarabel", "coulomb"),) + plain + (("newton", "coulomb"),) + last)
-        return (first + (("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),) + plain
-                + (("clarabel", "coulomb"), ("newton", "coulomb")) + last)
+        fixed_point = (("clarabel", "coulomb"),)
+        middle = fixed_point + plain if SMALL_CLARABEL_EARLY else plain + fixed_point
+        return (first + (("nsgs", "coulomb"),) + handoff + (("newton", "coulomb"),) + middle
+                + (("newton", "coulomb"),) + last)
     if feats["mu_max"] >= HIGH_MU or feats["dim"] == 2:
         middle = (("clarabel", "coulomb"), ("nsgs", "coulomb"))
     else:
