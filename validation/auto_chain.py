@@ -162,6 +162,12 @@ Session 46's:
 ``LEMKE_MAX_NC``
     2D local problems of at most this many contacts start with Lemke's method (None: off).
 
+Session 48's:
+
+``SMALL_CLARABEL_EARLY``
+    the small local chain runs the Clarabel fixed point right after its first proximal
+    Newton stage, before the plain and cold stages (False: after them; not adopted).
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``), ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``, or

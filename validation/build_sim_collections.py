@@ -509,6 +509,7 @@ KINDS_EXAMPLES = {
 }
 
 
+assert "--kinds, session 41" in KINDS_HEADER
 NEW_KINDS_HEADER = KINDS_HEADER.replace("--kinds, session 41", "--new-kinds, session 48")
 
 

@@ -7,7 +7,9 @@ table without ``position``) to many positions:
   positions in the box ``lo``–``hi`` (``seed``; ``radius_range = [rmin, rmax]``
   draws a radius per body for disks/spheres/regular polygons; ``random_orientation =
   true`` turns each body by a uniformly random rotation after its template's own, drawn
-  after the positions, so the positions are those of the same seed without it);
+  after the positions; the packing then uses disks/spheres that hold a body under any
+  rotation about its position, so the positions are those of the same seed without it
+  unless the template's vertices are off-centre);
 * ``hopper`` — a pile to be deposited: ``count`` bodies on a lattice inside a
   funnel above the outlet ``outlet`` of width ``opening``, whose walls make
   ``wall_angle`` degrees with the vertical (2D: two thin fixed boxes; 3D: four,
@@ -34,7 +36,7 @@ import math
 
 import numpy as np
 
-from .rotations import quat_from_axis_angle, quat_mul
+from .rotations import quat_from_axis_angle, quat_mul, random_quaternion
 
 _KINDS = {
     "random_packing": {"lo", "hi", "count", "seed", "radius_range", "random_orientation"},
@@ -154,6 +156,11 @@ def _random_packing(ck, t, path, dim, tmpl):
             ck.fail(f"{path}.radius_range", "applies to disks, spheres and polygons only")
         radii = rng.uniform(rr[0], rr[1], n)
     R = radii if radii is not None else np.full(n, bounding_radius(tmpl, dim))
+    turned = ck.boolean(t.get("random_orientation", False), f"{path}.random_orientation")
+    if turned:
+        # each body then turns about its position: placed by the disk or sphere there that holds
+        # it under any rotation (the bounding one unless the template's vertices are off-centre)
+        R = R * turning_reach(tmpl, dim)
     if np.any(2 * R[:, None] > (hi - lo)[None]):
         ck.fail(f"{path}.hi", "the region is smaller than a body")
     # random sequential placement jams near these fractions of bounding disks/spheres
@@ -190,23 +197,25 @@ def _random_packing(ck, t, path, dim, tmpl):
                 break
     bodies = ([_place(tmpl, p) for p in pos] if radii is None
               else [_place(_scaled(tmpl, r), p) for p, r in zip(pos, radii)])
-    if ck.boolean(t.get("random_orientation", False), f"{path}.random_orientation"):
-        # (the bounding disk or sphere placed each body: any rotation keeps them apart)
+    if turned:
         for b in bodies:
             if dim == 2:
                 b["angle"] = float(b.get("angle", 0.0) + rng.uniform(0.0, 2.0 * math.pi))
             else:
-                b["orientation"] = quat_mul(random_rotation(rng), b["orientation"])
+                b["orientation"] = quat_mul(random_quaternion(rng), b["orientation"])
     return bodies, []
 
 
-def random_rotation(rng) -> np.ndarray:
-    """A uniformly distributed unit quaternion ``(w, x, y, z)`` (Shoemake's method: three
-    uniform numbers, no rejection)."""
-    u1, u2, u3 = rng.uniform(0.0, 1.0, 3)
-    a, b = math.sqrt(1.0 - u1), math.sqrt(u1)
-    return np.array([b * math.cos(2 * math.pi * u3), a * math.sin(2 * math.pi * u2),
-                     a * math.cos(2 * math.pi * u2), b * math.sin(2 * math.pi * u3)])
+def turning_reach(tmpl: dict, dim: int) -> float:
+    """How far a body of template ``tmpl`` reaches from its position under any rotation, over
+    its bounding radius (:func:`bounding_radius`, measured from the mean of its vertices): at
+    least 1.  A body turns about its position, its vertices' origin, so a template whose
+    vertices are not centred there reaches ``max |V|`` past it, more than the bounding
+    radius when the centring is off."""
+    if "vertices" not in tmpl:
+        return 1.0
+    far = float(np.max(np.linalg.norm(np.asarray(tmpl["vertices"], dtype=np.float64), axis=1)))
+    return max(1.0, far / bounding_radius(tmpl, dim))
 
 
 def _hopper(ck, t, path, dim, tmpl):

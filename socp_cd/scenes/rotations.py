@@ -35,4 +35,27 @@ def quat_from_euler(rx: float, ry: float, rz: float) -> np.ndarray:
                                                              quat_from_axis_angle(e[0], rx)))
 
 
-__all__ = ["quat_from_axis_angle", "quat_mul", "quat_to_matrix", "quat_from_euler"]
+def random_quaternion(rng) -> np.ndarray:
+    """A unit quaternion ``(w, x, y, z)`` drawn uniformly over the rotations.
+
+    Shoemake's method: three uniform numbers ``u1, u2, u3`` in ``[0, 1)`` give
+    ``(sqrt(u1) cos 2πu3, sqrt(1 - u1) sin 2πu2, sqrt(1 - u1) cos 2πu2, sqrt(u1) sin 2πu3)``,
+    uniform on the unit 3-sphere (no rejection).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Draws the three numbers.
+
+    Returns
+    -------
+    ndarray, shape (4,)
+    """
+    u1, u2, u3 = rng.uniform(0.0, 1.0, 3)
+    a, b = np.sqrt(1.0 - u1), np.sqrt(u1)
+    return np.array([b * np.cos(2 * np.pi * u3), a * np.sin(2 * np.pi * u2),
+                     a * np.cos(2 * np.pi * u2), b * np.sin(2 * np.pi * u3)])
+
+
+__all__ = ["quat_from_axis_angle", "quat_mul", "quat_to_matrix", "quat_from_euler",
+           "random_quaternion"]
