@@ -160,7 +160,7 @@ def _random_packing(ck, t, path, dim, tmpl):
     if turned:
         # each body then turns about its position: placed by the disk or sphere there that holds
         # it under any rotation (the bounding one unless the template's vertices are off-centre)
-        R = R * turning_reach(tmpl, dim)
+        R = R * _turning_reach(tmpl, dim)
     if np.any(2 * R[:, None] > (hi - lo)[None]):
         ck.fail(f"{path}.hi", "the region is smaller than a body")
     # random sequential placement jams near these fractions of bounding disks/spheres
@@ -206,7 +206,7 @@ def _random_packing(ck, t, path, dim, tmpl):
     return bodies, []
 
 
-def turning_reach(tmpl: dict, dim: int) -> float:
+def _turning_reach(tmpl: dict, dim: int) -> float:
     """How far a body of template ``tmpl`` reaches from its position under any rotation, over
     its bounding radius (:func:`bounding_radius`, measured from the mean of its vertices): at
     least 1.  A body turns about its position, its vertices' origin, so a template whose
