@@ -248,7 +248,8 @@ def _claiming_solver(deltas, calls):
         ref = socp_cd.solve(problem, "nsgs", tol=1e-14, max_iter=20000).r
         calls.append(tol)
         r = ref * (1.0 + deltas[len(calls) - 1])
-        return socp_cd.SolverResult(r=r, status="converged", iterations=1)
+        return socp_cd.SolverResult(r=r, status="converged", iterations=1,
+                                    info={"work": 10 * len(calls), "flag": True})
     return func
 
 
@@ -269,6 +270,9 @@ def test_retry_after_a_refuted_claim_keeps_the_better_answer(second, kept):
     else:
         assert res.error == rec["first_error"] < rec["retry_error"] and not res.converged
     assert worse <= max(rec["first_error"], rec["first_guard"])
+    # each run's own counters (the kept run's stay in info; booleans are not counters)
+    assert rec["first_counts"] == {"work": 10} and rec["retry_counts"] == {"work": 20}
+    assert res.info["work"] == (20 if kept == "retry" else 10)
 
 
 def test_factor_kernels_equal_numpy():
