@@ -593,12 +593,7 @@ def new_kinds_runs(out: Path, fresh: bool = False) -> list:
     if fresh:
         scenes = _derived(scenes, NEW_KINDS_FRESH, "--new-kinds",
                           "--new-kinds-fresh, session 48")
-    runs = []
-    for name, (text, steps, every) in scenes.items():
-        scene = out / f"{name}.toml"
-        scene.write_text(text)
-        runs.append((name, scene, steps, every))
-    return runs
+    return _written(out, scenes)
 
 
 def _swapped(name, text, swaps) -> str:
@@ -608,6 +603,17 @@ def _swapped(name, text, swaps) -> str:
         assert old in text, (name, old)
         text = text.replace(old, new)
     return text
+
+
+def _written(out: Path, scenes) -> list:
+    """Each scene of ``scenes`` (name -> (text, steps, dump every)) written to
+    ``out/<name>.toml``: the runs ``(name, scene file, steps, dump every)``."""
+    runs = []
+    for name, (text, steps, every) in scenes.items():
+        scene = out / f"{name}.toml"
+        scene.write_text(text)
+        runs.append((name, scene, steps, every))
+    return runs
 
 
 def _derived(scenes, table, source, option) -> dict:
@@ -645,12 +651,7 @@ def kinds_runs(out: Path, draw: str = "held") -> list:
         scenes = _derived(scenes, table, "--kinds", option)
     for name, (example, swaps, steps, every) in KINDS_EXAMPLES[draw].items():
         scenes[name] = (_swapped(name, (EXAMPLES / example).read_text(), swaps), steps, every)
-    runs = []
-    for name, (text, steps, every) in scenes.items():
-        scene = out / f"{name}.toml"
-        scene.write_text(text)
-        runs.append((name, scene, steps, every))
-    return runs
+    return _written(out, scenes)
 
 
 def build(runs, args) -> int:
