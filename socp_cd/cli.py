@@ -114,7 +114,8 @@ def cmd_solve(args) -> int:
     import socp_cd
     p = socp_cd.read_problem(args.file)
     res = socp_cd.solve(p, solver=args.solver, formulation=args.formulation, tol=args.tol,
-                        max_iter=args.max_iter, crosscheck=args.crosscheck)
+                        max_iter=args.max_iter, time_limit=args.time_limit,
+                        crosscheck=args.crosscheck)
     for k, v in res.summary().items():
         print(f"{k:14s} {_fmt(v)}")
     if "crosscheck" in res.info:
@@ -160,10 +161,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_demo)
     p = sp.add_parser("solve", help="solve one problem file", **common)
     p.add_argument("file")
-    p.add_argument("--solver", default="nsgs")
+    p.add_argument("--solver", default="auto",
+                   help="a name of socp_cd.solvers() (default: auto, as socp_cd.solve)")
     p.add_argument("--formulation", default="coulomb")
     p.add_argument("--tol", type=float, default=1e-8)
     p.add_argument("--max-iter", type=int, default=None)
+    p.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
+                   help="stop with status time_limit after that many seconds (default: none)")
     p.add_argument("--crosscheck", default=None)
     p.set_defaults(func=cmd_solve)
     for name, (_, text) in FORWARDED.items():

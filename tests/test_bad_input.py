@@ -583,9 +583,10 @@ def good_dat(tmp_path):
 @pytest.mark.parametrize("argv", [
     ["solve", "MISSING"], ["info", "MISSING"], ["solve", "GOOD", "--solver", "foo"],
     ["solve", "GOOD", "--tol", "0"], ["solve", "GOOD", "--tol", "abc"], ["bogus"], ["solve"],
-    ["info", "BAD"],
+    ["info", "BAD"], ["solve", "GOOD", "--time-limit", "-1"],
+    ["solve", "GOOD", "--time-limit", "nan"],
 ], ids=["solve-missing", "info-missing", "solver-foo", "tol-0", "tol-abc", "bogus-cmd",
-        "no-file", "bad-file"])
+        "no-file", "bad-file", "time-limit-negative", "time-limit-nan"])
 def test_cli_bad_input_is_one_line_and_code_2(argv, good_dat, tmp_path, capsys):
     from socp_cd.cli import EXIT_BAD_INPUT
     bad = write_tokens(tmp_path, GOOD[:-1], "bad.dat")
@@ -630,9 +631,23 @@ def test_cli_not_converged_is_code_1(tmp_path, capsys):
     A = rng.standard_normal((12, 12))
     p = FrictionContactProblem(A @ A.T + np.eye(12), -rng.random(12), 0.8, 3)
     path = write_fclib(p, tmp_path / "p.hdf5")
-    code, out, err = run_cli(["solve", path, "--max-iter", "1", "--tol", "1e-14"], capsys)
+    code, out, err = run_cli(["solve", path, "--solver", "nsgs", "--max-iter", "1", "--tol", "1e-14"],
+                             capsys)
     assert code == EXIT_NOT_CONVERGED, out + err
     assert "converged      False" in out
+
+
+def test_cli_solve_runs_solves_default_and_its_time_limit(good_dat, capsys):
+    # `socp-cd solve` without --solver runs what socp_cd.solve runs without one ("auto"), and
+    # passes --time-limit through (a limit far beyond the run changes nothing)
+    import inspect
+
+    import socp_cd
+    default = inspect.signature(socp_cd.solve).parameters["solver"].default
+    code, out, err = run_cli(["solve", good_dat, "--time-limit", "100"], capsys)
+    assert code == 0, out + err
+    assert f"solver         {default}" in out
+    assert "converged      True" in out
 
 
 def test_cli_info_states_rank_method_and_triviality(good_dat, capsys):
