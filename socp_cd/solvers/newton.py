@@ -828,8 +828,11 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     -------
     tuple
         ``(status, r, iterations, history, info)``; with ``history`` the info
-        holds ``trace``: per outer iteration ``(alpha, error, solved, inner_ok,
-        inner_steps, backtracks, branch_changes, plain)``.
+        holds ``trace``: per outer iteration (but one that converges) ``(alpha, error, solved, inner_ok,
+        inner_steps, backtracks, branch_changes, plain, step, velocity_step, turn)``: the
+        last three are ``||r - r_k||`` and ``||u - u_k||`` of the outer step (0 when it was
+        rejected) and the cosine between it and the previous outer step (nan for the first
+        step or a zero one).
     """
     policy = DEFAULT_POLICY if policy is None else policy
     twin = (policy in ("prox", "plain") and not history and getattr(system, "compiled", False)
@@ -881,9 +884,11 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     status, it = "max_iter", 0
     if err <= tol:
         status = "converged"
+    last_step = None        # (trace) the previous outer step r - r_k
     while status == "max_iter" and it < max_iter:
         it += 1
         rk = r.copy()
+        uk = u.copy() if trace is not None else None
         err_k = err
         alpha_used = alpha
         alpha_max_used = max(alpha_max_used, alpha)
@@ -992,7 +997,14 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         if trace is not None:
             blocks(r, u, mu, rho_n, rho_t, d, True, Ft, Dr, Du, branch)
             changed = -1 if br0 is None else int(np.count_nonzero(branch != br0))
-            trace.append((alpha_used, err, solved, sub_ok, n_in, bt_in, changed, plain))
+            outer = r - rk
+            step, norms = float(np.linalg.norm(outer)), 0.0
+            if last_step is not None:
+                norms = step * float(np.linalg.norm(last_step))
+            turn = float(outer @ last_step) / norms if norms > 0.0 else float("nan")
+            trace.append((alpha_used, err, solved, sub_ok, n_in, bt_in, changed, plain, step,
+                          float(np.linalg.norm(u - uk)), turn))
+            last_step = outer
         if stall_window and it - best_it >= stall_window:
             status = "stalled"
             break
