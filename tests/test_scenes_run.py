@@ -193,6 +193,19 @@ def test_cli_reports_a_bad_scene_file(tmp_path, capsys):
     assert re.search(r"s.toml: bodies\[0\].radius: must be positive", err)
 
 
+def test_simulate_solver_overrides_the_files_and_a_bad_name_is_code_2(tmp_path, capsys):
+    from socp_cd.cli import EXIT_BAD_INPUT
+    p = _scene(tmp_path, SMALL_2D)
+    written = [st.solver for st in simulate(p, quiet=True)["trajectory"].stats if st.n_active]
+    stats = simulate(p, quiet=True, solver="clarabel")["trajectory"].stats
+    ran = [st.solver for st in stats if st.n_active]
+    assert ran and set(ran) == {"clarabel"} and "clarabel" not in written
+    assert all(st.converged for st in stats)
+    assert cli_main(["simulate", str(p), "--solver", "no_such_solver", "--steps", "2"]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "solver" in err and "no_such_solver" in err
+
+
 # ----------------------------------------------------------------------------- examples
 def _example(tmp_path, name):
     dst = tmp_path / f"{name}.toml"

@@ -143,14 +143,22 @@ def simulation_options(spec: SceneSpec) -> dict:
             "max_iter": s["max_iter"], "form": s["form"]}
 
 
-def load_simulation(path):
-    """Read a scene file and return ``(spec, Simulation)`` ready to step."""
+def load_simulation(path, solver: str | None = None):
+    """Read a scene file and return ``(spec, Simulation)`` ready to step.
+
+    ``solver``: a name of :func:`socp_cd.solvers` run instead of the file's
+    ``simulation.solver`` (its other settings kept; an unknown name raises
+    :class:`~socp_cd.errors.InvalidProblemError` naming ``solver``)."""
     from ..solvers import solvers
 
     spec = load_scene_file(path)
+    if solver is not None and solver not in solvers():
+        raise InvalidProblemError("solver", f"unknown solver {solver!r} (available: {', '.join(solvers())})")
     scene = build_scene(spec)
     opts = simulation_options(spec)
-    if opts["solver"] not in solvers():
+    if solver is not None:
+        opts["solver"] = solver
+    elif opts["solver"] not in solvers():
         raise SceneFileError(spec.source, "simulation.solver",
                              f"unknown solver {opts['solver']!r} (available: {', '.join(solvers())})")
     try:

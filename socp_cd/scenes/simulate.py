@@ -61,7 +61,7 @@ def _postfix(st, wall: float, t: float) -> dict:
 
 def simulate(path, *, steps: int | None = None, out=None, vtk=None, fclib=None, render=None,
              every: int | None = None, fclib_every: int = 1, quiet: bool = False,
-             stream=None) -> dict:
+             stream=None, solver: str | None = None) -> dict:
     """Run a scene file.
 
     Parameters
@@ -84,6 +84,9 @@ def simulate(path, *, steps: int | None = None, out=None, vtk=None, fclib=None, 
         No progress bar.
     stream : file, optional
         Where the progress bar goes (default ``sys.stderr``); shown only when it is a terminal.
+    solver : str, optional
+        Step solver instead of the file's ``simulation.solver`` (its ``tol`` and
+        ``max_iter`` kept).
 
     Returns
     -------
@@ -96,7 +99,7 @@ def simulate(path, *, steps: int | None = None, out=None, vtk=None, fclib=None, 
     from ..dynamics import Trajectory
     from .builder import load_simulation
 
-    spec, sim = load_simulation(path)
+    spec, sim = load_simulation(path, solver=solver)
     n_steps = spec.simulation["steps"] if steps is None else int(steps)
     every = spec.simulation["record_every"] if every is None else int(every)
     fclib_every = int(fclib_every)
@@ -233,6 +236,8 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
     ap = parser or argparse.ArgumentParser(prog="socp-cd simulate", description=__doc__.split("\n\n")[0])
     ap.add_argument("scene", help="TOML scene file (docs/scenes.md)")
     ap.add_argument("--steps", type=int, default=None, help="number of steps (default: the file's simulation.steps)")
+    ap.add_argument("--solver", default=None,
+                    help="step solver instead of the file's simulation.solver (its tol and max_iter kept)")
     ap.add_argument("--out", default=None, help="HDF5 trajectory file")
     ap.add_argument("--vtk", default=None, metavar="DIR", help="ParaView time series (.pvd + .vtu)")
     ap.add_argument("--fclib", default=None, metavar="DIR", help="every step's problem as an FCLib HDF5 file")
@@ -254,7 +259,7 @@ def main(argv=None) -> int:
         return 0
     s = simulate(args.scene, steps=args.steps, out=args.out, vtk=args.vtk, fclib=args.fclib,
                  render=args.render, every=args.every, fclib_every=args.fclib_every,
-                 quiet=args.quiet)
+                 quiet=args.quiet, solver=args.solver)
     if not args.quiet:
         print(f"{args.scene}: {s['steps']} steps to t = {s['t']:.6g} in {s['wall_time']:.3g} s wall "
               f"(sim/wall {(s['t'] - s['trajectory'].frames[0].t) / max(s['wall_time'], 1e-9):.3g}); "
