@@ -35,7 +35,8 @@ from socp_cd.scenes.builder import load_simulation
 def run_scene(path, solver: str, steps: int | None = None) -> tuple[dict, list[dict]]:
     """Simulate the scene file ``path`` with ``solver`` (every other setting the file's).
 
-    Returns ``(setting, rows)``: the file's ``tol``, ``max_iter`` and step count, and one
+    Returns ``(setting, rows)``: the file's stem (``name``; scene names repeat across
+    collections), ``tol``, ``max_iter`` and step count, and one
     row per step with contacts (``step``, ``t``, ``contacts``, ``status``,
     ``converged``, ``error``, ``time_solve``)."""
     spec, sim = load_simulation(path, solver=solver)
@@ -48,7 +49,7 @@ def run_scene(path, solver: str, steps: int | None = None) -> tuple[dict, list[d
             rows.append({"step": k, "t": sim.t, "contacts": st.n_active, "status": st.status,
                          "converged": bool(st.converged), "error": float(st.error),
                          "time_solve": float(st.time_solve)})
-    return {"name": spec.name, "dim": spec.dim, "tol": s["tol"], "max_iter": s["max_iter"],
+    return {"name": Path(path).stem, "dim": spec.dim, "tol": s["tol"], "max_iter": s["max_iter"],
             "steps": n}, rows
 
 
@@ -75,7 +76,7 @@ def table(lines: list[dict], argv: str, capped: int | None) -> list[str]:
             "per scene and solver, warm starts as the stepper makes them; times are wall clock "
             "on this machine, one process)."
             + (f" **Every run capped at {capped} steps.**" if capped else ""), "",
-            "| scene | dim | solver | steps (with contacts) | max contacts | tol | unconverged "
+            "| scene file | dim | solver | steps (with contacts) | max contacts | tol | unconverged "
             "| max error | median error | solve time [s] | median per step [ms] | wall [s] |",
             "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for s in lines:
