@@ -124,7 +124,7 @@ def test_trajectory_roundtrip_and_render(tmp_path):
     assert np.array_equal(cb.pairs, cf.pairs) and np.array_equal(cb.force, cf.force)
     # force is the global image of the local impulse / h, normal first
     assert np.allclose(np.einsum("cd,cd->c", cb.force, cb.normal), cb.r[:, 0] / 1e-3)
-    assert len(back.stats) == 30 and back.stats[-1].solver == "nsgs"
+    assert len(back.stats) == 30 and back.stats[-1].solver == sim.solver == "auto"
     assert np.allclose(back.meta["gravity"], [0, -9.81]) and back.meta["h"] == 1e-3
     fig = render_frame(back, tmp_path / "f.png")
     import matplotlib.image as mpimg

@@ -5,7 +5,7 @@ Typical use::
     from socp_cd.dynamics import Scene, Disk, Polygon, Line, Simulation
     scene = Scene([Disk(0.1, (0, 0.5)), Polygon.box(0.2, 0.1, (0.5, 0.05))],
                   obstacles=[Line((0, 0), (0, 1))], mu=0.3, restitution=0.0)
-    sim = Simulation(scene, h=1e-3, solver="nsgs")        # or solver="clarabel"
+    sim = Simulation(scene, h=1e-3)          # solver="auto"; or "nsgs", "clarabel"
     traj = sim.run(1000, path="run.h5")                  # Trajectory (HDF5)
     frame = traj.frames[-1]                              # pos, angle, vel, contacts
     frame.contacts.pairs, frame.contacts.force           # global contact data

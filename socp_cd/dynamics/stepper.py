@@ -67,7 +67,9 @@ class Simulation:
         θ of the position update ``q⁺ = q + h(θ v⁺ + (1-θ) v)`` (0.5 default, 1 =
         backward Euler); the contact law is always fully implicit in velocity.
     solver : str
-        Backend name for :func:`socp_cd.solve` (``"nsgs"`` default, ``"clarabel"``...).
+        Backend name for :func:`socp_cd.solve` (``"auto"`` default, as ``solve``'s;
+        ``"nsgs"``, ``"clarabel"``...).  Whole simulations with ``"nsgs"`` end steps
+        unconverged where ``"auto"`` does not (``validation/results/scene_solvers_s49.md``).
     formulation : str, optional
         Contact law; default ``"coulomb"``, or ``"frictionless"`` when every
         contact has ``mu = 0``.
@@ -98,7 +100,7 @@ class Simulation:
         overlap at the start by more than ``10⁻⁶ ×`` the smallest radius.
     """
 
-    def __init__(self, scene: Scene, h: float, *, theta: float = 0.5, solver: str = "nsgs",
+    def __init__(self, scene: Scene, h: float, *, theta: float = 0.5, solver: str = "auto",
                  formulation: Optional[str] = None, tol: float = 1e-8, max_iter: Optional[int] = None,
                  margin: Optional[float] = None, warm_start: bool = True, form: str = "local",
                  solver_options: Optional[dict] = None, t0: float = 0.0, projection: Optional[bool] = None,

@@ -184,7 +184,7 @@ _BODY_COMMON = {"shape", "position", "velocity", "omega", "density", "mass", "ma
 _BODY_GEOM = {"radius", "size", "vertices", "sides"}
 _OBSTACLE = {"shape", "point", "normal", "inclination", "position", "radius", "size", "vertices",
              "sides", "angle", "quaternion", "axis_angle", "euler", "material", "mu", "restitution"}
-SIM_DEFAULTS = {"h": 1e-3, "theta": 0.5, "steps": 100, "solver": "nsgs", "tol": 1e-8,
+SIM_DEFAULTS = {"h": 1e-3, "theta": 0.5, "steps": 100, "solver": "auto", "tol": 1e-8,
                 "max_iter": None, "form": "local", "record_every": 1}
 
 
