@@ -637,9 +637,9 @@ def test_cli_not_converged_is_code_1(tmp_path, capsys):
     assert "converged      False" in out
 
 
-def test_cli_solve_runs_solves_default_and_its_time_limit(good_dat, capsys):
+def test_cli_solve_runs_solves_default_and_passes_its_time_limit(good_dat, capsys, monkeypatch):
     # `socp-cd solve` without --solver runs what socp_cd.solve runs without one ("auto"), and
-    # passes --time-limit through (a limit far beyond the run changes nothing)
+    # passes --time-limit through (None without it)
     import inspect
 
     import socp_cd
@@ -648,6 +648,17 @@ def test_cli_solve_runs_solves_default_and_its_time_limit(good_dat, capsys):
     assert code == 0, out + err
     assert f"solver         {default}" in out
     assert "converged      True" in out
+    seen = []
+    real = socp_cd.solve
+
+    def spy(*args, **kw):
+        seen.append(kw.get("time_limit", "missing"))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(socp_cd, "solve", spy)
+    assert run_cli(["solve", good_dat, "--time-limit", "2.5"], capsys)[0] == 0
+    assert run_cli(["solve", good_dat], capsys)[0] == 0
+    assert seen == [2.5, None]
 
 
 def test_cli_info_states_rank_method_and_triviality(good_dat, capsys):

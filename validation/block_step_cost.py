@@ -70,7 +70,7 @@ def warm_guess(state: dict, keys: np.ndarray, dim: int = 3):
 
 
 def time_steps(n: int, steps: int):
-    sim = Simulation(block_walls(n), H_STEP, tol=TOL, max_iter=2000)
+    sim = Simulation(block_walls(n), H_STEP, solver="nsgs", tol=TOL, max_iter=2000)
     for _ in range(10):
         sim.step()
     rows = []

@@ -95,13 +95,13 @@ def main(argv=None) -> int:
     out = Path(args.out)
     results = {}
     for proj, steps in ((True, args.stack_steps), (False, args.stack_steps_off)):
-        sim = Simulation(stack_scene(), H, tol=1e-8, projection=proj)
+        sim = Simulation(stack_scene(), H, solver="nsgs", tol=1e-8, projection=proj)
         pen, wall = run(sim, steps, f"stack projection={proj}", every=max(steps // 10, 1))
         results[("stack", proj)] = dict(pen=pen / L, steps=steps, wall=wall, nproj=sim.n_projections,
                                         ms=1e3 * wall / steps)
     for proj in (False, True):
         scene, rm = deposit_scene(args.grains)
-        sim = Simulation(scene, H, tol=1e-6, max_iter=500, projection=proj)
+        sim = Simulation(scene, H, solver="nsgs", tol=1e-6, max_iter=500, projection=proj)
         pen, wall = run(sim, args.deposit_steps, f"deposit projection={proj}", every=max(args.deposit_steps // 10, 1))
         v = np.linalg.norm(sim.sys.vel[:, :2], axis=1)
         results[("deposit", proj)] = dict(pen=pen / rm, steps=args.deposit_steps, wall=wall, nproj=sim.n_projections,

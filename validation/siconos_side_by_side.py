@@ -145,7 +145,8 @@ def run(scale: float = 1.0) -> list[dict]:
     for name, sc in SCENES.items():
         steps = max(10, int(sc["steps"] * scale))
         t0 = time.perf_counter()
-        r = run_both(sc["text"], steps, sc.get("distance", 0.0), tol=TOL, source=name)
+        r = run_both(sc["text"], steps, sc.get("distance", 0.0), tol=TOL, source=name,
+                     solver="nsgs")
         wall = time.perf_counter() - t0
         dp, dv = r.position_difference(), r.velocity_difference()
         mism = np.flatnonzero(r.active_ours != r.active_siconos)

@@ -13,7 +13,7 @@ import inspect
 
 import numpy as np
 
-from ..errors import InvalidProblemError
+from ..errors import InvalidProblemError, UnsupportedError
 from .schema import SceneFileError, SceneSpec, load_scene_file
 
 
@@ -148,12 +148,12 @@ def load_simulation(path, solver: str | None = None):
 
     ``solver``: a name of :func:`socp_cd.solvers` run instead of the file's
     ``simulation.solver`` (its other settings kept; an unknown name raises
-    :class:`~socp_cd.errors.InvalidProblemError` naming ``solver``)."""
+    :class:`~socp_cd.errors.UnsupportedError`, as :func:`socp_cd.solve` does)."""
     from ..solvers import solvers
 
     spec = load_scene_file(path)
     if solver is not None and solver not in solvers():
-        raise InvalidProblemError("solver", f"unknown solver {solver!r} (available: {', '.join(solvers())})")
+        raise UnsupportedError(f"solver: unknown solver {solver!r} (available: {', '.join(solvers())})")
     scene = build_scene(spec)
     opts = simulation_options(spec)
     if solver is not None:

@@ -130,11 +130,11 @@ def run_siconos(job: dict, timeout: float = 600) -> dict:
 
 
 def run_both(scene_text: str, steps: int, distance: float = 0.0, *, tol: float = 1e-10,
-             source: str = "<scene>") -> SideBySide:
+             source: str = "<scene>", solver: str | None = None) -> SideBySide:
     """Integrate a scene (TOML text) ``steps`` steps with socp_cd and with Siconos.
 
-    socp_cd uses the file's solver with ``tol``; Siconos its NSGS with ``tol``;
-    ``distance``: see :func:`siconos_job`.
+    socp_cd uses ``solver`` (None: the file's, whose default is ``"auto"``) with ``tol``;
+    Siconos its NSGS with ``tol``; ``distance``: see :func:`siconos_job`.
     """
     import tomllib
 
@@ -146,6 +146,8 @@ def run_both(scene_text: str, steps: int, distance: float = 0.0, *, tol: float =
     scene = build_scene(spec)
     opts = simulation_options(spec)
     opts["tol"] = tol
+    if solver is not None:
+        opts["solver"] = solver
     sim = Simulation(scene, opts.pop("h"), **opts)
     job = siconos_job(scene, sim, steps, distance, tol=tol)
     d, n = sim.sys.dim, sim.sys.n_bodies

@@ -828,11 +828,12 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     -------
     tuple
         ``(status, r, iterations, history, info)``; with ``history`` the info
-        holds ``trace``: per outer iteration (but one that converges) ``(alpha, error, solved, inner_ok,
-        inner_steps, backtracks, branch_changes, plain, step, velocity_step, turn)``: the
-        last three are ``||r - r_k||`` and ``||u - u_k||`` of the outer step (0 when it was
-        rejected) and the cosine between it and the previous outer step (nan for the first
-        step or a zero one).
+        holds ``trace``: per outer iteration (but one that converges or ends on a
+        numerical error) ``(alpha, error, solved, inner_ok, inner_steps, backtracks,
+        branch_changes, plain, step, velocity_step, turn)``: the last three are
+        ``||r - r_k||`` and ``||u - u_k||`` of the outer step (both 0 when it was rejected)
+        and the cosine between it and the last nonzero outer step before it (nan for a zero
+        step or when there is none).
     """
     policy = DEFAULT_POLICY if policy is None else policy
     twin = (policy in ("prox", "plain") and not history and getattr(system, "compiled", False)
@@ -998,13 +999,14 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
             blocks(r, u, mu, rho_n, rho_t, d, True, Ft, Dr, Du, branch)
             changed = -1 if br0 is None else int(np.count_nonzero(branch != br0))
             outer = r - rk
-            step, norms = float(np.linalg.norm(outer)), 0.0
-            if last_step is not None:
-                norms = step * float(np.linalg.norm(last_step))
-            turn = float(outer @ last_step) / norms if norms > 0.0 else float("nan")
-            trace.append((alpha_used, err, solved, sub_ok, n_in, bt_in, changed, plain, step,
-                          float(np.linalg.norm(u - uk)), turn))
-            last_step = outer
+            step_norm = float(np.linalg.norm(outer))
+            last_norm = 0.0 if last_step is None else float(np.linalg.norm(last_step))
+            turn = (float(outer @ last_step) / step_norm / last_norm
+                    if step_norm > 0.0 and last_norm > 0.0 else float("nan"))
+            trace.append((alpha_used, err, solved, sub_ok, n_in, bt_in, changed, plain,
+                          step_norm, float(np.linalg.norm(u - uk)), turn))
+            if step_norm > 0.0:
+                last_step = outer
         if stall_window and it - best_it >= stall_window:
             status = "stalled"
             break
