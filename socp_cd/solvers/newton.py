@@ -885,7 +885,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     status, it = "max_iter", 0
     if err <= tol:
         status = "converged"
-    last_step = None        # (trace) the previous outer step r - r_k
+    last_step = None        # (trace) the last nonzero outer step r - r_k
     while status == "max_iter" and it < max_iter:
         it += 1
         rk = r.copy()
