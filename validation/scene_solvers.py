@@ -29,26 +29,25 @@ import numpy as np
 
 import socp_cd
 from socp_cd.bench.reports import emit
-from socp_cd.scenes.builder import load_simulation
+from socp_cd.scenes import load_scene_file, simulate
 
 
 def run_scene(path, solver: str, steps: int | None = None) -> tuple[dict, list[dict]]:
-    """Simulate the scene file ``path`` with ``solver`` (every other setting the file's).
+    """Simulate the scene file ``path`` with ``solver`` (every other setting the file's), as
+    ``socp-cd simulate --solver`` does (:func:`socp_cd.scenes.simulate`).
 
     Returns ``(setting, rows)``: the file's stem (``name``; scene names repeat across
     collections), ``tol``, ``max_iter`` and step count, and one
     row per step with contacts (``step``, ``t``, ``contacts``, ``status``,
     ``converged``, ``error``, ``time_solve``)."""
-    spec, sim = load_simulation(path, solver=solver)
+    spec = load_scene_file(path)
     s = spec.simulation
     n = s["steps"] if steps is None else min(int(steps), s["steps"])
-    rows = []
-    for k in range(1, n + 1):
-        st = sim.step()
-        if st.n_active:
-            rows.append({"step": k, "t": sim.t, "contacts": st.n_active, "status": st.status,
-                         "converged": bool(st.converged), "error": float(st.error),
-                         "time_solve": float(st.time_solve)})
+    run = simulate(path, steps=n, every=max(n, 1), quiet=True, solver=solver)
+    rows = [{"step": k, "t": st.t, "contacts": st.n_active, "status": st.status,
+             "converged": bool(st.converged), "error": float(st.error),
+             "time_solve": float(st.time_solve)}
+            for k, st in enumerate(run["trajectory"].stats, start=1) if st.n_active]
     return {"name": Path(path).stem, "dim": spec.dim, "tol": s["tol"], "max_iter": s["max_iter"],
             "steps": n}, rows
 
