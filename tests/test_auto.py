@@ -1480,3 +1480,36 @@ def test_a_refused_clarabel_answer_is_retried_by_newton_on_the_coulomb_law(monke
     assert ("accepted" in kw) == (expected == "newton")
     if expected == "newton":
         assert not kw["accepted"](near_balanced) and kw["accepted"](res.r / a)
+
+
+def test_fixed_point_next_moves_the_first_later_clarabel_stage():
+    from socp_cd.solvers.auto import _fixed_point_next
+    c = ("clarabel", "coulomb")
+    order = (("nsgs", "coulomb"), ("newton", "coulomb"), ("newton_plain", "coulomb"),
+             ("newton_plain_cold", "coulomb"), c, ("newton", "coulomb"), c)
+    assert _fixed_point_next(order, 1) == (order[:2] + (c,) + order[2:4] + order[5:])
+    assert _fixed_point_next(order, 6) == order       # no later fixed point: unchanged
+    assert _fixed_point_next(order, 3) == order       # already next
+
+
+def test_a_drift_stop_hands_over_to_the_fixed_point(monkeypatch):
+    """The one-contact drift of tests/test_newton_dense.py (``_drift_toy``), the proximal
+    parameter held at its warm value: with DRIFT_WINDOW the Newton stage stops after 5 outer
+    iterations and the fixed point, later in the explicit order, runs next and solves it;
+    without it the Newton stage drifts to the cone's edge itself."""
+    from socp_cd.problem import FrictionContactProblem
+    from socp_cd.solvers import newton
+    W = np.diag([1.0, 0.0, 0.0])
+    p = FrictionContactProblem(W=W, q=np.array([-1.0, 1e-4, 0.0]), mu=np.array([0.5]), dim=3)
+    monkeypatch.setattr(newton, "_DEFAULT_ALPHA_MIN", newton.WARM_ALPHA0)
+    methods = ["newton", "newton_plain", "clarabel"]
+    start = np.array([1.0, 0.0, 0.0])
+    monkeypatch.setattr(auto, "DRIFT_WINDOW", None)
+    res = socp_cd.solve(p, solver="auto", tol=1e-8, r0=start, methods=methods)
+    assert res.converged and [s["method"] for s in res.info["path"]] == ["newton"]
+    monkeypatch.setattr(auto, "DRIFT_WINDOW", 5)
+    res = socp_cd.solve(p, solver="auto", tol=1e-8, r0=start, methods=methods)
+    path = res.info["path"]
+    assert [s["method"] for s in path] == ["newton", "clarabel"]
+    assert path[0]["status"] == "stalled" and path[0]["iterations"] == 5
+    assert res.converged

@@ -722,3 +722,68 @@ def test_accepted_on_the_iteration_that_spends_the_time_limit_wins_on_both_loops
     for status, _, its, _, _ in runs:
         assert status == "converged" and its == 1
     _assert_equal(*runs)
+
+
+def _drift_toy():
+    """One contact whose tangential block of ``W`` is zero, sticking at ``r = (1, 0, 0)`` with
+    a tangential velocity of 1e-4 that no force can cancel: the proximal step moves ``r_T``
+    by ``-u_T / alpha`` with ``u`` unchanged (a drift along the null space of ``W``), and the
+    law is met only once ``r_T`` reaches the cone's edge (sliding, ``r = (1, -0.5, 0)``)."""
+    W = np.diag([1.0, 0.0, 0.0])
+    return FrictionContactProblem(W=W, q=np.array([-1.0, 1e-4, 0.0]), mu=np.array([0.5]), dim=3)
+
+
+def test_the_drift_stop_ends_both_loops_after_the_window():
+    """``alpha_min = alpha0`` holds the proximal parameter, so the drift keeps its pace: 29
+    outer iterations to the edge without the test; with ``drift_window=5`` both loops stop
+    after the 5th, ``"stalled"`` with ``info["stop"] = "null_drift"``, and agree."""
+    p = _drift_toy()
+    held = dict(WARM, alpha_min=nt.WARM_ALPHA0)
+    start = np.array([1.0, 0.0, 0.0])
+    a, b = _both(p, start, 1e-10, **held)
+    _assert_equal(a, b)
+    assert a[0] == "converged" and a[2] > 20 and a[4]["stop"] == ""
+    np.testing.assert_allclose(a[1], [1.0, -0.5, 0.0], atol=1e-12)
+    a, b = _both(p, start, 1e-10, drift_window=5, **held)
+    _assert_equal(a, b)
+    assert (a[0], a[2], a[4]["stop"]) == ("stalled", 5, "null_drift")
+    assert a[1][0] == 1.0 and -0.5 < a[1][1] < 0.0      # drifted, not at the edge
+    res = socp_cd.solve(p, solver="newton", tol=1e-10, r0=start, drift_window=5,
+                        alpha0=nt.WARM_ALPHA0, alpha_min=nt.WARM_ALPHA0)
+    assert res.status == "stalled" and "null space" in res.message
+
+
+@pytest.mark.parametrize("structure", ["tree", "redundant"])
+def test_twin_equals_python_loop_with_a_drift_test_that_fires_on_any_solved_step(
+        structure, monkeypatch):
+    """With DRIFT_CHANGE and DRIFT_NULL so wide that every solved subproblem that moves the
+    error by less than 100 % counts, the two loops still stop at the same iteration (the
+    count skips the same neutral iterations and resets on the same ones)."""
+    monkeypatch.setattr(nt, "DRIFT_CHANGE", 0.99)
+    monkeypatch.setattr(nt, "DRIFT_NULL", 1e6)
+    stops = 0
+    for seed, mix in enumerate([(0.25, 0.35, 0.3, 0.1), (0.0, 0.0, 1.0, 0.0)]):
+        p = manufactured(12, 3, 0.3, structure=structure, mix=mix, seed=seed)
+        for start, settings in ((np.zeros(p.m), COLD), (p.solution.r * 1.01, WARM)):
+            a, b = _both(p, start, 1e-12, drift_window=2, **settings)
+            _assert_equal(a, b)
+            stops += a[4]["stop"] == "null_drift"
+    assert stops > 0
+
+
+def test_drift_step_verdicts():
+    from socp_cd.solvers.kernels.newton_dense import drift_step
+    rk, uk = np.zeros(3), np.zeros(3)
+    r = np.array([0.0, 1.0, 0.0])
+    still, moved = np.array([0.0, 1e-4, 0.0]), np.array([0.0, 0.5, 0.0])
+    # solved, error flat, u moved by 1e-4 per unit of r (wscale 1): a drift step
+    assert drift_step(True, 1.0, 1.0, r, rk, still, uk, 1.0, 1e-2, 1e-2) == 1
+    # ... but not when u moved as much as r, or the error fell by 5 %, or r did not move
+    assert drift_step(True, 1.0, 1.0, r, rk, moved, uk, 1.0, 1e-2, 1e-2) == -1
+    assert drift_step(True, 0.95, 1.0, r, rk, still, uk, 1.0, 1e-2, 1e-2) == -1
+    assert drift_step(True, 1.0, 1.0, rk, rk, uk, uk, 1.0, 1e-2, 1e-2) == -1
+    # the block scale scales the test: W 100x smaller, u moves 100x less for the same r
+    assert drift_step(True, 1.0, 1.0, r, rk, still, uk, 1e-3, 1e-2, 1e-2) == -1
+    # unsolved: neutral while the error did not fall by more than the change, else a reset
+    assert drift_step(False, 1.2, 1.0, r, rk, moved, uk, 1.0, 1e-2, 1e-2) == 0
+    assert drift_step(False, 0.5, 1.0, r, rk, moved, uk, 1.0, 1e-2, 1e-2) == -1

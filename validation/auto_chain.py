@@ -168,6 +168,12 @@ Session 48's:
     the small local chain runs the Clarabel fixed point right after its first proximal
     Newton stage, before the plain and cold stages (False: after them; not adopted).
 
+Session 50's:
+
+``DRIFT_WINDOW``
+    the proximal Newton stages stop after that many outer iterations in a row of null-space
+    drift (newton's ``drift_window``), and the fixed point follows such a stop (None: off).
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``), ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``, or
@@ -214,7 +220,8 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "SEED_BY_GUARD", "TIGHTEN_FROM_SEED", "SMALL_NC", "NEWTON_FIRST_BLOCKS",
          "NEWTON_FIRST_MIN_NC", "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROX_EARLY", "REDUNDANT_SHARE",
          "LAST_RESORT", "REDUNDANT_RETRY", "ACCEPT_STOP", "CLARABEL_RETRY", "PROBE_CAP",
-         "PROBE_PREDICT", "PROBE_MISS_COLD", "LEMKE_MAX_NC", "SMALL_CLARABEL_EARLY")
+         "PROBE_PREDICT", "PROBE_MISS_COLD", "LEMKE_MAX_NC", "SMALL_CLARABEL_EARLY",
+         "DRIFT_WINDOW")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -234,14 +241,15 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "REDUNDANT_SHARE": None, "LAST_RESORT": False, "REDUNDANT_RETRY": "clarabel",
         "ACCEPT_STOP": False, "CLARABEL_RETRY": "clarabel", "PROBE_CAP": None,
         "PROBE_PREDICT": 15, "PROBE_MISS_COLD": False, "LEMKE_MAX_NC": None,
-        "SMALL_CLARABEL_EARLY": False}
+        "SMALL_CLARABEL_EARLY": False, "DRIFT_WINDOW": None}
 #: rules whose values are names
 STRINGS = ("REDUNDANT_RETRY", "CLARABEL_RETRY")
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
         "COLD_MAX_M", "PREDICT_MAX_M", "MAX_ROUNDS", "COMPILED_LOOP_MAX_M", "HANDOFF_PREDICT",
         "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "HANDOFF_SWEEPS", "HANDOFF_WORK",
         "COLD_PLAIN_STALL_LARGE", "SMALL_NC", "NEWTON_FIRST_BLOCKS", "NEWTON_FIRST_MIN_NC",
-        "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROBE_CAP", "PROBE_PREDICT", "LEMKE_MAX_NC")
+        "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROBE_CAP", "PROBE_PREDICT", "LEMKE_MAX_NC",
+        "DRIFT_WINDOW")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 

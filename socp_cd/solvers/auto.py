@@ -333,6 +333,13 @@ MAX_ROUNDS = 8
 #: knob cut that draw's sgm by 11 % but won no case there, on the tune split or held out
 #: (validation/results/auto_chain_{tune_s48newkinds,tune_s48early,holdout_s48early}.md)
 SMALL_CLARABEL_EARLY = False
+#: the proximal Newton stages (``"newton"``) stop after DRIFT_WINDOW outer iterations in a row
+#: of null-space drift (newton's ``drift_window``: solved subproblems, the error flat, steps in
+#: the null space of ``W``; ``formulations/newton.md`` §7; None: off), and a stage stopped so
+#: is followed by the Clarabel fixed point when the order has it later (the stages between
+#: then follow it).  Session 49 located the drift on a toppled-dominoes step; session 50 built
+#: the test (formulations/auto.md, "The null-space drift stop")
+DRIFT_WINDOW = None
 #: the last resort of a local exact-Coulomb problem that the order and its rounds leave
 #: unsolved with time left: Siconos PROX's proximal point (``"newton_prox_error"``, newton's
 #: ``policy="prox_error"``) from ``r = 0``, with the rest of the budget, at most
@@ -1275,6 +1282,15 @@ def _round_gain(bests, since) -> bool:
     return bests[-1] * ROUND_GAIN <= bests[since - 1]
 
 
+def _fixed_point_next(order, k):
+    """``order`` with its first ``("clarabel", "coulomb")`` stage after position ``k`` moved to
+    ``k + 1`` (the stages between follow it); unchanged when there is none."""
+    for j in range(k + 1, len(order)):
+        if order[j] == ("clarabel", "coulomb"):
+            return order[:k + 1] + (order[j],) + order[k + 1:j] + order[j + 1:]
+    return order
+
+
 def _explicit_order(methods, formulation):
     order = []
     for m in methods:
@@ -1446,6 +1462,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
             if method in ("newton", "newton_cold_alt") and NEWTON_STALL is not None:
                 opts["stall_window"] = NEWTON_STALL
+            if method == "newton" and DRIFT_WINDOW:
+                opts["drift_window"] = int(DRIFT_WINDOW)
             if method == "newton_cold_alt":
                 opts["alpha0"] = float(ALT_ALPHA0)
             stage_max_iter = max_iter
@@ -1551,6 +1569,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 seed_v = res.v if (res is not None and target is problem) else None
                 version += 1        # (the start of the warm stages changed)
         status = st if st != "converged" else "stalled"
+        if (DRIFT_WINDOW and method == "newton" and st == "stalled" and res is not None
+                and res.info.get("stop") == "null_drift"):
+            order = _fixed_point_next(order, k)
         if best_err <= tol:
             # (the seed's rank is already max(error, guard) of this iterate when it is the seed:
             # taken as g, the tests below read the same; the guard is not computed again)
@@ -1616,4 +1637,4 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
            "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY",
-           "CLARABEL_RETRY", "REDUNDANT_RETRIES", "ACCEPT_STOP", "small_plan"]
+           "CLARABEL_RETRY", "REDUNDANT_RETRIES", "ACCEPT_STOP", "DRIFT_WINDOW", "small_plan"]

@@ -53,6 +53,12 @@ global_mode : {"auto", "native", "condense"}, default "auto"
 stall_window : int, default 50
     Status ``"stalled"`` when the best error has not dropped by 10 % over that
     many outer iterations.
+drift_window : int, default 0
+    Status ``"stalled"`` (``info["stop"] = "null_drift"``) after that many outer
+    iterations in a row of null-space drift: the subproblem solved, the error moved by at
+    most ``DRIFT_CHANGE`` relative, ``u`` by at most ``DRIFT_NULL`` times the block scale
+    times the step in ``r`` (``formulations/newton.md`` §7).  0: no such test.  ``auto``'s
+    proximal stages set it (``auto.DRIFT_WINDOW``).
 rho : {"block", "split"}, float or array of shape (n_contacts,), default "block"
     Parameters of the equation at contact ``i`` (Alart–Curnier's ``rho_N``,
     ``rho_T``; the natural map's and Fischer–Burmeister's ``rho``, not ``"split"``).
@@ -197,6 +203,8 @@ OPTIONS = {
                      "'left_looking' (the compiled sparse LU)",
     "global_mode": "'auto' (default), 'native' (saddle point) or 'condense'",
     "stall_window": "outer iterations without a 10 % error drop before 'stalled' (default 50)",
+    "drift_window": "null-space drift steps in a row (solved subproblem, error flat, u unmoved) "
+                    "before 'stalled' with info['stop'] 'null_drift' (default 0: no such test)",
     "rho": "parameters of the equation: 'block' (default, one per contact), 'split' "
            "(Alart–Curnier only: rho_N = 1/W_NN, rho_T = 1/||W_TT||_2), or the values "
            "themselves in the problem's units (a positive number, or one per contact)",
@@ -224,6 +232,16 @@ _DEFAULT_ALPHA_MIN = 1e-10
 _DEFAULT_INNER_MAX_ITER = 10
 #: outer iterations without a 10 % drop of the best error before a run stops (``stall_window``)
 DEFAULT_STALL_WINDOW = 50
+#: the null-space drift test (option ``drift_window``, :func:`~.kernels.newton_dense.drift_step`;
+#: ``formulations/newton.md`` §7): an outer iteration whose subproblem was solved, whose error
+#: moved by at most DRIFT_CHANGE relative, and whose step moved ``u`` by at most DRIFT_NULL
+#: times the block scale times ``||r - r_k||``.  Read off three traces of toppled-dominoes
+#: steps (session 50, the first new-kinds draw): ``||u - u_k|| / ||r - r_k||`` from 4.5e-3
+#: down to 1e-9 with the error fixed to five digits, or 1e-3 ... 5e-3 with the error falling
+#: 0.2-0.7 % per solved subproblem, the proximal parameter cycling between a solved
+#: subproblem and a failed one ten times smaller; not tuned on a benchmark
+DRIFT_CHANGE = 1e-2
+DRIFT_NULL = 1e-2
 #: a solved proximal subproblem is accepted while its error <= NONMONOTONE * best
 NONMONOTONE = 10.0
 #: the proximal subproblem is *solved* (the outer iteration ends) by a full Newton step
@@ -779,7 +797,7 @@ def velocity_relative_error(err, r, u, norm_q):
 
 def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
                 stall_window, time_limit, history, rho=DEFAULT_RHO, policy=None,
-                compiled=None, equation=DEFAULT_EQUATION, accepted=None):
+                compiled=None, equation=DEFAULT_EQUATION, accepted=None, drift_window=0):
     """Run the proximal-point semismooth Newton method.
 
     This Python loop is the reference; a small dense local system
@@ -823,6 +841,11 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         ``tol`` that stands in for the caller's test (a tolerance tightened after a
         refusal), so that the run does not go on past an answer the test takes.  ``r`` is
         the run's own buffer on the compiled twin: the hook must not keep or change it.
+    drift_window : int
+        The proximal loop stops ``"stalled"`` with ``info["stop"] = "null_drift"`` after that
+        many outer iterations in a row that are null-space drift steps
+        (:func:`~.kernels.newton_dense.drift_step` with :data:`DRIFT_CHANGE`,
+        :data:`DRIFT_NULL`; ``formulations/newton.md`` §7); 0: no such test.
 
     Returns
     -------
@@ -853,7 +876,8 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         return _newton_compiled(system, mu, r, tol=tol, max_iter=max_iter, alpha0=alpha0,
                                 alpha_min=alpha_min, inner_max_iter=inner_max_iter,
                                 stall_window=stall_window, time_limit=time_limit, rho=rho,
-                                plain=policy == "plain", equation=equation, accepted=accepted)
+                                plain=policy == "plain", equation=equation, accepted=accepted,
+                                drift_window=drift_window)
     d = system.d
     nc = mu.shape[0]
     rho_n, rho_t, wscale = _system_rho(system, rho)
@@ -886,10 +910,11 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
     if err <= tol:
         status = "converged"
     last_step = None        # (trace) the last nonzero outer step r - r_k
+    drifting, stop = 0, ""  # null-space drift steps in a row (drift_window), why the run stopped
     while status == "max_iter" and it < max_iter:
         it += 1
         rk = r.copy()
-        uk = u.copy() if trace is not None else None
+        uk = u.copy() if trace is not None or drift_window else None
         err_k = err
         alpha_used = alpha
         alpha_max_used = max(alpha_max_used, alpha)
@@ -979,6 +1004,10 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
         if err <= tol or (accepted is not None and lower and accepted(r)):
             status = "converged"
             break
+        if drift_window and not plain:
+            verdict = nd.drift_step(solved, err, err_k, r, rk, u, uk, wscale, DRIFT_CHANGE,
+                                    DRIFT_NULL)
+            drifting = drifting + 1 if verdict > 0 else 0 if verdict < 0 else drifting
         # proximal parameter: shrink after good progress, grow otherwise
         # (a solved subproblem is a proximal-point step: accepted even when the
         # error rises, within NONMONOTONE x the best error)
@@ -1007,6 +1036,9 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
                           step_norm, float(np.linalg.norm(u - uk)), turn))
             if step_norm > 0.0:
                 last_step = outer
+        if drift_window and drifting >= drift_window:
+            status, stop = "stalled", "null_drift"
+            break
         if stall_window and it - best_it >= stall_window:
             status = "stalled"
             break
@@ -1024,7 +1056,7 @@ def prox_newton(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_it
             "factorizations": system.factorizations,
             "linear_solver": system.kind, "internal_error": min(err, best_err),
             "rho": _rho_label(rho),
-            "equation": equation}
+            "equation": equation, "stop": stop}
     if trace is not None:
         info["trace"] = trace
     return status, r, it, hist, info
@@ -1218,7 +1250,8 @@ def prox_error_runs(system, mu, r, *, tol, max_iter, alpha_min, stall_window, ti
 
 
 def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_max_iter,
-                     stall_window, time_limit, rho, equation, plain=False, accepted=None):
+                     stall_window, time_limit, rho, equation, plain=False, accepted=None,
+                     drift_window=0):
     """:func:`prox_newton` (policy "prox", or "plain" when ``plain``; no history) through its
     compiled twin (:func:`~.kernels.newton_dense.prox_newton_dense`,
     :func:`~.kernels.newton_dense.plain_newton_dense`).
@@ -1253,7 +1286,8 @@ def _newton_compiled(system, mu, r, *, tol, max_iter, alpha0, alpha_min, inner_m
         loop = nd.prox_newton_dense
         rest = (alpha_min * wscale, _ALPHA_MAX * wscale, int(inner_max_iter), int(stall_window),
                 _ARMIJO, _MAX_BACKTRACK, NONMONOTONE, INNER_GATE, INNER_DECREASE, r, best_r,
-                fstate, istate, system.lapack, law)
+                fstate, istate, system.lapack, law,
+                (float(drift_window), DRIFT_CHANGE, DRIFT_NULL, float(wscale)))
     if accepted is None and (time_limit is None or clock.AVAILABLE):
         loop(*args, int(max_iter), *rest)
         status = nd.STATUS_NAMES[int(istate[nd.I_STATUS])]
@@ -1358,6 +1392,7 @@ def _settings(problem, options, inner_settings=None) -> dict:
                                          get("inner_max_iter", _DEFAULT_INNER_MAX_ITER), minimum=1),
                 stall_window=check_int("stall_window", get("stall_window", DEFAULT_STALL_WINDOW),
                                        minimum=0),
+                drift_window=check_int("drift_window", get("drift_window", 0), minimum=0),
                 linear_solver=check_choice("linear_solver", get("linear_solver", "auto"),
                                            ("auto", "dense", "splu", "left_looking")),
                 global_mode=check_choice("global_mode", get("global_mode", "auto"),
@@ -1451,13 +1486,13 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
                            alpha_min=st["alpha_min"], inner_max_iter=st["inner_max_iter"],
                            stall_window=st["stall_window"], time_limit=left, history=history,
                            rho=st["rho"], policy=st["policy"], equation=st["equation"],
-                           accepted=accepted)
+                           accepted=accepted, drift_window=st["drift_window"])
 
     with _one_blas_thread(system):
         status, r, iters, hist, info = continued_runs(run, as_written, r, tol, max_iter,
                                                       st["alpha0"], st["alpha_min"],
                                                       time_limit, history, t0, accepted)
-    message = _message(status, st["stall_window"])
+    message = _message(status, st["stall_window"], info.get("stop", ""), st["drift_window"])
     if verbose:
         print(f"newton: {status} after {iters} outer iterations, error {info['internal_error']:.3e}")
     extra = system.result_extra()
@@ -1470,8 +1505,11 @@ def newton_backend(problem, formulation, *, tol, max_iter=None, r0=None, history
                         message=message, **extra)
 
 
-def _message(status, stall_window) -> str:
-    """The backend's message for a run that ended with ``status``."""
+def _message(status, stall_window, stop="", drift_window=0) -> str:
+    """The backend's message for a run that ended with ``status`` (``stop``: ``info["stop"]``)."""
+    if status == "stalled" and stop == "null_drift":
+        return (f"{drift_window} outer iterations in a row drifted along the null space of W "
+                "with the error flat")
     if status == "stalled":
         return f"no 10 % drop of the error over {stall_window} outer iterations"
     if status == "numerical_error":
@@ -1861,6 +1899,6 @@ __all__ = ["newton_backend", "trial_constants", "continued_runs", "compiled_writ
            "compiled_loop_takes", "compiled_runs", "BlockJacobian", "prox_newton",
            "newton_polish", "resolve_polish", "POLISH_NAMES", "WARM_ALPHA0", "COLD_ALPHA0",
            "velocity_relative_error", "POLICIES", "EQUATIONS", "warmup", "DEFAULT_MAX_ITER",
-           "DEFAULT_STALL_WINDOW", "OPTIONS", "SPEC", "route", "ROUTE_MAX_M",
+           "DEFAULT_STALL_WINDOW", "DRIFT_CHANGE", "DRIFT_NULL", "OPTIONS", "SPEC", "route", "ROUTE_MAX_M",
            "ROUTE_MIN_TIME_LIMIT", "ROUTE_TIMED_WORK", "LocalSystem", "GlobalSystem",
            "one_blas_thread"]

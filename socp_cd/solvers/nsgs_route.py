@@ -103,6 +103,8 @@ TRIAL_MAX_M = 150
 TRIAL_CONSTANTS = ("alpha0", "plain_regularization", "goldstein_m1", "max_backtrack",
                    "alpha_min", "alpha_max", "inner_max_iter", "armijo", "nonmonotone",
                    "inner_gate", "inner_decrease")
+#: the proximal loop's null-space drift test, off in these runs (``prox_newton_dense``'s ``drift``)
+_NO_DRIFT = (0.0, 0.0, 0.0, 1.0)
 (C_ALPHA0, C_PLAIN_REGULARIZATION, C_GOLDSTEIN_M1, C_MAX_BACKTRACK, C_ALPHA_MIN, C_ALPHA_MAX,
  C_INNER_MAX_ITER, C_ARMIJO, C_NONMONOTONE, C_INNER_GATE,
  C_INNER_DECREASE) = range(len(TRIAL_CONSTANTS))
@@ -432,7 +434,7 @@ def _balanced_run(W, q_s, a, b, q_norm, mu, dim, start, norm_q, tol, max_iter, s
                              int(constants[C_INNER_MAX_ITER]), stall_window, constants[C_ARMIJO],
                              max_backtrack, constants[C_NONMONOTONE], constants[C_INNER_GATE],
                              constants[C_INNER_DECREASE], r_s, best_r, fstate, istate,
-                             written_out, law)
+                             written_out, law, _NO_DRIFT)
     else:
         nd.plain_newton_dense(W, q_s, norm_q, mu, rho, rho, dim, tol, max_iter,
                               constants[C_PLAIN_REGULARIZATION] * wscale, stall_window,

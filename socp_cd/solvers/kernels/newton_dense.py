@@ -58,7 +58,10 @@ FSTATE = 5
 #: ... and (plain policy) whether the next step tries the regularized matrix first (set when
 #: a step's retry with it worked, cleared when a retry without it did)
 I_REGULARIZED = 10
-ISTATE = 11
+#: ... and (proximal loop) the null-space drift test's count of outer iterations in a row that
+#: pass it, and whether the run stopped on it (:func:`prox_newton_dense`'s ``drift``)
+I_DRIFT, I_DRIFT_STOP = 11, 12
+ISTATE = 13
 #: codes of the equations of the law the loops solve (their ``law`` argument), by the
 #: backend's names (``newton.EQUATIONS``)
 LAW_AC, LAW_NM, LAW_FB = 0, 1, 2
@@ -113,7 +116,7 @@ def run_info(fs, ist, wscale, plain, factorizations, linear_solver, rho, law) ->
             "singular_steps": ist[I_SINGULAR], "rejected_outer": ist[I_REJECTED],
             "factorizations": factorizations, "linear_solver": linear_solver,
             "internal_error": min(fs[F_ERR], fs[F_BEST_ERR]), "rho": rho,
-            "equation": LAW_NAMES[law]}
+            "equation": LAW_NAMES[law], "stop": "null_drift" if ist[I_DRIFT_STOP] else ""}
 
 
 @njit(cache=True)
@@ -145,6 +148,29 @@ def _buffers(m, nc, d):
     return (np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.empty(m),
             np.empty(m), np.empty((m, m)), np.empty((nc, d, d)), np.empty((nc, d, d)),
             np.empty(nc, dtype=np.int64))
+
+
+@njit(cache=True)
+def drift_step(solved, err, err_k, r, rk, u, uk, wscale, change, null):
+    """The null-space drift test's verdict on an outer iteration of the proximal loop
+    (``formulations/newton.md`` §7): 1, a *drift step*: its subproblem was solved, the error
+    moved by at most ``change`` relative (``|err - err_k| <= change err_k``), and the step
+    barely moved the velocity, ``||u - u_k|| <= null * wscale * ||r - r_k||`` with
+    ``r - r_k != 0`` (a step near the null space of ``W``; ``wscale`` the block scale of
+    ``W``); 0, neutral: an unsolved subproblem that did not cut the error by more than
+    ``change`` relative (a failed try at a smaller proximal parameter); -1 otherwise.  The
+    loops count drift steps in a row, neutral ones skipped; the reference and the compiled
+    loop both call it."""
+    if not solved:
+        return 0 if err >= (1.0 - change) * err_k else -1
+    if not abs(err - err_k) <= change * err_k:
+        return -1
+    dr2 = 0.0
+    du2 = 0.0
+    for k in range(r.shape[0]):
+        dr2 += (r[k] - rk[k]) * (r[k] - rk[k])
+        du2 += (u[k] - uk[k]) * (u[k] - uk[k])
+    return 1 if dr2 > 0.0 and np.sqrt(du2) <= null * wscale * np.sqrt(dr2) else -1
 
 
 @njit(cache=True)
@@ -188,7 +214,8 @@ def _store(istate, fstate, status, it, best_it, n_newton, n_backtrack, n_ls_fail
 @njit(cache=True)
 def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_max,
                       inner_max_iter, stall_window, armijo, max_backtrack, nonmonotone,
-                      inner_gate, inner_decrease, r, best_r, fstate, istate, lapack, law):
+                      inner_gate, inner_decrease, r, best_r, fstate, istate, lapack, law,
+                      drift):
     """Run outer proximal iterations until ``it_end``, convergence, stall or a non-finite error.
 
     Parameters
@@ -220,6 +247,11 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
         :data:`~.dense.WRITTEN_OUT`: the written-out one).
     law : int
         The equation of the law (:data:`LAW_CODES`; ``rho_t`` is read by Alart–Curnier's only).
+    drift : tuple of four floats
+        ``(window, change, null, wscale)``: the run stops ``STALLED`` (``I_DRIFT_STOP`` set)
+        after ``window`` outer iterations in a row that are :func:`drift_step` steps with
+        ``change``, ``null`` and the block scale ``wscale`` (its neutral iterations skipped);
+        ``window`` 0: no such test.
 
     Notes
     -----
@@ -238,9 +270,13 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
     # (counters start as int64, not the literal 0: _store is compiled once)
     n_newton = n_backtrack = n_ls_fail = n_singular = n_rejected = n_fact = np.int64(0)
     F, Ft, mF, ua, rk, rt, ut, J, Dr, Du, branch = _buffers(m, nc, d)
+    drift_window = int(drift[0])
+    uk = np.empty(m if drift_window > 0 else 0)
     while status == RUNNING and it < it_end:
         it += 1
         rk[:] = r
+        if drift_window > 0:
+            uk[:] = u
         err_k = err
         if alpha > alpha_max_used:
             alpha_max_used = alpha
@@ -296,6 +332,12 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
                                                   it, best_it, best_err, np.bool_(False))
         if status != RUNNING:
             break
+        if drift_window > 0:
+            verdict = drift_step(solved, err, err_k, r, rk, u, uk, drift[3], drift[1], drift[2])
+            if verdict > 0:
+                istate[I_DRIFT] += 1
+            elif verdict < 0:
+                istate[I_DRIFT] = 0
         if solved and err < err_k:
             alpha = max(a_min, alpha * 0.1)
         elif not (solved and err <= nonmonotone * best_err) and (not sub_ok or err >= err_k):
@@ -305,6 +347,10 @@ def prox_newton_dense(W, q, norm_q, mu, rho_n, rho_t, d, tol, it_end, a_min, a_m
                 r[:] = rk
                 err = err_k
                 matvec_into(W, r, q, u)
+        if drift_window > 0 and istate[I_DRIFT] >= drift_window:
+            istate[I_DRIFT_STOP] = 1
+            status = STALLED
+            break
         if stall_window > 0 and it - best_it >= stall_window:
             status = STALLED
             break
@@ -470,9 +516,9 @@ def projected_error(W, q, norm_q, mu, d, r, out):
     return siconos_error(out, u, mu, d, norm_q)
 
 
-__all__ = ["prox_newton_dense", "plain_newton_dense", "law_blocks", "LAW_CODES", "LAW_AC",
+__all__ = ["prox_newton_dense", "plain_newton_dense", "drift_step", "law_blocks", "LAW_CODES", "LAW_AC",
            "LAW_NM", "LAW_FB", "LAW_NAMES", "velocity_error", "new_state", "RUNNING", "CONVERGED", "STALLED",
            "NUMERICAL_ERROR", "TIME_LIMIT", "FSTATE", "ISTATE", "F_ALPHA", "F_ALPHA_MAX_USED",
            "F_ERR", "F_BEST_ERR", "F_DEADLINE", "I_STARTED", "I_STATUS", "I_IT", "I_BEST_IT", "I_NEWTON",
            "I_BACKTRACK", "I_LS_FAIL", "I_SINGULAR", "I_REJECTED", "I_FACTORIZATIONS",
-           "projected_error"]
+           "I_REGULARIZED", "I_DRIFT", "I_DRIFT_STOP", "projected_error"]
