@@ -172,7 +172,9 @@ Session 50's:
 
 ``DRIFT_WINDOW``
     the proximal Newton stages stop after that many outer iterations in a row of null-space
-    drift (newton's ``drift_window``), and the fixed point follows such a stop (None: off).
+    drift (newton's ``drift_window``), and the fixed point follows such a stop (None: off);
+``DRIFT_ANY_SIZE``
+    ... at any size (False: in the small local chain only).
 
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
@@ -221,7 +223,7 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "NEWTON_FIRST_MIN_NC", "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROX_EARLY", "REDUNDANT_SHARE",
          "LAST_RESORT", "REDUNDANT_RETRY", "ACCEPT_STOP", "CLARABEL_RETRY", "PROBE_CAP",
          "PROBE_PREDICT", "PROBE_MISS_COLD", "LEMKE_MAX_NC", "SMALL_CLARABEL_EARLY",
-         "DRIFT_WINDOW")
+         "DRIFT_WINDOW", "DRIFT_ANY_SIZE")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -241,7 +243,8 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "REDUNDANT_SHARE": None, "LAST_RESORT": False, "REDUNDANT_RETRY": "clarabel",
         "ACCEPT_STOP": False, "CLARABEL_RETRY": "clarabel", "PROBE_CAP": None,
         "PROBE_PREDICT": 15, "PROBE_MISS_COLD": False, "LEMKE_MAX_NC": None,
-        "SMALL_CLARABEL_EARLY": False, "DRIFT_WINDOW": None}
+        "SMALL_CLARABEL_EARLY": False, "DRIFT_WINDOW": None,
+        "DRIFT_ANY_SIZE": False}
 #: rules whose values are names
 STRINGS = ("REDUNDANT_RETRY", "CLARABEL_RETRY")
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",

@@ -61,7 +61,9 @@ a chain of 16 toppling dominoes; a 2D heap of 150 pentagons in a box.  Built aft
 Siconos on problems no session had looked at.  Session 48 then looked at that draw (a rule's
 need was found there); ``--new-kinds-fresh`` builds a second draw of the same kinds
 (:data:`NEW_KINDS_FRESH`: other sizes, seeds and parameters, fixed before the rule was measured)
-into ``validation/evalset_sim_newkinds_fresh/``, the held-out check of that rule.
+into ``validation/evalset_sim_newkinds_fresh/``, the held-out check of that rule;
+``--new-kinds-fresh2`` (session 50) a third draw (:data:`NEW_KINDS_FRESH2`) into
+``validation/evalset_sim_newkinds_fresh2/``, fixed before session 50's drift rule was run on it.
 
 ``--tune`` builds *other* scenes of the same kinds into
 ``validation/evalset_sim_tune/`` (1 500 disks with packing seed 11, 250
@@ -199,18 +201,21 @@ def main(argv=None) -> int:
                       help="a fifth draw, of kinds no collection had (session 48, see above)")
     mode.add_argument("--new-kinds-fresh", action="store_true",
                       help="a second draw of those kinds (session 48, see above)")
+    mode.add_argument("--new-kinds-fresh2", action="store_true",
+                      help="a third draw of those kinds (session 50, see above)")
     ap.add_argument("--only", nargs="*", default=None)
     args = ap.parse_args(argv)
     if args.tune and (args.fresh or args.kinds_fresh or args.kinds_fresh2 or args.quick
-                      or args.new_kinds or args.new_kinds_fresh):
+                      or args.new_kinds or args.new_kinds_fresh or args.new_kinds_fresh2):
         ap.error("--tune goes with the default collections, --small, --small2d or --kinds")
     if args.out is None and args.fresh:
         args.out = HERE / "evalset_sim_fresh"
     if args.out is None and (args.kinds_fresh or args.kinds_fresh2):
         args.out = HERE / ("evalset_sim_kinds_fresh2" if args.kinds_fresh2
                            else "evalset_sim_kinds_fresh")
-    if args.out is None and (args.new_kinds or args.new_kinds_fresh):
-        args.out = HERE / ("evalset_sim_newkinds_fresh" if args.new_kinds_fresh
+    if args.out is None and (args.new_kinds or args.new_kinds_fresh or args.new_kinds_fresh2):
+        args.out = HERE / ("evalset_sim_newkinds_fresh2" if args.new_kinds_fresh2
+                           else "evalset_sim_newkinds_fresh" if args.new_kinds_fresh
                            else "evalset_sim_newkinds")
     if args.out is None and args.kinds:
         args.out = HERE / ("evalset_sim_kinds_tune" if args.tune else "evalset_sim_kinds")
@@ -233,8 +238,9 @@ def main(argv=None) -> int:
         return build(kinds_runs(args.out, "tune" if args.tune else "held"), args)
     if args.kinds_fresh or args.kinds_fresh2:
         return build(kinds_runs(args.out, "fresh2" if args.kinds_fresh2 else "fresh"), args)
-    if args.new_kinds or args.new_kinds_fresh:
-        return build(new_kinds_runs(args.out, args.new_kinds_fresh), args)
+    if args.new_kinds or args.new_kinds_fresh or args.new_kinds_fresh2:
+        return build(new_kinds_runs(args.out, "fresh2" if args.new_kinds_fresh2
+                                    else args.new_kinds_fresh), args)
     table = QUICK if args.quick else TUNE if args.tune else FULL
     for name, (n, steps, every) in table.items():
         scene = args.out / f"{name}.toml"
@@ -584,13 +590,40 @@ NEW_KINDS_FRESH = {
 }
 
 
-def new_kinds_runs(out: Path, fresh: bool = False) -> list:
+#: ``--new-kinds-fresh2`` (session 50): a third draw of the new kinds, other sizes, seeds and
+#: parameters than the two others, fixed before session 50's drift rule (``auto.DRIFT_WINDOW``,
+#: found on the first draw's dominoes) was run on it: two chains of dominoes, a heap of boxes
+#: and one of polyhedra (the rule's held-out check beside the second draw)
+NEW_KINDS_FRESH2 = {
+    "boxpile3d-fresh2-36": ("boxpile3d-40", (("count = 40", "count = 36"), ("seed = 131", "seed = 171"),
+                                             ("size = [0.1, 0.06, 0.04]", "size = [0.09, 0.07, 0.035]"))),
+    "polypile3d-fresh2-36": ("polypile3d-30", (("count = 30", "count = 36"), ("seed = 137", "seed = 177"),
+                                               ("mu = 0.6", "mu = 0.7"))),
+    "dominoes3d-fresh2-14": ("dominoes3d-16", (("count = 15", "count = 13"),
+                                               ("end = [1.05, 0, 0.1]", "end = [0.84, 0, 0.1]"),
+                                               ("omega = [0, 4.0, 0]", "omega = [0, 3.0, 0]"),
+                                               ("mu = 0.4", "mu = 0.3"))),
+    "dominoes3d-fresh2-20": ("dominoes3d-16", (("count = 15", "count = 19"),
+                                               ("end = [1.05, 0, 0.1]", "end = [1.26, 0, 0.1]"),
+                                               ("size = [0.02, 0.1, 0.2]", "size = [0.015, 0.08, 0.18]"),
+                                               ("start = [0.0, 0, 0.1]", "start = [0.0, 0, 0.09]"),
+                                               ("position = [-0.075, 0, 0.1]", "position = [-0.07, 0, 0.09]"),
+                                               ("omega = [0, 4.0, 0]", "omega = [0, 4.5, 0]"),
+                                               ("mu = 0.4", "mu = 0.6"))),
+}
+
+
+def new_kinds_runs(out: Path, fresh=False) -> list:
     """The ``--new-kinds`` collections (session 48): ``(name, scene file, steps, dump every)``
-    of :data:`NEW_KINDS`; with ``fresh`` those of :data:`NEW_KINDS_FRESH`."""
+    of :data:`NEW_KINDS`; with ``fresh`` those of :data:`NEW_KINDS_FRESH`, with ``fresh =
+    "fresh2"`` those of :data:`NEW_KINDS_FRESH2`."""
     scenes = {name: (NEW_KINDS_HEADER.format(what=what, name=name, dim=dim, mu=mu, h=h,
                                              steps=steps) + body, steps, every)
               for name, (what, dim, mu, h, steps, every, body) in NEW_KINDS.items()}
-    if fresh:
+    if fresh == "fresh2":
+        scenes = _derived(scenes, NEW_KINDS_FRESH2, "--new-kinds",
+                          "--new-kinds-fresh2, session 50")
+    elif fresh:
         scenes = _derived(scenes, NEW_KINDS_FRESH, "--new-kinds",
                           "--new-kinds-fresh, session 48")
     return _written(out, scenes)

@@ -340,6 +340,9 @@ SMALL_CLARABEL_EARLY = False
 #: then follow it).  Session 49 located the drift on a toppled-dominoes step; session 50 built
 #: the test (formulations/auto.md, "The null-space drift stop")
 DRIFT_WINDOW = None
+#: whether the drift stop applies at any size (False: in the small local chain only, at most
+#: SMALL_NC contacts, where the fixed point is cheap)
+DRIFT_ANY_SIZE = False
 #: the last resort of a local exact-Coulomb problem that the order and its rounds leave
 #: unsolved with time left: Siconos PROX's proximal point (``"newton_prox_error"``, newton's
 #: ``policy="prox_error"``) from ``r = 0``, with the rest of the budget, at most
@@ -1462,7 +1465,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
             if method in ("newton", "newton_cold_alt") and NEWTON_STALL is not None:
                 opts["stall_window"] = NEWTON_STALL
-            if method == "newton" and DRIFT_WINDOW:
+            if method == "newton" and DRIFT_WINDOW and (DRIFT_ANY_SIZE or _small_local(feats)):
                 opts["drift_window"] = int(DRIFT_WINDOW)
             if method == "newton_cold_alt":
                 opts["alpha0"] = float(ALT_ALPHA0)
@@ -1569,7 +1572,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 seed_v = res.v if (res is not None and target is problem) else None
                 version += 1        # (the start of the warm stages changed)
         status = st if st != "converged" else "stalled"
-        if (DRIFT_WINDOW and method == "newton" and st == "stalled" and res is not None
+        if (method == "newton" and st == "stalled" and res is not None
                 and res.info.get("stop") == "null_drift"):
             order = _fixed_point_next(order, k)
         if best_err <= tol:
@@ -1637,4 +1640,4 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
            "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY",
-           "CLARABEL_RETRY", "REDUNDANT_RETRIES", "ACCEPT_STOP", "DRIFT_WINDOW", "small_plan"]
+           "CLARABEL_RETRY", "REDUNDANT_RETRIES", "ACCEPT_STOP", "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "small_plan"]
