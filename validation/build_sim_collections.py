@@ -63,7 +63,9 @@ need was found there); ``--new-kinds-fresh`` builds a second draw of the same ki
 (:data:`NEW_KINDS_FRESH`: other sizes, seeds and parameters, fixed before the rule was measured)
 into ``validation/evalset_sim_newkinds_fresh/``, the held-out check of that rule;
 ``--new-kinds-fresh2`` (session 50) a third draw (:data:`NEW_KINDS_FRESH2`) into
-``validation/evalset_sim_newkinds_fresh2/``, fixed before session 50's drift rule was run on it.
+``validation/evalset_sim_newkinds_fresh2/``, fixed before session 50's drift rule was run on it;
+``--new-kinds-fresh3`` (session 50) a fourth (:data:`NEW_KINDS_FRESH3`) into
+``validation/evalset_sim_newkinds_fresh3/``, fixed before ``auto.DRIFT_COLD`` was run on it.
 
 ``--tune`` builds *other* scenes of the same kinds into
 ``validation/evalset_sim_tune/`` (1 500 disks with packing seed 11, 250
@@ -203,18 +205,24 @@ def main(argv=None) -> int:
                       help="a second draw of those kinds (session 48, see above)")
     mode.add_argument("--new-kinds-fresh2", action="store_true",
                       help="a third draw of those kinds (session 50, see above)")
+    mode.add_argument("--new-kinds-fresh3", action="store_true",
+                      help="a fourth draw of those kinds (session 50, see above)")
     ap.add_argument("--only", nargs="*", default=None)
     args = ap.parse_args(argv)
     if args.tune and (args.fresh or args.kinds_fresh or args.kinds_fresh2 or args.quick
-                      or args.new_kinds or args.new_kinds_fresh or args.new_kinds_fresh2):
+                      or args.new_kinds or args.new_kinds_fresh or args.new_kinds_fresh2
+                      or args.new_kinds_fresh3):
         ap.error("--tune goes with the default collections, --small, --small2d or --kinds")
     if args.out is None and args.fresh:
         args.out = HERE / "evalset_sim_fresh"
     if args.out is None and (args.kinds_fresh or args.kinds_fresh2):
         args.out = HERE / ("evalset_sim_kinds_fresh2" if args.kinds_fresh2
                            else "evalset_sim_kinds_fresh")
-    if args.out is None and (args.new_kinds or args.new_kinds_fresh or args.new_kinds_fresh2):
-        args.out = HERE / ("evalset_sim_newkinds_fresh2" if args.new_kinds_fresh2
+    new_kinds = (args.new_kinds or args.new_kinds_fresh or args.new_kinds_fresh2
+                 or args.new_kinds_fresh3)
+    if args.out is None and new_kinds:
+        args.out = HERE / ("evalset_sim_newkinds_fresh3" if args.new_kinds_fresh3
+                           else "evalset_sim_newkinds_fresh2" if args.new_kinds_fresh2
                            else "evalset_sim_newkinds_fresh" if args.new_kinds_fresh
                            else "evalset_sim_newkinds")
     if args.out is None and args.kinds:
@@ -238,8 +246,9 @@ def main(argv=None) -> int:
         return build(kinds_runs(args.out, "tune" if args.tune else "held"), args)
     if args.kinds_fresh or args.kinds_fresh2:
         return build(kinds_runs(args.out, "fresh2" if args.kinds_fresh2 else "fresh"), args)
-    if args.new_kinds or args.new_kinds_fresh or args.new_kinds_fresh2:
-        return build(new_kinds_runs(args.out, "fresh2" if args.new_kinds_fresh2
+    if new_kinds:
+        return build(new_kinds_runs(args.out, "fresh3" if args.new_kinds_fresh3
+                                    else "fresh2" if args.new_kinds_fresh2
                                     else args.new_kinds_fresh), args)
     table = QUICK if args.quick else TUNE if args.tune else FULL
     for name, (n, steps, every) in table.items():
@@ -613,14 +622,40 @@ NEW_KINDS_FRESH2 = {
 }
 
 
+#: ``--new-kinds-fresh3`` (session 50): a fourth draw, fixed before ``auto.DRIFT_COLD`` (found
+#: on dominoes steps of the first and the third draw) was run on it
+NEW_KINDS_FRESH3 = {
+    "boxpile3d-fresh3-44": ("boxpile3d-40", (("count = 40", "count = 44"), ("seed = 131", "seed = 191"),
+                                             ("size = [0.1, 0.06, 0.04]", "size = [0.08, 0.06, 0.05]"))),
+    "dominoes3d-fresh3-12": ("dominoes3d-16", (("count = 15", "count = 11"),
+                                               ("end = [1.05, 0, 0.1]", "end = [0.88, 0, 0.1]"),
+                                               ("omega = [0, 4.0, 0]", "omega = [0, 6.0, 0]"),
+                                               ("mu = 0.4", "mu = 0.5"))),
+    "dominoes3d-fresh3-18": ("dominoes3d-16", (("count = 15", "count = 17"),
+                                               ("end = [1.05, 0, 0.1]", "end = [1.02, 0, 0.1]"),
+                                               ("size = [0.02, 0.1, 0.2]", "size = [0.025, 0.09, 0.19]"),
+                                               ("start = [0.0, 0, 0.1]", "start = [0.0, 0, 0.095]"),
+                                               ("position = [-0.075, 0, 0.1]", "position = [-0.065, 0, 0.095]"),
+                                               ("omega = [0, 4.0, 0]", "omega = [0, 3.5, 0]"),
+                                               ("mu = 0.4", "mu = 0.35"))),
+    "dominoes3d-fresh3-24": ("dominoes3d-16", (("count = 15", "count = 23"),
+                                               ("end = [1.05, 0, 0.1]", "end = [1.495, 0, 0.1]"),
+                                               ("omega = [0, 4.0, 0]", "omega = [0, 5.0, 0]"),
+                                               ("mu = 0.4", "mu = 0.45"))),
+}
+
+
 def new_kinds_runs(out: Path, fresh=False) -> list:
     """The ``--new-kinds`` collections (session 48): ``(name, scene file, steps, dump every)``
     of :data:`NEW_KINDS`; with ``fresh`` those of :data:`NEW_KINDS_FRESH`, with ``fresh =
-    "fresh2"`` those of :data:`NEW_KINDS_FRESH2`."""
+    "fresh2"`` (``"fresh3"``) those of :data:`NEW_KINDS_FRESH2` (:data:`NEW_KINDS_FRESH3`)."""
     scenes = {name: (NEW_KINDS_HEADER.format(what=what, name=name, dim=dim, mu=mu, h=h,
                                              steps=steps) + body, steps, every)
               for name, (what, dim, mu, h, steps, every, body) in NEW_KINDS.items()}
-    if fresh == "fresh2":
+    if fresh == "fresh3":
+        scenes = _derived(scenes, NEW_KINDS_FRESH3, "--new-kinds",
+                          "--new-kinds-fresh3, session 50")
+    elif fresh == "fresh2":
         scenes = _derived(scenes, NEW_KINDS_FRESH2, "--new-kinds",
                           "--new-kinds-fresh2, session 50")
     elif fresh:

@@ -343,6 +343,11 @@ DRIFT_WINDOW = None
 #: whether the drift stop applies at any size (False: in the small local chain only, at most
 #: SMALL_NC contacts, where the fixed point is cheap)
 DRIFT_ANY_SIZE = False
+#: whether the fixed point that follows a drift stop starts from ``r = 0`` (False: from the
+#: seed, as :func:`_starts_cold` says): the drifted seed's first shift ``mu ||u_T||`` may fix
+#: a wrong pattern of sliding contacts (session 50: on three dominoes steps the fixed point
+#: from NSGS's iterate stalled at 1e-7 ... 3e-6, from zero it met 1e-8 on two of them)
+DRIFT_COLD = False
 #: the last resort of a local exact-Coulomb problem that the order and its rounds leave
 #: unsolved with time left: Siconos PROX's proximal point (``"newton_prox_error"``, newton's
 #: ``policy="prox_error"``) from ``r = 0``, with the rest of the budget, at most
@@ -1356,6 +1361,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     # order's first, or the one after "newton_first" (and a refused stage's retry inserted
     # before it)
     nsgs_pending = True
+    drifted = False     # a drift stop moved the fixed point next, to start cold (DRIFT_COLD)
     k = -1
     while True:     # (a refused stage may be inserted once: RETRY_REFUSED; rounds appended)
         if k + 1 >= len(order):
@@ -1388,7 +1394,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             variant = "at_cap"      # the second trial starts from NSGS's iterate, not the best
         # a stage started from r = 0 (or the caller's r0) has the same start whatever the best
         # iterate: keyed without its version (a round's fixed point after a cold one: skipped)
-        cold = _starts_cold(method, k, seed_err)
+        cold = _starts_cold(method, k, seed_err) or (drifted and method == "clarabel")
         key = (method, form, None if cold else version, variant)
         if key in ran:
             continue    # same deterministic method from the same start: nothing to gain
@@ -1575,6 +1581,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         if (method == "newton" and st == "stalled" and res is not None
                 and res.info.get("stop") == "null_drift"):
             order = _fixed_point_next(order, k)
+            drifted = DRIFT_COLD
+        elif method == "clarabel":
+            drifted = False
         if best_err <= tol:
             # (the seed's rank is already max(error, guard) of this iterate when it is the seed:
             # taken as g, the tests below read the same; the guard is not computed again)
@@ -1640,4 +1649,4 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
            "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY",
-           "CLARABEL_RETRY", "REDUNDANT_RETRIES", "ACCEPT_STOP", "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "small_plan"]
+           "CLARABEL_RETRY", "REDUNDANT_RETRIES", "ACCEPT_STOP", "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "DRIFT_COLD", "small_plan"]
