@@ -1513,3 +1513,48 @@ def test_a_drift_stop_hands_over_to_the_fixed_point(monkeypatch):
     assert [s["method"] for s in path] == ["newton", "clarabel"]
     assert path[0]["status"] == "stalled" and path[0]["iterations"] == 5
     assert res.converged
+
+
+def test_the_drift_stop_is_set_in_the_small_chain_only(monkeypatch):
+    from socp_cd.solvers.auto import _drift_window
+    small = {"n_contacts": auto.SMALL_NC, "global": False}
+    large = {"n_contacts": auto.SMALL_NC + 1, "global": False}
+    assert _drift_window(small) == auto.DRIFT_WINDOW > 0
+    assert _drift_window(large) == 0
+    assert _drift_window({"n_contacts": 3, "global": True}) == 0
+    monkeypatch.setattr(auto, "DRIFT_ANY_SIZE", True)
+    assert _drift_window(large) == auto.DRIFT_WINDOW
+    monkeypatch.setattr(auto, "DRIFT_WINDOW", None)
+    assert _drift_window(small) == 0
+
+
+@pytest.mark.parametrize("cold", [True, False])
+def test_the_fixed_point_after_a_drift_stop_starts_as_drift_cold_says(cold, monkeypatch):
+    """The drift toy (``_drift_toy`` of tests/test_newton_dense.py, its sliding velocity
+    1e-6: the error below WARM_MAX) from ``r0``: the fixed point that follows the Newton
+    stage's drift stop starts from ``r = 0`` with DRIFT_COLD, else from the seed (the drifted
+    iterate)."""
+    import dataclasses
+    from socp_cd.problem import FrictionContactProblem
+    from socp_cd.solvers import newton
+    W = np.diag([1.0, 0.0, 0.0])
+    p = FrictionContactProblem(W=W, q=np.array([-1.0, 1e-6, 0.0]), mu=np.array([0.5]), dim=3)
+    monkeypatch.setattr(newton, "_DEFAULT_ALPHA_MIN", newton.WARM_ALPHA0)
+    monkeypatch.setattr(auto, "DRIFT_WINDOW", 5)
+    monkeypatch.setattr(auto, "DRIFT_COLD", cold)
+    starts = []
+    spec, opts = auto._STAGES["clarabel"]
+
+    def recorded(*args, r0=None, **kwargs):
+        starts.append(None if r0 is None else np.array(r0))
+        return spec.func(*args, r0=r0, **kwargs)
+    stages = dict(auto._STAGES, clarabel=(dataclasses.replace(spec, func=recorded), opts))
+    monkeypatch.setattr(auto, "_STAGES", stages)
+    res = socp_cd.solve(p, solver="auto", tol=1e-8, r0=np.array([1.0, 0.0, 0.0]),
+                        methods=["newton", "newton_plain", "clarabel"])
+    assert [s["method"] for s in res.info["path"]] == ["newton", "clarabel"] and res.converged
+    assert len(starts) == 1
+    if cold:
+        assert starts[0] is None
+    else:
+        assert starts[0] is not None and -0.5 < starts[0][1] < 0.0     # the drifted seed

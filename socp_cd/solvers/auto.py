@@ -333,21 +333,24 @@ MAX_ROUNDS = 8
 #: knob cut that draw's sgm by 11 % but won no case there, on the tune split or held out
 #: (validation/results/auto_chain_{tune_s48newkinds,tune_s48early,holdout_s48early}.md)
 SMALL_CLARABEL_EARLY = False
-#: the proximal Newton stages (``"newton"``) stop after DRIFT_WINDOW outer iterations in a row
-#: of null-space drift (newton's ``drift_window``: solved subproblems, the error flat, steps in
-#: the null space of ``W``; ``formulations/newton.md`` §7; None: off), and a stage stopped so
-#: is followed by the Clarabel fixed point when the order has it later (the stages between
-#: then follow it).  Session 49 located the drift on a toppled-dominoes step; session 50 built
-#: the test (formulations/auto.md, "The null-space drift stop")
-DRIFT_WINDOW = None
-#: whether the drift stop applies at any size (False: in the small local chain only, at most
-#: SMALL_NC contacts, where the fixed point is cheap)
+#: the proximal Newton stages (``"newton"``) of the small local chain stop after DRIFT_WINDOW
+#: outer iterations in a row of null-space drift (newton's ``drift_window``: solved
+#: subproblems, the error flat, steps in the null space of ``W``; ``formulations/newton.md``
+#: §7; None: off), and a stage stopped so is followed by the Clarabel fixed point when the
+#: order has it later (the stages between then follow it), started from ``r = 0`` when
+#: DRIFT_COLD (else from the seed, as :func:`_starts_cold` says); DRIFT_ANY_SIZE: the stop
+#: at any size, not only in the small chain.  Session 50 (formulations/auto.md, "The
+#: null-space drift stop"): found on the toppled dominoes of the first new-kinds draw, where
+#: the proximal stage drifted for 50-150 outer iterations and the fixed point from its seed
+#: stalled at 1e-7 ... 3e-6 (from zero it met 1e-8).  On a fourth draw built before the rule
+#: was run on it (``build_sim_collections.py --new-kinds-fresh3``; 3D, 11-100 contacts, 60
+#: steps): solved 57 -> 58, sgm (10 ms) 0.0248 -> 0.0183 s; tune split and held out: no case
+#: won or lost; at any size it cost up to x5 on held-out Capsules and pentagons (a drift that
+#: would have converged after it), so it stays in the small chain
+#: (validation/results/auto_chain_{tune,holdout}_s50*.md)
+DRIFT_WINDOW = 5
 DRIFT_ANY_SIZE = False
-#: whether the fixed point that follows a drift stop starts from ``r = 0`` (False: from the
-#: seed, as :func:`_starts_cold` says): the drifted seed's first shift ``mu ||u_T||`` may fix
-#: a wrong pattern of sliding contacts (session 50: on three dominoes steps the fixed point
-#: from NSGS's iterate stalled at 1e-7 ... 3e-6, from zero it met 1e-8 on two of them)
-DRIFT_COLD = False
+DRIFT_COLD = True
 #: the last resort of a local exact-Coulomb problem that the order and its rounds leave
 #: unsolved with time left: Siconos PROX's proximal point (``"newton_prox_error"``, newton's
 #: ``policy="prox_error"``) from ``r = 0``, with the rest of the budget, at most
@@ -1290,6 +1293,13 @@ def _round_gain(bests, since) -> bool:
     return bests[-1] * ROUND_GAIN <= bests[since - 1]
 
 
+def _drift_window(feats) -> int:
+    """The ``drift_window`` of the ``"newton"`` stages for the problem of ``feats``
+    (:data:`DRIFT_WINDOW` in the small local chain, or at any size with
+    :data:`DRIFT_ANY_SIZE`; 0: none)."""
+    return int(DRIFT_WINDOW) if DRIFT_WINDOW and (DRIFT_ANY_SIZE or _small_local(feats)) else 0
+
+
 def _fixed_point_next(order, k):
     """``order`` with its first ``("clarabel", "coulomb")`` stage after position ``k`` moved to
     ``k + 1`` (the stages between follow it); unchanged when there is none."""
@@ -1471,8 +1481,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
             if method in ("newton", "newton_cold_alt") and NEWTON_STALL is not None:
                 opts["stall_window"] = NEWTON_STALL
-            if method == "newton" and DRIFT_WINDOW and (DRIFT_ANY_SIZE or _small_local(feats)):
-                opts["drift_window"] = int(DRIFT_WINDOW)
+            if method == "newton" and _drift_window(feats):
+                opts["drift_window"] = _drift_window(feats)
             if method == "newton_cold_alt":
                 opts["alpha0"] = float(ALT_ALPHA0)
             stage_max_iter = max_iter
