@@ -28,7 +28,9 @@ close, :data:`WARM_MAX`) (rules and evidence: ``formulations/auto.md``):
   (:mod:`socp_cd.solvers.newton`), plain Newton steps from its iterate and from
   ``r = 0``, the proximal method from ``r = 0`` with the proximal parameter
   :data:`ALT_ALPHA0` (``"newton_cold_alt"``), the Clarabel De Saxcé fixed point and
-  Newton again; larger local problems: an NSGS *probe* of
+  Newton again (a proximal Newton stage that stops on a drift along the null space of
+  ``W``, :data:`DRIFT_WINDOW`, is followed at once by the fixed point, from ``r = 0``:
+  :data:`DRIFT_COLD`); larger local problems: an NSGS *probe* of
   :data:`PROBE_SWEEPS` sweeps first, going on up to :data:`PROBE_CAP` while
   NSGS's rate predicts ``tol`` (then Newton starts afresh unless the probe ended
   within :data:`WARM_MAX` without going on, :data:`PROBE_MISS_COLD`); 2D local
