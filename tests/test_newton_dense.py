@@ -787,3 +787,11 @@ def test_drift_step_verdicts():
     # unsolved: neutral while the error did not fall by more than the change, else a reset
     assert drift_step(False, 1.2, 1.0, r, rk, moved, uk, 1.0, 1e-2, 1e-2) == 0
     assert drift_step(False, 0.5, 1.0, r, rk, moved, uk, 1.0, 1e-2, 1e-2) == -1
+
+
+@pytest.mark.parametrize("bad", [-1, "x", 2.5, float("nan")])
+def test_a_bad_drift_window_is_named(bad):
+    from socp_cd.errors import InvalidProblemError
+    p = manufactured(3, 3, 0.5, seed=0)
+    with pytest.raises(InvalidProblemError, match="drift_window"):
+        socp_cd.solve(p, solver="newton", drift_window=bad)
