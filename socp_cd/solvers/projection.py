@@ -11,7 +11,7 @@ Acary, Brémond & Huber 2018 call the method FP-DS; Siconos' ``FPP`` and ``EG``
 are its relatives).  It converges where NSGS crawls on some strongly coupled
 problems (a periodic box of 60 contacts: 216 products where NSGS needs 860
 sweeps, ``validation/projection_study.py``) and crawls where NSGS or Newton
-win; ``solver="auto"`` runs it as a short trial after NSGS hands over.
+win; it is not a stage of ``solver="auto"`` (``formulations/projection.md`` §4).
 
 Options (``socp_cd.solve(problem, solver="projection", **options)``)
 --------------------------------------------------------------------
