@@ -152,15 +152,16 @@ def load_simulation(path, solver: str | None = None):
     from ..solvers import solvers
 
     spec = load_scene_file(path)
-    if solver is not None and solver not in solvers():
-        raise UnsupportedError(f"solver: unknown solver {solver!r} (available: {', '.join(solvers())})")
+    names = solvers()
+    if solver is not None and solver not in names:
+        raise UnsupportedError(f"solver: unknown solver {solver!r} (available: {', '.join(names)})")
     scene = build_scene(spec)
     opts = simulation_options(spec)
     if solver is not None:
         opts["solver"] = solver
-    elif opts["solver"] not in solvers():
+    elif opts["solver"] not in names:
         raise SceneFileError(spec.source, "simulation.solver",
-                             f"unknown solver {opts['solver']!r} (available: {', '.join(solvers())})")
+                             f"unknown solver {opts['solver']!r} (available: {', '.join(names)})")
     try:
         sim = _dyn().Simulation(scene, opts.pop("h"), **opts)
     except InvalidProblemError as exc:

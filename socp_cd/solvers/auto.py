@@ -1373,6 +1373,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     # order's first, or the one after "newton_first" (and a refused stage's retry inserted
     # before it)
     nsgs_pending = True
+    drift_window = _drift_window(feats)     # the "newton" stages' drift_window (0: none)
     drifted = False     # a drift stop moved the fixed point next, to start cold (DRIFT_COLD)
     k = -1
     while True:     # (a refused stage may be inserted once: RETRY_REFUSED; rounds appended)
@@ -1483,8 +1484,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 opts["alpha0"] = newton.WARM_ALPHA0     # warm start near a solution (newton.py)
             if method in ("newton", "newton_cold_alt") and NEWTON_STALL is not None:
                 opts["stall_window"] = NEWTON_STALL
-            if method == "newton" and _drift_window(feats):
-                opts["drift_window"] = _drift_window(feats)
+            if method == "newton" and drift_window:
+                opts["drift_window"] = drift_window
             if method == "newton_cold_alt":
                 opts["alpha0"] = float(ALT_ALPHA0)
             stage_max_iter = max_iter
