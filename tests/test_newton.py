@@ -373,3 +373,44 @@ def test_trace_records_each_outer_step(seed):
         assert (ustep == 0) == (step == 0)
         assert ustep <= norm_w * step * (1 + 1e-9)
         assert np.isnan(turn) == (step == 0 or not any(s > 0 for s in steps[:k]))
+
+
+def test_sparse_system_diag_blocks_equal_the_problem_reference_with_a_zero_block():
+    # LocalSystem reads W_ii from the Jacobian's block pattern; FrictionContactProblem's
+    # diagonal_blocks is the NumPy reference (a structurally zero W_ii included)
+    from socp_cd.solvers.newton import LocalSystem
+    d = 3
+    A = np.arange(1.0, 82.0).reshape(9, 9)
+    A = A + A.T
+    A[3:6, 3:6] = 0.0
+    p = socp_cd.FrictionContactProblem(W=sp.csr_matrix(A), q=np.ones(9), mu=np.full(3, 0.5), dim=d)
+    blocks = LocalSystem(p, "splu").diag_blocks()
+    np.testing.assert_array_equal(blocks, p.diagonal_blocks())
+    assert not blocks[1].any()
+
+
+def test_newton_systems_of_one_problem_share_its_pattern_and_column_order(monkeypatch):
+    # the pattern and the LU's column order are computed once per problem object (auto's
+    # stages each build a system); a new problem computes its own
+    from socp_cd.solvers.newton import LocalSystem
+    p = manufactured(60, 3, 0.5, seed=5)
+    calls = []
+    real = newton.column_order
+
+    def counting(*args):
+        calls.append(1)
+        return real(*args)
+    monkeypatch.setattr(newton, "column_order", counting)
+    s1 = LocalSystem(p, "left_looking")
+    s2 = LocalSystem(p, "left_looking")
+    assert len(calls) == 1
+    assert s1.jacobian.perm is s2.jacobian.perm and s1.jacobian.out is not s2.jacobian.out
+    fresh = LocalSystem(p.with_(), "left_looking")
+    assert len(calls) == 2 and fresh.jacobian.perm is not s1.jacobian.perm
+    r = np.random.default_rng(0).random(p.m)
+    for s in (s1, s2, fresh):     # the same Newton direction from each
+        Dr = np.broadcast_to(np.eye(3), (60, 3, 3)).copy()
+        Du = 0.5 * Dr
+        F = s.start(r)
+        np.testing.assert_array_equal(s.direction(r, Dr, Du, 0.1, F)[0],
+                                      s1.direction(r, Dr, Du, 0.1, F)[0])

@@ -117,7 +117,9 @@ from threadpoolctl import ThreadpoolController
 from ..errors import InvalidProblemError, UnsupportedError
 from ..problem import kernel_array
 from .block_storage import block_csr_arrays
-from .sparse_lu import NewtonLU, SingularMatrix, csc_without_zeros, entry_positions
+from . import sparse_lu
+from .sparse_lu import (NewtonLU, SingularMatrix, column_order, csc_without_zeros,
+                        entry_positions)
 from .kernels import clock
 from .kernels import newton_dense as nd
 from .kernels.cone import project_cone_stacked, siconos_error
@@ -319,6 +321,60 @@ class _SingularStep(Exception):
 
 
 # --------------------------------------------------------------------------- linear algebra
+def jacobian_pattern(indptr, indices, data, d) -> tuple:
+    """What :class:`BlockJacobian` computes once for ``W`` (CSR arrays, contact size ``d``).
+
+    Returns
+    -------
+    tuple
+        ``(bptr, bcol, blocks, perm, indices, indptr, diag)``: ``W``'s block pattern with
+        every diagonal block stored (block CSR, int64) and its blocks ``(nb, d, d)``; where
+        each block entry goes in the CSC arrays (``blocks.ravel()[perm]`` is the CSC data on
+        the pattern ``(indptr, indices)``); ``diag[i]`` the index of block ``W_ii``.
+    """
+    B = block_csr_arrays(indptr, indices, data, d)
+    nc = B.indptr.shape[0] - 1
+    bptr, bcol, blocks, diag_pos = B.indptr, B.indices, B.blocks, B.diag_pos
+    missing = np.flatnonzero(diag_pos < 0)
+    if missing.size:          # a structurally zero W_ii: J_ii = Dr_i + alpha Du_i still
+        rows = np.concatenate([np.repeat(np.arange(nc), np.diff(bptr)), missing])
+        cols = np.concatenate([bcol, missing])
+        order = np.lexsort((cols, rows))
+        blocks = np.concatenate([blocks, np.zeros((missing.size, d, d))])[order]
+        bcol = cols[order]
+        bptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=nc))])
+    bptr, bcol = bptr.astype(np.int64), bcol.astype(np.int64)
+    blocks = np.ascontiguousarray(blocks)
+    # entry k of the blocks, numbered from 1 (no explicit zero), through scipy's own
+    # BSR -> CSC conversion: the CSC data are then blocks.ravel()[perm]
+    ids = np.arange(1, blocks.size + 1, dtype=np.float64).reshape(blocks.shape)
+    perm, csc_indices, csc_indptr = entry_positions(
+        sp.bsr_matrix((ids, bcol, bptr), shape=(nc * d, nc * d)))
+    diag = np.flatnonzero(bcol == np.repeat(np.arange(nc), np.diff(bptr)))
+    return bptr, bcol, blocks, perm, csc_indices, csc_indptr, diag
+
+
+def _problem_pattern(problem) -> tuple:
+    """:func:`jacobian_pattern` of ``problem.W``, once per problem object (the stages of
+    one ``auto`` call share it; :meth:`~socp_cd.problem.FrictionContactProblem.derived`)."""
+    indptr, indices, data = problem.csr_parts
+    return problem.derived("solvers.newton.pattern",
+                           lambda p: jacobian_pattern(indptr, indices, data, p.dim))
+
+
+def _problem_ordering(problem, jac):
+    """The sparse LU's column order of ``jac``'s pattern (``problem``'s), as a callable that
+    computes it once per problem object and settings (:func:`~.sparse_lu.column_order`;
+    :class:`~.sparse_lu.NewtonLU` calls it only when it orders the pattern)."""
+    key = f"solvers.newton.column_order:{sparse_lu.ORDERING}:{sorted(SPLU_OPTIONS.items())}"
+
+    def ordering():
+        return problem.derived(key, lambda p: column_order(
+            np.ascontiguousarray(jac.indptr, dtype=np.int64),
+            np.ascontiguousarray(jac.indices, dtype=np.int64), p.m, SPLU_OPTIONS))
+    return ordering
+
+
 class BlockJacobian:
     """The sparse local Newton matrix ``J = Dr + Du (W + alpha I)`` in CSC form, assembled
     on ``W``'s block pattern (diagonal blocks always stored).
@@ -330,25 +386,11 @@ class BlockJacobian:
     ``tests/test_newton.py`` holds the two equal.)
     """
 
-    def __init__(self, W, d):
-        nc = W.shape[0] // d
-        B = block_csr_arrays(W.indptr, W.indices, W.data, d)
-        bptr, bcol, blocks, diag_pos = B.indptr, B.indices, B.blocks, B.diag_pos
-        missing = np.flatnonzero(diag_pos < 0)
-        if missing.size:          # a structurally zero W_ii: J_ii = Dr_i + alpha Du_i still
-            rows = np.concatenate([np.repeat(np.arange(nc), np.diff(bptr)), missing])
-            cols = np.concatenate([bcol, missing])
-            order = np.lexsort((cols, rows))
-            blocks = np.concatenate([blocks, np.zeros((missing.size, d, d))])[order]
-            bcol = cols[order]
-            bptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=nc))])
-        self.bptr, self.bcol = bptr.astype(np.int64), bcol.astype(np.int64)
-        self.blocks = np.ascontiguousarray(blocks)
-        # entry k of the blocks, numbered from 1 (no explicit zero), through scipy's own
-        # BSR -> CSC conversion: the CSC data are then blocks.ravel()[perm]
-        ids = np.arange(1, self.blocks.size + 1, dtype=np.float64).reshape(self.blocks.shape)
-        self.perm, self.indices, self.indptr = entry_positions(
-            sp.bsr_matrix((ids, self.bcol, self.bptr), shape=W.shape))
+    def __init__(self, W, d, pattern=None):
+        if pattern is None:
+            pattern = jacobian_pattern(W.indptr, W.indices, W.data, d)
+        (self.bptr, self.bcol, self.blocks, self.perm, self.indices, self.indptr,
+         self.diag) = pattern
         self.shape = W.shape
         self.out = np.empty_like(self.blocks)
 
@@ -453,10 +495,11 @@ class LocalSystem:
             self.J = np.empty((self.m, self.m))
         else:
             self.W = sp.csr_matrix(problem.W, dtype=np.float64)
-            self.jacobian = BlockJacobian(self.W, self.d)
+            self.jacobian = BlockJacobian(self.W, self.d, _problem_pattern(problem))
             jac = self.jacobian
             self._lu = NewtonLU(jac.indptr, jac.indices, self.m, SPLU_OPTIONS,
-                                "auto" if self.kind == "sparse" else self.kind, block=self.d)
+                                "auto" if self.kind == "sparse" else self.kind, block=self.d,
+                                ordering=_problem_ordering(problem, jac))
             self.kind = self._lu.kind
         self.norm_q = problem.q_norm          # cached on the problem
         self.factorizations = 0
@@ -469,11 +512,7 @@ class LocalSystem:
         if not sp.issparse(W):           # one gather: W[i d + a, i d + c]
             idx = np.arange(nc)
             return W.reshape(nc, d, nc, d)[idx, :, idx, :]
-        out = np.empty((nc, d, d))
-        for a in range(d):
-            for c in range(d):
-                out[:, a, c] = W[a::d, c::d].diagonal()
-        return out
+        return self.jacobian.blocks[self.jacobian.diag]
 
     def start(self, r):
         if self.compiled:

@@ -141,10 +141,12 @@ class NewtonLU:
     ``kind`` is ``"left_looking"`` or ``"splu"`` (chosen at construction, see the module
     docstring); :meth:`solve` takes the matrix as its values (``vals[perm]`` is the CSC data
     on the pattern).  ``splu_options``: SuperLU's settings (its ``permc_spec`` is used
-    only without :data:`SPLU_ORDER_ONCE`; the ordering is :data:`ORDERING`).
+    only without :data:`SPLU_ORDER_ONCE`; the ordering is :data:`ORDERING`).  ``ordering``:
+    a callable returning :func:`column_order` of this pattern with these settings (a caller
+    that keeps it across systems of one pattern); None computes it here.
     """
 
-    def __init__(self, indptr, indices, n, splu_options, choice="auto", block=1):
+    def __init__(self, indptr, indices, n, splu_options, choice="auto", block=1, ordering=None):
         self.n = n
         self.splu_options = splu_options
         #: the left-looking LU's factorizations with a pivot search, and refactorizations
@@ -171,7 +173,8 @@ class NewtonLU:
             # (no fill test: pivoting stays within the diagonal blocks)
             q, flops, nnz_lu, stored = np.arange(n, dtype=np.int64), 0, self.Ai.shape[0], None
         else:
-            q, flops, nnz_lu, stored = column_order(self.Ap, self.Ai, n, splu_options)
+            q, flops, nnz_lu, stored = (column_order(self.Ap, self.Ai, n, splu_options)
+                                        if ordering is None else ordering())
         self.q, self.flops, self.nnz_lu, self.stored = q, flops, nnz_lu, stored
         if splu_now or (choice == "auto" and flops > LEFT_LOOKING_MAX_FLOPS_PER_ROW * n):
             self.kind = "splu"
