@@ -16,6 +16,16 @@ median, and the noise between a tree's two rounds.  Session 29 (block-diagonal `
     python validation/per_call_collections.py compare /tmp/ab_base /tmp/ab_new
 
 (each tree its own ``NUMBA_CACHE_DIR``), record: ``results/first_sweep_s29/``.
+
+``run --sets F [F ...] --min-contacts N``: other collections (folders of this directory) and
+sizes; a problem whose first call takes ``t`` gets ``clip(PER_LOOP / t, 3, 200)`` calls per
+loop (so a 20 ms problem is timed three times a loop).  ``compare`` then reports per folder,
+with the shifted geometric mean (10 ms) of each tree.  Session 51 (the Newton system's
+pattern kept per problem), record ``results/pattern_cache_s51/``::
+
+    for r in a b; do for t in base new; do PYTHONPATH=$t python validation/per_call_collections.py \
+        run --sets evalset_sim_newkinds_fresh3 evalset_sim_kinds_fresh2 --min-contacts 11 \
+        --max-contacts 400 --out /tmp/ab_$t$r.json; done; done
 """
 from __future__ import annotations
 
@@ -23,6 +33,7 @@ import argparse
 import copy
 import glob
 import json
+import math
 import statistics
 from pathlib import Path
 
@@ -30,25 +41,35 @@ from per_call_rounds import per_call_fresh      # (this folder: the one per-call
 
 HERE = Path(__file__).parent
 SETS = {"tune": "evalset_sim_small_tune", "held out": "evalset_sim_small"}
+#: seconds of calls per loop for problems slower than a few ms (``run --sets``)
+PER_LOOP = 0.03
 
 
-def run(out: Path, max_contacts: int) -> None:
+def run(out: Path, max_contacts: int, folders=None, min_contacts: int = 0) -> None:
+    import time
     import socp_cd
     probs = []
-    for folder in SETS.values():
+    for folder in folders or SETS.values():
         for f in sorted(glob.glob(str(HERE / folder / "*" / "*.hdf5"))):
             p = socp_cd.read_problem(f)
-            if p.dim == 3 and p.n_contacts <= max_contacts:
+            if p.dim == 3 and not p.is_global and min_contacts <= p.n_contacts <= max_contacts:
                 probs.append((str(Path(folder) / Path(f).parent.name / Path(f).name), p))
     if not probs:
         raise SystemExit("no problem: build the collections (build_sim_collections.py --small "
-                         "[--tune])")
-    for _, p in probs:
+                         "[--tune], or the --sets given)")
+    first = {}
+    for name, p in probs:
         for _ in range(3):
+            t0 = time.perf_counter()
             socp_cd.solve(copy.copy(p), time_limit=1.0)
+            first[name] = time.perf_counter() - t0
     rec = {}
     for name, p in probs:
-        best = per_call_fresh(p, 30 if p.n_contacts > 20 else 200, 3) * 1e-6
+        if folders is None:
+            number = 30 if p.n_contacts > 20 else 200
+        else:
+            number = int(min(200, max(3, PER_LOOP / max(first[name], 1e-9))))
+        best = per_call_fresh(p, number, 3) * 1e-6
         r = socp_cd.solve(copy.copy(p), time_limit=1.0)     # (its counts, untimed)
         path = r.info.get("path")
         rec[name] = [best, r.iterations, bool(r.converged), path[0]["iterations"] if path else None]
@@ -63,7 +84,14 @@ def compare(stems: list[str]) -> None:
     def t(s, k):
         return min(d[k][0] for d in data[s])
 
-    for label, folder in SETS.items():
+    folders = list(dict.fromkeys(k.split("/")[0] for k in keys))
+    labels = {folder: label for label, folder in SETS.items()}
+
+    def sgm(s, ks):
+        return math.exp(sum(math.log(t(s, k) + 0.01) for k in ks) / len(ks)) - 0.01
+
+    for folder in folders:
+        label = labels.get(folder, folder)
         ks = [k for k in keys if k.startswith(folder + "/")]
         noise = sorted(data[base][0][k][0] / data[base][1][k][0] for k in ks)
         print(f"{label} ({len(ks)} problems); noise between {base}'s rounds "
@@ -80,7 +108,9 @@ def compare(stems: list[str]) -> None:
                 line += (f"; the other {len(rr)} x{rr[0]:.3f}-{rr[-1]:.3f}, median "
                          f"x{statistics.median(rr):.3f}")
             conv = sum(data[s][0][k][2] for k in ks)
-            print(line + f"; converged {conv} of {len(ks)}")
+            print(line + f"; converged {conv} of {len(ks)} ({base}: "
+                  f"{sum(data[base][0][k][2] for k in ks)}); sgm (10 ms) {sgm(base, ks):.5f} -> "
+                  f"{sgm(s, ks):.5f} s")
 
 
 def main() -> None:
@@ -89,11 +119,14 @@ def main() -> None:
     a = sub.add_parser("run")
     a.add_argument("--out", type=Path, required=True)
     a.add_argument("--max-contacts", type=int, default=100)
+    a.add_argument("--min-contacts", type=int, default=0)
+    a.add_argument("--sets", nargs="+", default=None,
+                   help="collection folders of this directory (default: the two small ones)")
     b = sub.add_parser("compare")
     b.add_argument("stems", nargs="+", help="JSON stems (<stem>a.json, <stem>b.json), base first")
     args = ap.parse_args()
     if args.cmd == "run":
-        run(args.out, args.max_contacts)
+        run(args.out, args.max_contacts, args.sets, args.min_contacts)
     else:
         compare(args.stems)
 
