@@ -123,8 +123,8 @@ from .sparse_lu import (NewtonLU, SingularMatrix, column_order, csc_without_zero
 from .kernels import clock
 from .kernels import newton_dense as nd
 from .kernels.cone import project_cone_stacked, siconos_error
-from .kernels.dense import (LAPACK_LU, NAIVE_LU_MAX_N, PIVOT_TOL, WRITTEN_OUT, csr_to_dense,
-                            dense_solve, envelope_fraction, matvec, matvec_into)
+from .kernels.dense import (LAPACK_LU, NAIVE_LU_MAX_N, PIVOT_TOL, WRITTEN_OUT, csr_matvec_add,
+                            csr_to_dense, dense_solve, envelope_fraction, matvec, matvec_into)
 from .kernels.newton_ac import ac_blocks, block_jacobian, block_rho_dense, dense_jacobian
 from .kernels.newton_fb import fb_blocks
 from .kernels.newton_nm import nm_blocks
@@ -504,6 +504,7 @@ class LocalSystem:
         self.norm_q = problem.q_norm          # cached on the problem
         self.factorizations = 0
         self.rho_cache = {}
+        self._zero = np.zeros(self.m)         # (W dr on the sparse path: W dr + 0)
 
     def diag_blocks(self):
         """Diagonal blocks ``W_ii``, shape ``(nc, d, d)``."""
@@ -519,7 +520,10 @@ class LocalSystem:
             u = np.empty(self.m)
             matvec_into(self.W, r, self.q, u)     # the compiled loop's arithmetic
             return u
-        return self.W @ r + self.q
+        if self.kind == "dense":
+            return self.W @ r + self.q
+        W = self.W          # (compiled: scipy's sums bit for bit, without its dispatch)
+        return csr_matvec_add(W.indptr, W.indices, W.data, np.asarray(r, dtype=np.float64), self.q)
 
     def direction(self, r, Dr, Du, alpha, F, strict=False):
         """Solve ``(Dr + Du (W + alpha I)) dr = -F``; returns ``(dr, W dr)``.  ``strict``: a
@@ -552,7 +556,12 @@ class LocalSystem:
                 raise _SingularStep(str(exc)) from None
         if not np.all(np.isfinite(dr)):
             raise _SingularStep("non-finite Newton step")
-        return dr, (matvec(self.W, dr) if self.compiled else self.W @ dr)
+        if self.compiled:
+            return dr, matvec(self.W, dr)
+        if self.kind == "dense":
+            return dr, self.W @ dr
+        W = self.W
+        return dr, csr_matvec_add(W.indptr, W.indices, W.data, dr, self._zero)
 
     def accept(self, t):
         pass
