@@ -399,6 +399,10 @@ def test_the_polish_counts_its_set_up_in_its_time_limit(monkeypatch):
     r, info = newton.newton_polish(p, np.zeros(p.m), 1e-8,
                                    {"max_iter": 30, "law": "coulomb", "time_limit": 0.2})
     assert seen == [1e-9]                    # the set-up took the whole budget
-    newton.newton_polish(p, np.zeros(p.m), 1e-8, {"max_iter": 30, "law": "coulomb",
+    q = p.with_()                            # a new problem: its own ordering, 0.3 s again
+    newton.newton_polish(q, np.zeros(q.m), 1e-8, {"max_iter": 30, "law": "coulomb",
                                                   "time_limit": 5.0})
     assert 4.0 < seen[-1] < 4.71              # 5 s minus the 0.3 s set-up (and some)
+    newton.newton_polish(q, np.zeros(q.m), 1e-8, {"max_iter": 30, "law": "coulomb",
+                                                  "time_limit": 5.0})
+    assert seen[-1] > 4.75                    # the ordering is kept on the problem

@@ -130,8 +130,8 @@ def main(argv=None) -> int:
     compiled = newton.BlockJacobian.matrix
     original_init = newton.BlockJacobian.__init__
 
-    def init_keeping_w(self, W, d):
-        original_init(self, W, d)
+    def init_keeping_w(self, W, d, pattern=None):
+        original_init(self, W, d, pattern)
         self.W = W
 
     newton.BlockJacobian.__init__ = init_keeping_w

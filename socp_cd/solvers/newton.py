@@ -118,7 +118,7 @@ from ..errors import InvalidProblemError, UnsupportedError
 from ..problem import kernel_array
 from .block_storage import block_csr_arrays
 from . import sparse_lu
-from .sparse_lu import (NewtonLU, SingularMatrix, column_order, csc_without_zeros,
+from .sparse_lu import (NewtonLU, SingularMatrix, csc_without_zeros,
                         entry_positions)
 from .kernels import clock
 from .kernels import newton_dense as nd
@@ -322,7 +322,14 @@ class _SingularStep(Exception):
 
 # --------------------------------------------------------------------------- linear algebra
 def jacobian_pattern(indptr, indices, data, d) -> tuple:
-    """What :class:`BlockJacobian` computes once for ``W`` (CSR arrays, contact size ``d``).
+    """What :class:`BlockJacobian` computes once for ``W``.
+
+    Parameters
+    ----------
+    indptr, indices, data : ndarray
+        ``W`` (square) in CSR form.
+    d : int
+        Unknowns per contact (the block size).
 
     Returns
     -------
@@ -357,21 +364,24 @@ def jacobian_pattern(indptr, indices, data, d) -> tuple:
 def _problem_pattern(problem) -> tuple:
     """:func:`jacobian_pattern` of ``problem.W``, once per problem object (the stages of
     one ``auto`` call share it; :meth:`~socp_cd.problem.FrictionContactProblem.derived`)."""
-    indptr, indices, data = problem.csr_parts
     return problem.derived("solvers.newton.pattern",
-                           lambda p: jacobian_pattern(indptr, indices, data, p.dim))
+                           lambda p: jacobian_pattern(*p.csr_parts, p.dim))
 
 
-def _problem_ordering(problem, jac):
-    """The sparse LU's column order of ``jac``'s pattern (``problem``'s), as a callable that
-    computes it once per problem object and settings (:func:`~.sparse_lu.column_order`;
-    :class:`~.sparse_lu.NewtonLU` calls it only when it orders the pattern)."""
-    key = f"solvers.newton.column_order:{sparse_lu.ORDERING}:{sorted(SPLU_OPTIONS.items())}"
-
+def _problem_ordering(problem):
+    """The sparse LU's column order of ``problem``'s Newton pattern (:func:`_problem_pattern`),
+    as a callable that computes it once per problem object and settings
+    (:func:`~.sparse_lu.column_order`, looked up when called; :class:`~.sparse_lu.NewtonLU`
+    calls it only when it orders the pattern)."""
     def ordering():
-        return problem.derived(key, lambda p: column_order(
-            np.ascontiguousarray(jac.indptr, dtype=np.int64),
-            np.ascontiguousarray(jac.indices, dtype=np.int64), p.m, SPLU_OPTIONS))
+        key = f"solvers.newton.column_order:{sparse_lu.ORDERING}:{sorted(SPLU_OPTIONS.items())}"
+
+        def compute(p):
+            pattern = _problem_pattern(p)
+            return sparse_lu.column_order(np.ascontiguousarray(pattern[5], dtype=np.int64),
+                                          np.ascontiguousarray(pattern[4], dtype=np.int64),
+                                          p.m, SPLU_OPTIONS)
+        return problem.derived(key, compute)
     return ordering
 
 
@@ -379,11 +389,28 @@ class BlockJacobian:
     """The sparse local Newton matrix ``J = Dr + Du (W + alpha I)`` in CSC form, assembled
     on ``W``'s block pattern (diagonal blocks always stored).
 
-    The pattern, and where each block entry goes in the CSC arrays, are computed once;
-    each Newton step runs :func:`~socp_cd.solvers.kernels.newton_ac.block_jacobian` and
-    one gather.  (The same matrix as scipy's ``Dr + Du @ W`` with block-diagonal
-    ``Dr``, ``Du``, which cost a quarter of a step's time on the Capsules problems:
+    The pattern, and where each block entry goes in the CSC arrays, are computed once
+    (:func:`jacobian_pattern`; once per problem when the caller passes ``pattern``); each
+    Newton step runs :func:`~socp_cd.solvers.kernels.newton_ac.block_jacobian` and one
+    gather.  (The same matrix as scipy's ``Dr + Du @ W`` with block-diagonal ``Dr``,
+    ``Du``, which cost a quarter of a step's time on the Capsules problems:
     ``tests/test_newton.py`` holds the two equal.)
+
+    Parameters
+    ----------
+    W : scipy.sparse.csr_matrix
+    d : int
+        Unknowns per contact.
+    pattern : tuple, optional
+        :func:`jacobian_pattern` of ``W`` (shared between systems, read only); computed
+        here when None.
+
+    Attributes
+    ----------
+    bptr, bcol, blocks, perm, indices, indptr, diag
+        The items of :func:`jacobian_pattern`.
+    out : ndarray
+        This object's blocks of ``J`` (:meth:`values`).
     """
 
     def __init__(self, W, d, pattern=None):
@@ -453,7 +480,9 @@ class LocalSystem:
     Parameters
     ----------
     problem : FrictionContactProblem
-        A local problem (read through its cached ``csr_parts``, ``q`` and ``q_norm``).
+        A local problem (read through its cached ``csr_parts``, ``q`` and ``q_norm``; on the
+        sparse path also ``W``, and the Newton pattern and the LU's column order are kept on
+        it, :meth:`~socp_cd.problem.FrictionContactProblem.derived`).
     linear_solver : {"auto", "dense", "splu", "left_looking"}
         The LU of the Newton matrices (see the ``linear_solver`` option in :data:`OPTIONS`).
     dense : tuple, optional
@@ -499,7 +528,7 @@ class LocalSystem:
             jac = self.jacobian
             self._lu = NewtonLU(jac.indptr, jac.indices, self.m, SPLU_OPTIONS,
                                 "auto" if self.kind == "sparse" else self.kind, block=self.d,
-                                ordering=_problem_ordering(problem, jac))
+                                ordering=_problem_ordering(problem))
             self.kind = self._lu.kind
         self.norm_q = problem.q_norm          # cached on the problem
         self.factorizations = 0
