@@ -1558,3 +1558,42 @@ def test_the_fixed_point_after_a_drift_stop_starts_as_drift_cold_says(cold, monk
         assert starts[0] is None
     else:
         assert starts[0] is not None and -0.5 < starts[0][1] < 0.0     # the drifted seed
+
+
+@pytest.mark.parametrize("rerun", [False, True])
+def test_a_stage_that_met_a_looser_tolerance_runs_again_after_a_refusal(monkeypatch, rerun):
+    # formulations/auto.md, "A refused fixed point, retried at the tightened tolerance": the
+    # fixed point meets tol by the error with an answer the units guard refuses; the seed (a
+    # Newton iterate) does not change, so the order's next fixed point has the same start.
+    # With RERUN_TIGHTER it runs (aiming at the tightened tolerance: here it then returns a
+    # solution), without it it is skipped as already run.
+    p = _local(4, 3, 2)
+    tol = 1e-8
+    r_mid, r_loose, r_good = (_nsgs_iterate(p, k) for k in (16, 25, 2000))
+    log = []
+
+    def fixed_point(problem, formulation, *, tol, max_iter, r0, history, time_limit, verbose,
+                    inner_settings, **options):
+        log.append(("clarabel", tol))
+        r = r_good if tol < 1e-8 else r_loose
+        return SolverResult(r=r, status="max_iter", iterations=1)
+
+    monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage(log, "newton", r_mid), {}))
+    monkeypatch.setitem(auto._STAGES, "clarabel",
+                        (SolverSpec("fp", fixed_point, ("coulomb",), global_native=("coulomb",)), {}))
+    real = auto._Judge.guard_value
+    monkeypatch.setattr(auto._Judge, "guard_value",
+                        lambda self, r: 1.0 if np.array_equal(r, r_loose) else real(self, r))
+    monkeypatch.setattr(auto, "RETRY_REFUSED", False)
+    monkeypatch.setattr(auto, "RERUN_TIGHTER", rerun)
+    res = socp_cd.solve(p, "auto", tol=tol, methods=("newton", "clarabel", "clarabel"))
+    errors = [s["error"] for s in res.info["path"]]
+    assert tol < errors[0] <= auto.WARM_MAX and errors[1] <= tol   # the set-up holds
+    calls = [c for c in log if isinstance(c, tuple)]
+    if rerun:
+        assert len(calls) == 2 and calls[0][1] == tol and calls[1][1] < tol
+        assert res.converged and res.info["best_stage"] == 2
+    else:
+        # (auto's answer is the refused one; the dispatcher's own guard, not patched, then
+        # judges it)
+        assert len(calls) == 1 and len(res.info["path"]) == 2 and res.info["best_stage"] == 1

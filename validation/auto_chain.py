@@ -178,6 +178,14 @@ Session 50's:
 ``DRIFT_COLD``
     the fixed point after a drift stop starts from ``r = 0`` (False: from the seed).
 
+Session 51's:
+
+``RERUN_TIGHTER``
+    a stage already run from the same start runs again when its earlier answer met a looser
+    stage tolerance than the tightened one (False: skipped); ``CLARABEL_RETRY=newton+clarabel``
+    (and ``REDUNDANT_RETRY``): the warm Newton stage, then the fixed point, after a refused
+    fixed point's answer.
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``), ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``, or
@@ -225,7 +233,7 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "NEWTON_FIRST_MIN_NC", "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROX_EARLY", "REDUNDANT_SHARE",
          "LAST_RESORT", "REDUNDANT_RETRY", "ACCEPT_STOP", "CLARABEL_RETRY", "PROBE_CAP",
          "PROBE_PREDICT", "PROBE_MISS_COLD", "LEMKE_MAX_NC", "SMALL_CLARABEL_EARLY",
-         "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "DRIFT_COLD")
+         "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "DRIFT_COLD", "RERUN_TIGHTER")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -246,7 +254,7 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "ACCEPT_STOP": False, "CLARABEL_RETRY": "clarabel", "PROBE_CAP": None,
         "PROBE_PREDICT": 15, "PROBE_MISS_COLD": False, "LEMKE_MAX_NC": None,
         "SMALL_CLARABEL_EARLY": False, "DRIFT_WINDOW": None,
-        "DRIFT_ANY_SIZE": False, "DRIFT_COLD": False}
+        "DRIFT_ANY_SIZE": False, "DRIFT_COLD": False, "RERUN_TIGHTER": False}
 #: rules whose values are names
 STRINGS = ("REDUNDANT_RETRY", "CLARABEL_RETRY")
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",

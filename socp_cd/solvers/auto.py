@@ -379,7 +379,17 @@ PROX_EARLY = False
 #: (built before the rule was chosen, looked at after) 32 -> 34 of 35
 REDUNDANT_RETRY = "newton"
 #: the values :data:`REDUNDANT_RETRY` and :data:`CLARABEL_RETRY` may take
-REDUNDANT_RETRIES = ("newton", "clarabel")
+#: (``"newton+clarabel"``: the warm Newton stage, then, when it fails, the fixed point at the
+#: tightened tolerance)
+REDUNDANT_RETRIES = ("newton", "clarabel", "newton+clarabel")
+#: a stage is not run twice from the same start (the chain's ``ran`` record), unless it is
+#: the fixed point (:data:`COLD_STAGES`) and its earlier run ended by meeting a stage
+#: tolerance looser than the one the stages now aim at (tightened after a guard refusal): a
+#: fixed point that stopped at ``tol`` with an answer the guard refused then goes on to the
+#: tightened tolerance (False: skipped as already run, until session 51; a Newton stage's
+#: rerun from a start it already ran from stays skipped, as RETRY_REFUSED's tests hold;
+#: formulations/auto.md, "A refused fixed point, retried at the tightened tolerance")
+RERUN_TIGHTER = True
 #: the same for an answer of the chain's own ``"clarabel"`` stage (the fixed point to its
 #: end) refused by the units guard, on the exact Coulomb law: ``"newton"`` (since session 44),
 #: or ``"clarabel"``, the fixed point once more at the tightened tolerance (other laws: always
@@ -1350,7 +1360,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     local = None
     path, hist = [], ([] if history else None)
     iterations, status, message = 0, "max_iter", ""
-    version, ran = 0, set()       # version: bumped whenever the seed (the start) changes
+    version, ran = 0, {}          # version: bumped whenever the seed (the start) changes;
+    #                               ran: the stages run, each with the stage tolerance its
+    #                               answer met (None: it did not), RERUN_TIGHTER
     after_far_probe = False       # the previous stage was a probe that ended far from tol
     # best_err without the iterates of a newton_first or clarabel_first that missed tol (they
     # are not the seed, and a probe after them is judged as without them)
@@ -1409,7 +1421,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         # iterate: keyed without its version (a round's fixed point after a cold one: skipped)
         cold = _starts_cold(method, k, seed_err) or (drifted and method == "clarabel")
         key = (method, form, None if cold else version, variant)
-        if key in ran:
+        if key in ran and not (RERUN_TIGHTER and ran[key] is not None and stage_tol < ran[key]):
             continue    # same deterministic method from the same start: nothing to gain
         if (method in ("newton_trial", "nsgs_mid", "nsgs_rest") + _COLD_TRIALS
                 and methods is None and handoff is None):
@@ -1436,7 +1448,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 rest = (nsgs.DEFAULT_MAX_ITER if max_iter is None else max_iter) - nsgs_own[2]
             if rest is None or rest <= 0:
                 continue
-        ran.add(key)
+        ran[key] = None
         target = problem
         if k == 0 and resume is not None and (method, form) == (resume["stage"]["method"],
                                                                 "coulomb"):
@@ -1573,6 +1585,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             after_far_probe = False
         path.append({"method": method, "formulation": form, "iterations": its, "time": dt,
                      "error": err, "status": st})
+        if err <= stage_tol and method in COLD_STAGES:
+            ran[key] = stage_tol        # (a tighter target may take this run further)
         iterations += its
         if not missed_first:
             chain_err = min(chain_err, err)
@@ -1626,7 +1640,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                 again = ("newton" if method in _NEWTON_FAMILY or (method == "lemke" and coulomb)
                          else REDUNDANT_RETRY if method == "clarabel_first" and coulomb
                          else CLARABEL_RETRY if method == "clarabel" and coulomb else method)
-                order = order[:k + 1] + ((again, form),) + order[k + 1:]
+                order = (order[:k + 1] + tuple((m, form) for m in again.split("+"))
+                         + order[k + 1:])
                 retried = True
     if short and status != "converged":
         status, message = "time_limit", short       # the budget, not the methods, ran out
@@ -1662,4 +1677,4 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
            "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY",
-           "CLARABEL_RETRY", "REDUNDANT_RETRIES", "ACCEPT_STOP", "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "DRIFT_COLD", "small_plan"]
+           "CLARABEL_RETRY", "REDUNDANT_RETRIES", "RERUN_TIGHTER", "ACCEPT_STOP", "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "DRIFT_COLD", "small_plan"]
