@@ -120,6 +120,13 @@ def test_warm_start_is_the_best_iterate_so_far(monkeypatch):
     assert res.info["best_stage"] == 0
 
 
+def _guard_refuses(monkeypatch, refused):
+    """auto's judge: the units guard refuses ``refused`` by far (1.0), judges others as it does."""
+    real = auto._Judge.guard_value
+    monkeypatch.setattr(auto._Judge, "guard_value",
+                        lambda self, r: 1.0 if np.array_equal(r, refused) else real(self, r))
+
+
 def _three_stages(monkeypatch, p, first, second, refused, by_guard, tol, third=None):
     """``solve(p, "auto", methods=(nsgs, newton_plain, newton))`` with fake stages returning
     ``first`` ("1"), ``second`` ("2") and a bad iterate ("3"), the units guard refusing
@@ -130,9 +137,7 @@ def _three_stages(monkeypatch, p, first, second, refused, by_guard, tol, third=N
     monkeypatch.setitem(auto._STAGES, "newton_plain", (_spy_stage(log, "2", second), {}))
     monkeypatch.setitem(auto._STAGES, "newton",
                         (third or _spy_stage(log, "3", np.full(p.m, 1e3)), {}))
-    real = auto._Judge.guard_value
-    monkeypatch.setattr(auto._Judge, "guard_value",
-                        lambda self, r: 1.0 if np.array_equal(r, refused) else real(self, r))
+    _guard_refuses(monkeypatch, refused)
     monkeypatch.setattr(auto, "SEED_BY_GUARD", by_guard)
     monkeypatch.setattr(auto, "RETRY_REFUSED", False)
     res = socp_cd.solve(p, "auto", tol=tol, methods=("nsgs", "newton_plain", "newton"))
@@ -1581,9 +1586,7 @@ def test_a_stage_that_met_a_looser_tolerance_runs_again_after_a_refusal(monkeypa
     monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage(log, "newton", r_mid), {}))
     monkeypatch.setitem(auto._STAGES, "clarabel",
                         (SolverSpec("fp", fixed_point, ("coulomb",), global_native=("coulomb",)), {}))
-    real = auto._Judge.guard_value
-    monkeypatch.setattr(auto._Judge, "guard_value",
-                        lambda self, r: 1.0 if np.array_equal(r, r_loose) else real(self, r))
+    _guard_refuses(monkeypatch, r_loose)
     monkeypatch.setattr(auto, "RETRY_REFUSED", False)
     monkeypatch.setattr(auto, "RERUN_TIGHTER", rerun)
     res = socp_cd.solve(p, "auto", tol=tol, methods=("newton", "clarabel", "clarabel"))
