@@ -1600,3 +1600,73 @@ def test_a_stage_that_met_a_looser_tolerance_runs_again_after_a_refusal(monkeypa
         # (auto's answer is the refused one; the dispatcher's own guard, not patched, then
         # judges it)
         assert len(calls) == 1 and len(res.info["path"]) == 2 and res.info["best_stage"] == 1
+
+
+def test_newton_then_the_fixed_point_after_a_refused_clarabel_answer(monkeypatch):
+    """``CLARABEL_RETRY = "newton+clarabel"``: after a refused ``clarabel`` answer the warm
+    Newton stage runs and, when it fails, the fixed point at the tightened tolerance."""
+    import dataclasses
+    faces, _ = _faces_and_spheres()
+    a, _ = contact_scales(faces)
+    exact = socp_cd.solve(faces, "clarabel", tol=1e-12).r
+    near_balanced = exact * (1 + 1e-9) / a
+    real_guard = auto._Judge.guard_value
+    stages = []
+
+    def guard_value(self, r):           # the guard refuses that answer
+        return 1.0 if r is not None and np.array_equal(r, near_balanced) else real_guard(self, r)
+
+    def fixed_point(problem, formulation, **kw):
+        stages.append(("clarabel", kw["tol"]))
+        if len(stages) == 1:
+            return SolverResult(r=near_balanced.copy(), status="converged", iterations=3)
+        return clarabel_spec.func(problem, formulation, **kw)
+
+    def failing_newton(problem, formulation, **kw):
+        stages.append(("newton", kw["tol"]))
+        return SolverResult(r=np.full(problem.m, 1e3), status="stalled", iterations=1)
+    clarabel_spec = auto._STAGES["clarabel"][0]
+    monkeypatch.setattr(auto._Judge, "guard_value", guard_value)
+    monkeypatch.setattr(auto, "CLARABEL_RETRY", "newton+clarabel")
+    monkeypatch.setitem(auto._STAGES, "clarabel",
+                        (dataclasses.replace(clarabel_spec, func=fixed_point),
+                         auto._STAGES["clarabel"][1]))
+    monkeypatch.setitem(auto._STAGES, "newton",
+                        (dataclasses.replace(auto._STAGES["newton"][0], func=failing_newton), {}))
+    res = socp_cd.solve(faces, "auto", tol=1e-8, max_iter=10 ** 6, methods=("clarabel", "nsgs"))
+    assert [name for name, _ in stages] == ["clarabel", "newton", "clarabel"]
+    assert stages[0][1] == 1e-8 and stages[1][1] < 1e-8 and stages[2][1] < 1e-8
+    assert res.converged and res.info["best_stage"] == 2
+
+
+@pytest.mark.parametrize("rerun, runs", [(False, 1), (True, 2)])
+def test_a_fixed_point_reruns_once_from_one_start(monkeypatch, rerun, runs):
+    # a fixed point that meets every tolerance it is given (its answers' errors 0.9 of it, the
+    # judge scripted) with answers the guard refuses, from a start that never
+    # changes: each refusal tightens the stages' tolerance, and with RERUN_TIGHTER the fixed
+    # point runs again once, not at every tightening (up to the rounds' cap, on the budget)
+    p = _local(4, 3, 2)
+    r_mid, r_good = _nsgs_iterate(p, 20), _nsgs_iterate(p, 2000)   # r_mid: 5.4e-8
+    log, scripted = [], {}
+
+    def fixed_point(problem, formulation, *, tol, max_iter, r0, history, time_limit, verbose,
+                    inner_settings, **options):
+        log.append(tol)
+        r = r_good * (1.0 + 1e-6 * len(log))        # a new answer each run
+        scripted[r.tobytes()] = 0.9 * tol
+        return SolverResult(r=r, status="max_iter", iterations=1)
+
+    real_judge, real_guard = auto._Judge.__call__, auto._Judge.guard_value
+    monkeypatch.setattr(auto._Judge, "__call__", lambda self, r: scripted.get(
+        None if r is None else r.tobytes(), None) or real_judge(self, r))
+    # refused by 1e-7: more than r_mid's error, so the seed stays r_mid (the same start)
+    monkeypatch.setattr(auto._Judge, "guard_value", lambda self, r: 1e-7 if (
+        r is not None and r.tobytes() in scripted) else real_guard(self, r))
+    monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage([], "newton", r_mid), {}))
+    monkeypatch.setitem(auto._STAGES, "clarabel",
+                        (SolverSpec("fp", fixed_point, ("coulomb",), global_native=("coulomb",)), {}))
+    monkeypatch.setattr(auto, "RETRY_REFUSED", False)
+    monkeypatch.setattr(auto, "SEED_BY_GUARD", True)
+    monkeypatch.setattr(auto, "RERUN_TIGHTER", rerun)
+    socp_cd.solve(p, "auto", tol=1e-8, methods=("newton",) + ("clarabel",) * 4)
+    assert len(log) == runs and all(t < 1e-8 for t in log[1:])

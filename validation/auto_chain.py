@@ -181,10 +181,11 @@ Session 50's:
 Session 51's:
 
 ``RERUN_TIGHTER``
-    a stage already run from the same start runs again when its earlier answer met a looser
-    stage tolerance than the tightened one (False: skipped); ``CLARABEL_RETRY=newton+clarabel``
-    (and ``REDUNDANT_RETRY``): the warm Newton stage, then the fixed point, after a refused
-    fixed point's answer.
+    a fixed point (``auto.COLD_STAGES``, exact Coulomb law) already run from the same start
+    runs again, once, when its earlier answer met a looser stage tolerance than the tightened
+    one (False: skipped); ``CLARABEL_RETRY=newton+clarabel`` (and ``REDUNDANT_RETRY``): the
+    warm Newton stage, then the fixed point, after a refused fixed point's answer (on top of
+    ``base``, where ``RERUN_TIGHTER`` is off, the second is skipped when the seed did not move).
 
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.

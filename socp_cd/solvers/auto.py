@@ -264,8 +264,9 @@ HANDOFF_PREDICT = 20
 #: once more (a Newton-family stage, and a fixed point's on the exact Coulomb law, as the warm
 #: proximal Newton method: :data:`REDUNDANT_RETRY`, :data:`CLARABEL_RETRY`), from the seed
 #: (that answer when it is refused by little enough to be the seed,
-#: :data:`SEED_BY_GUARD`; else the run is skipped as already made from that start), aiming at
-#: the tightened tolerance (the dispatcher's retry,
+#: :data:`SEED_BY_GUARD`; else the run is skipped as already made from that start, unless
+#: :data:`RERUN_TIGHTER` lets a fixed point go on), aiming at the tightened tolerance (the
+#: dispatcher's retry,
 #: :func:`~socp_cd.solvers.options.tightened_tolerance`, done by the chain itself)
 RETRY_REFUSED = True
 #: (measured, not adopted: ``validation/results/auto_chain_tune.md``) on small local problems,
@@ -380,15 +381,19 @@ PROX_EARLY = False
 REDUNDANT_RETRY = "newton"
 #: the values :data:`REDUNDANT_RETRY` and :data:`CLARABEL_RETRY` may take
 #: (``"newton+clarabel"``: the warm Newton stage, then, when it fails, the fixed point at the
-#: tightened tolerance)
+#: tightened tolerance; after a refused ``"clarabel"`` answer that did not become the seed the
+#: fixed point's retry has the start it already ran from, so it runs only with
+#: :data:`RERUN_TIGHTER`)
 REDUNDANT_RETRIES = ("newton", "clarabel", "newton+clarabel")
 #: a stage is not run twice from the same start (the chain's ``ran`` record), unless it is
-#: the fixed point (:data:`COLD_STAGES`) and its earlier run ended by meeting a stage
-#: tolerance looser than the one the stages now aim at (tightened after a guard refusal): a
-#: fixed point that stopped at ``tol`` with an answer the guard refused then goes on to the
-#: tightened tolerance (False: skipped as already run, until session 51; a Newton stage's
-#: rerun from a start it already ran from stays skipped, as RETRY_REFUSED's tests hold;
-#: formulations/auto.md, "A refused fixed point, retried at the tightened tolerance")
+#: the fixed point (:data:`COLD_STAGES`) on the exact Coulomb law and its earlier run ended by
+#: meeting a stage tolerance looser than the one the stages now aim at (tightened after a
+#: guard refusal): a fixed point that stopped at ``tol`` with an answer the guard refused then
+#: goes on to the tightened tolerance, once per start (a rerun is not rerun: each round could
+#: otherwise tighten and rerun it again, up to the rounds' cap, on the whole budget) (False:
+#: skipped as already run, until session 51; a Newton stage's rerun from a start it already
+#: ran from stays skipped, as RETRY_REFUSED's tests hold; formulations/auto.md, "A refused
+#: fixed point, retried at the tightened tolerance")
 RERUN_TIGHTER = True
 #: the same for an answer of the chain's own ``"clarabel"`` stage (the fixed point to its
 #: end) refused by the units guard, on the exact Coulomb law: ``"newton"`` (since session 44),
@@ -1296,7 +1301,8 @@ def _round_gain(bests, since) -> bool:
     """Whether one more round (:data:`ROUND`) follows: the best error (``bests``: after each
     stage run) fell by at least :data:`ROUND_GAIN` over the last round (``since``: the length
     of ``bests`` when it began; a round whose stages were all skipped, their start unchanged,
-    ends the rounds) or, before the first round (``since`` None), over the last ``len(ROUND)``
+    ends the rounds; with :data:`RERUN_TIGHTER` a round may hold a fixed point's one rerun
+    from an unchanged start) or, before the first round (``since`` None), over the last ``len(ROUND)``
     stages run (over all of them but the first when fewer ran)."""
     if since is None:
         since = max(1, len(bests) - len(ROUND))
@@ -1418,10 +1424,12 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         if method == "newton_trial" and mid_ran:
             variant = "at_cap"      # the second trial starts from NSGS's iterate, not the best
         # a stage started from r = 0 (or the caller's r0) has the same start whatever the best
-        # iterate: keyed without its version (a round's fixed point after a cold one: skipped)
+        # iterate: keyed without its version (a round's fixed point after a cold one: skipped,
+        # unless RERUN_TIGHTER lets a fixed point that met a looser tolerance go on, once)
         cold = _starts_cold(method, k, seed_err) or (drifted and method == "clarabel")
         key = (method, form, None if cold else version, variant)
-        if key in ran and not (RERUN_TIGHTER and ran[key] is not None and stage_tol < ran[key]):
+        rerun = RERUN_TIGHTER and ran.get(key) is not None and stage_tol < ran[key]
+        if key in ran and not rerun:
             continue    # same deterministic method from the same start: nothing to gain
         if (method in ("newton_trial", "nsgs_mid", "nsgs_rest") + _COLD_TRIALS
                 and methods is None and handoff is None):
@@ -1585,8 +1593,8 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             after_far_probe = False
         path.append({"method": method, "formulation": form, "iterations": its, "time": dt,
                      "error": err, "status": st})
-        if err <= stage_tol and method in COLD_STAGES:
-            ran[key] = stage_tol        # (a tighter target may take this run further)
+        if err <= stage_tol and method in COLD_STAGES and form == "coulomb" and not rerun:
+            ran[key] = stage_tol        # (a tighter target may take this run further, once)
         iterations += its
         if not missed_first:
             chain_err = min(chain_err, err)
