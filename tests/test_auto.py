@@ -1584,8 +1584,8 @@ def test_a_stage_that_met_a_looser_tolerance_runs_again_after_a_refusal(monkeypa
         return SolverResult(r=r, status="max_iter", iterations=1)
 
     monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage(log, "newton", r_mid), {}))
-    monkeypatch.setitem(auto._STAGES, "clarabel",
-                        (SolverSpec("fp", fixed_point, ("coulomb",), global_native=("coulomb",)), {}))
+    monkeypatch.setitem(auto._STAGES, "clarabel", (SolverSpec(
+        "fp", fixed_point, ("coulomb",), global_native=("coulomb",)), {}))
     _guard_refuses(monkeypatch, r_loose)
     monkeypatch.setattr(auto, "RETRY_REFUSED", False)
     monkeypatch.setattr(auto, "RERUN_TIGHTER", rerun)
@@ -1663,8 +1663,8 @@ def test_a_fixed_point_reruns_once_from_one_start(monkeypatch, rerun, runs):
     monkeypatch.setattr(auto._Judge, "guard_value", lambda self, r: 1e-7 if (
         r is not None and r.tobytes() in scripted) else real_guard(self, r))
     monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage([], "newton", r_mid), {}))
-    monkeypatch.setitem(auto._STAGES, "clarabel",
-                        (SolverSpec("fp", fixed_point, ("coulomb",), global_native=("coulomb",)), {}))
+    monkeypatch.setitem(auto._STAGES, "clarabel", (SolverSpec(
+        "fp", fixed_point, ("coulomb",), global_native=("coulomb",)), {}))
     monkeypatch.setattr(auto, "RETRY_REFUSED", False)
     monkeypatch.setattr(auto, "SEED_BY_GUARD", True)
     monkeypatch.setattr(auto, "RERUN_TIGHTER", rerun)

@@ -1302,8 +1302,8 @@ def _round_gain(bests, since) -> bool:
     stage run) fell by at least :data:`ROUND_GAIN` over the last round (``since``: the length
     of ``bests`` when it began; a round whose stages were all skipped, their start unchanged,
     ends the rounds; with :data:`RERUN_TIGHTER` a round may hold a fixed point's one rerun
-    from an unchanged start) or, before the first round (``since`` None), over the last ``len(ROUND)``
-    stages run (over all of them but the first when fewer ran)."""
+    from an unchanged start) or, before the first round (``since`` None), over the last
+    ``len(ROUND)`` stages run (over all of them but the first when fewer ran)."""
     if since is None:
         since = max(1, len(bests) - len(ROUND))
     if len(bests) <= since or not np.isfinite(bests[-1]):
@@ -1685,4 +1685,5 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
            "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY",
-           "CLARABEL_RETRY", "REDUNDANT_RETRIES", "RERUN_TIGHTER", "ACCEPT_STOP", "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "DRIFT_COLD", "small_plan"]
+           "CLARABEL_RETRY", "REDUNDANT_RETRIES", "RERUN_TIGHTER", "ACCEPT_STOP", "DRIFT_WINDOW",
+           "DRIFT_ANY_SIZE", "DRIFT_COLD", "small_plan"]

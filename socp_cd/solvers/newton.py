@@ -552,7 +552,8 @@ class LocalSystem:
         if self.kind == "dense":
             return self.W @ r + self.q
         W = self.W          # (compiled: scipy's sums bit for bit, without its dispatch)
-        return csr_matvec_add(W.indptr, W.indices, W.data, np.asarray(r, dtype=np.float64), self.q)
+        return csr_matvec_add(W.indptr, W.indices, W.data, np.asarray(r, dtype=np.float64),
+                              self.q)
 
     def direction(self, r, Dr, Du, alpha, F, strict=False):
         """Solve ``(Dr + Du (W + alpha I)) dr = -F``; returns ``(dr, W dr)``.  ``strict``: a
