@@ -185,7 +185,10 @@ Session 51's:
     runs again, once, when its earlier answer met a looser stage tolerance than the tightened
     one (False: skipped); ``CLARABEL_RETRY=newton+clarabel`` (and ``REDUNDANT_RETRY``): the
     warm Newton stage, then the fixed point, after a refused fixed point's answer (on top of
-    ``base``, where ``RERUN_TIGHTER`` is off, the second is skipped when the seed did not move).
+    ``base``, where ``RERUN_TIGHTER`` is off, the second is skipped when the seed did not move);
+``DRIFT_KEEP_WARM``
+    after a drift stop, the order's own (warm) fixed point stays in its place besides the one
+    moved next (False: moved).
 
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
@@ -234,7 +237,7 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "NEWTON_FIRST_MIN_NC", "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROX_EARLY", "REDUNDANT_SHARE",
          "LAST_RESORT", "REDUNDANT_RETRY", "ACCEPT_STOP", "CLARABEL_RETRY", "PROBE_CAP",
          "PROBE_PREDICT", "PROBE_MISS_COLD", "LEMKE_MAX_NC", "SMALL_CLARABEL_EARLY",
-         "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "DRIFT_COLD", "RERUN_TIGHTER")
+         "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "DRIFT_COLD", "RERUN_TIGHTER", "DRIFT_KEEP_WARM")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -255,7 +258,8 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "ACCEPT_STOP": False, "CLARABEL_RETRY": "clarabel", "PROBE_CAP": None,
         "PROBE_PREDICT": 15, "PROBE_MISS_COLD": False, "LEMKE_MAX_NC": None,
         "SMALL_CLARABEL_EARLY": False, "DRIFT_WINDOW": None,
-        "DRIFT_ANY_SIZE": False, "DRIFT_COLD": False, "RERUN_TIGHTER": False}
+        "DRIFT_ANY_SIZE": False, "DRIFT_COLD": False, "RERUN_TIGHTER": False,
+        "DRIFT_KEEP_WARM": False}
 #: rules whose values are names
 STRINGS = ("REDUNDANT_RETRY", "CLARABEL_RETRY")
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",

@@ -354,6 +354,11 @@ SMALL_CLARABEL_EARLY = False
 DRIFT_WINDOW = 5
 DRIFT_ANY_SIZE = False
 DRIFT_COLD = True
+#: study knob (False: off; session 51): after a drift stop the fixed point runs next (from
+#: ``r = 0`` with DRIFT_COLD) and the order's own fixed point also stays in its place, where it
+#: starts warm from the seed (the PerioBox mu = 0.1 mixed tune case, lost at 1 s since the
+#: drift stop: solved in 0.75 s with it; formulations/auto.md, "A refused fixed point ...")
+DRIFT_KEEP_WARM = False
 #: the last resort of a local exact-Coulomb problem that the order and its rounds leave
 #: unsolved with time left: Siconos PROX's proximal point (``"newton_prox_error"``, newton's
 #: ``policy="prox_error"``) from ``r = 0``, with the rest of the budget, at most
@@ -1320,10 +1325,12 @@ def _drift_window(feats) -> int:
 
 def _fixed_point_next(order, k):
     """``order`` with its first ``("clarabel", "coulomb")`` stage after position ``k`` moved to
-    ``k + 1`` (the stages between follow it); unchanged when there is none."""
+    ``k + 1`` (the stages between follow it; with :data:`DRIFT_KEEP_WARM` copied there, the
+    stage also kept in its place); unchanged when there is none."""
     for j in range(k + 1, len(order)):
         if order[j] == ("clarabel", "coulomb"):
-            return order[:k + 1] + (order[j],) + order[k + 1:j] + order[j + 1:]
+            rest = order[k + 1:] if DRIFT_KEEP_WARM else order[k + 1:j] + order[j + 1:]
+            return order[:k + 1] + (order[j],) + rest
     return order
 
 
@@ -1686,4 +1693,4 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
            "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY",
            "CLARABEL_RETRY", "REDUNDANT_RETRIES", "RERUN_TIGHTER", "ACCEPT_STOP", "DRIFT_WINDOW",
-           "DRIFT_ANY_SIZE", "DRIFT_COLD", "small_plan"]
+           "DRIFT_ANY_SIZE", "DRIFT_COLD", "DRIFT_KEEP_WARM", "small_plan"]
