@@ -357,7 +357,8 @@ DRIFT_COLD = True
 #: study knob (False: off; session 51): after a drift stop the fixed point runs next (from
 #: ``r = 0`` with DRIFT_COLD) and the order's own fixed point also stays in its place, where it
 #: starts warm from the seed (the PerioBox mu = 0.1 mixed tune case, lost at 1 s since the
-#: drift stop: solved in 0.75 s with it; formulations/auto.md, "A refused fixed point ...")
+#: drift stop: solved in 0.75 s with it; formulations/auto.md, "The PerioBox case lost since
+#: the drift stop": measured on tune, not adopted)
 DRIFT_KEEP_WARM = False
 #: the last resort of a local exact-Coulomb problem that the order and its rounds leave
 #: unsolved with time left: Siconos PROX's proximal point (``"newton_prox_error"``, newton's

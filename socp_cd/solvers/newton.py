@@ -116,7 +116,7 @@ from threadpoolctl import ThreadpoolController
 
 from ..errors import InvalidProblemError, UnsupportedError
 from ..problem import kernel_array
-from .block_storage import block_csr_arrays
+from .block_storage import block_csr_arrays, problem_blocks
 from . import sparse_lu
 from .sparse_lu import (NewtonLU, SingularMatrix, csc_without_zeros,
                         entry_positions)
@@ -321,26 +321,24 @@ class _SingularStep(Exception):
 
 
 # --------------------------------------------------------------------------- linear algebra
-def jacobian_pattern(indptr, indices, data, d) -> tuple:
+def jacobian_pattern(B) -> tuple:
     """What :class:`BlockJacobian` computes once for ``W``.
 
     Parameters
     ----------
-    indptr, indices, data : ndarray
-        ``W`` (square) in CSR form.
-    d : int
-        Unknowns per contact (the block size).
+    B : BlockCSR
+        ``W`` in block CSR form (:func:`~.block_storage.block_csr_arrays`, or the problem's
+        own, :func:`~.block_storage.problem_blocks`, which NSGS reads too).
 
     Returns
     -------
     tuple
-        ``(bptr, bcol, blocks, perm, indices, indptr, diag)``: ``W``'s block pattern with
-        every diagonal block stored (block CSR, int64) and its blocks ``(nb, d, d)``; where
-        each block entry goes in the CSC arrays (``blocks.ravel()[perm]`` is the CSC data on
-        the pattern ``(indptr, indices)``); ``diag[i]`` the index of block ``W_ii``.
+        ``(bptr, bcol, blocks, perm, indices, indptr)``: ``W``'s block pattern with every
+        diagonal block stored (block CSR, int64) and its blocks ``(nb, d, d)``; where each
+        block entry goes in the CSC arrays (``blocks.ravel()[perm]`` is the CSC data on the
+        pattern ``(indptr, indices)``).
     """
-    B = block_csr_arrays(indptr, indices, data, d)
-    nc = B.indptr.shape[0] - 1
+    d, nc = B.dim, B.n_contacts
     bptr, bcol, blocks, diag_pos = B.indptr, B.indices, B.blocks, B.diag_pos
     missing = np.flatnonzero(diag_pos < 0)
     if missing.size:          # a structurally zero W_ii: J_ii = Dr_i + alpha Du_i still
@@ -357,15 +355,14 @@ def jacobian_pattern(indptr, indices, data, d) -> tuple:
     ids = np.arange(1, blocks.size + 1, dtype=np.float64).reshape(blocks.shape)
     perm, csc_indices, csc_indptr = entry_positions(
         sp.bsr_matrix((ids, bcol, bptr), shape=(nc * d, nc * d)))
-    diag = np.flatnonzero(bcol == np.repeat(np.arange(nc), np.diff(bptr)))
-    return bptr, bcol, blocks, perm, csc_indices, csc_indptr, diag
+    return bptr, bcol, blocks, perm, csc_indices, csc_indptr
 
 
 def _problem_pattern(problem) -> tuple:
     """:func:`jacobian_pattern` of ``problem.W``, once per problem object (the stages of
     one ``auto`` call share it; :meth:`~socp_cd.problem.FrictionContactProblem.derived`)."""
     return problem.derived("solvers.newton.pattern",
-                           lambda p: jacobian_pattern(*p.csr_parts, p.dim))
+                           lambda p: jacobian_pattern(problem_blocks(p)))
 
 
 def _problem_ordering(problem):
@@ -407,7 +404,7 @@ class BlockJacobian:
 
     Attributes
     ----------
-    bptr, bcol, blocks, perm, indices, indptr, diag
+    bptr, bcol, blocks, perm, indices, indptr
         The items of :func:`jacobian_pattern`.
     out : ndarray
         This object's blocks of ``J`` (:meth:`values`).
@@ -415,9 +412,8 @@ class BlockJacobian:
 
     def __init__(self, W, d, pattern=None):
         if pattern is None:
-            pattern = jacobian_pattern(W.indptr, W.indices, W.data, d)
-        (self.bptr, self.bcol, self.blocks, self.perm, self.indices, self.indptr,
-         self.diag) = pattern
+            pattern = jacobian_pattern(block_csr_arrays(W.indptr, W.indices, W.data, d))
+        self.bptr, self.bcol, self.blocks, self.perm, self.indices, self.indptr = pattern
         self.shape = W.shape
         self.out = np.empty_like(self.blocks)
 
@@ -525,6 +521,7 @@ class LocalSystem:
         else:
             self.W = sp.csr_matrix(problem.W, dtype=np.float64)
             self.jacobian = BlockJacobian(self.W, self.d, _problem_pattern(problem))
+            self._diag = problem_blocks(problem).diag     # (kept on the problem; NSGS's too)
             jac = self.jacobian
             self._lu = NewtonLU(jac.indptr, jac.indices, self.m, SPLU_OPTIONS,
                                 "auto" if self.kind == "sparse" else self.kind, block=self.d,
@@ -542,7 +539,7 @@ class LocalSystem:
         if not sp.issparse(W):           # one gather: W[i d + a, i d + c]
             idx = np.arange(nc)
             return W.reshape(nc, d, nc, d)[idx, :, idx, :]
-        return self.jacobian.blocks[self.jacobian.diag]
+        return self._diag.copy()
 
     def start(self, r):
         if self.compiled:
