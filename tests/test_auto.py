@@ -1487,14 +1487,19 @@ def test_a_refused_clarabel_answer_is_retried_by_newton_on_the_coulomb_law(monke
         assert not kw["accepted"](near_balanced) and kw["accepted"](res.r / a)
 
 
-def test_fixed_point_next_moves_the_first_later_clarabel_stage():
+@pytest.mark.parametrize("keep", [False, True])
+def test_fixed_point_next_moves_the_first_later_clarabel_stage(keep, monkeypatch):
+    """Moved next to the drift-stopped stage; with DRIFT_KEEP_WARM also kept in its place."""
     from socp_cd.solvers.auto import _fixed_point_next
+    monkeypatch.setattr(auto, "DRIFT_KEEP_WARM", keep)
     c = ("clarabel", "coulomb")
     order = (("nsgs", "coulomb"), ("newton", "coulomb"), ("newton_plain", "coulomb"),
              ("newton_plain_cold", "coulomb"), c, ("newton", "coulomb"), c)
-    assert _fixed_point_next(order, 1) == (order[:2] + (c,) + order[2:4] + order[5:])
+    kept = order[4:] if keep else order[5:]
+    assert _fixed_point_next(order, 1) == (order[:2] + (c,) + order[2:4] + kept)
     assert _fixed_point_next(order, 6) == order       # no later fixed point: unchanged
-    assert _fixed_point_next(order, 3) == order       # already next
+    # already next: unchanged, or (kept) a cold run inserted before the warm one
+    assert _fixed_point_next(order, 3) == (order[:4] + (c,) + order[4:] if keep else order)
 
 
 def test_a_drift_stop_hands_over_to_the_fixed_point(monkeypatch):
@@ -1563,6 +1568,45 @@ def test_the_fixed_point_after_a_drift_stop_starts_as_drift_cold_says(cold, monk
         assert starts[0] is None
     else:
         assert starts[0] is not None and -0.5 < starts[0][1] < 0.0     # the drifted seed
+
+
+@pytest.mark.parametrize("keep", [False, True])
+def test_after_a_drift_stop_the_warm_fixed_point_keeps_its_place(keep, monkeypatch):
+    """The drift toy with DRIFT_COLD: the fixed point moved next to the drift-stopped Newton
+    stage starts from ``r = 0`` and (here, forced) fails; with DRIFT_KEEP_WARM the order's
+    own fixed point then runs from the seed and solves it (formulations/auto.md, "The
+    PerioBox case lost since the drift stop"), without it no fixed point starts warm."""
+    import dataclasses
+    from socp_cd.problem import FrictionContactProblem
+    from socp_cd.solvers import newton
+    W = np.diag([1.0, 0.0, 0.0])
+    p = FrictionContactProblem(W=W, q=np.array([-1.0, 1e-6, 0.0]), mu=np.array([0.5]), dim=3)
+    monkeypatch.setattr(newton, "_DEFAULT_ALPHA_MIN", newton.WARM_ALPHA0)
+    monkeypatch.setattr(auto, "DRIFT_WINDOW", 5)
+    monkeypatch.setattr(auto, "DRIFT_COLD", True)
+    monkeypatch.setattr(auto, "DRIFT_KEEP_WARM", keep)
+    monkeypatch.setattr(auto, "MAX_ROUNDS", 0)
+    monkeypatch.setattr(auto, "LAST_RESORT", False)
+    starts = []
+    spec, opts = auto._STAGES["clarabel"]
+
+    def recorded(problem, *args, r0=None, **kwargs):
+        starts.append(None if r0 is None else np.array(r0))
+        if r0 is None:      # the cold run fails
+            return SolverResult(r=np.zeros(problem.m), status="max_iter", iterations=1)
+        return spec.func(problem, *args, r0=r0, **kwargs)
+    stages = dict(auto._STAGES, clarabel=(dataclasses.replace(spec, func=recorded), opts))
+    monkeypatch.setattr(auto, "_STAGES", stages)
+    res = socp_cd.solve(p, solver="auto", tol=1e-8, r0=np.array([1.0, 0.0, 0.0]),
+                        methods=["newton", "clarabel"])
+    methods = [s["method"] for s in res.info["path"]]
+    assert methods[:2] == ["newton", "clarabel"] and res.info["path"][0]["iterations"] == 5
+    assert starts[0] is None
+    if keep:
+        assert methods == ["newton", "clarabel", "clarabel"] and res.converged
+        assert len(starts) == 2 and -0.5 < starts[1][1] < 0.0      # the drifted seed
+    else:
+        assert all(s is None for s in starts) and not res.converged
 
 
 @pytest.mark.parametrize("rerun", [False, True])

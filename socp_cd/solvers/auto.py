@@ -294,7 +294,9 @@ COLD_MAX_M = 150
 #: the tune split: no change, not adopted; session 24, 300 again with the tune box stacks
 #: of validation/evalset_sim_small_tune: 3D 11-100 contacts 8 cases slower than ×1.2, 10
 #: faster than ×0.8, sgm 10 ms shift ×1.02, 0.1 ms shift ×0.97, none won or lost, not
-#: adopted: validation/results/auto_chain_tune_s24pred.md)
+#: adopted: validation/results/auto_chain_tune_s24pred.md; session 52, 150: tune 3D sgm x0.98,
+#: 9 faster / 4 slower, held out 3D x0.99, 11 / 10, 2D x0.86, none won or lost: not adopted,
+#: formulations/auto.md "The hand-off's rate prediction up to 150 unknowns")
 PREDICT_MAX_M = 72
 #: ... and when that fails too, the proximal Newton method from ``r = 0`` for at most this many
 #: outer iterations (same stall window; 0: off): box stacks with redundant contacts, where plain
@@ -354,12 +356,13 @@ SMALL_CLARABEL_EARLY = False
 DRIFT_WINDOW = 5
 DRIFT_ANY_SIZE = False
 DRIFT_COLD = True
-#: study knob (False: off; session 51): after a drift stop the fixed point runs next (from
-#: ``r = 0`` with DRIFT_COLD) and the order's own fixed point also stays in its place, where it
-#: starts warm from the seed (the PerioBox mu = 0.1 mixed tune case, lost at 1 s since the
-#: drift stop: solved in 0.75 s with it; formulations/auto.md, "The PerioBox case lost since
-#: the drift stop": measured on tune, not adopted)
-DRIFT_KEEP_WARM = False
+#: after a drift stop the fixed point runs next (from ``r = 0`` with DRIFT_COLD) and the
+#: order's own fixed point also stays in its place, where it starts warm from the seed (False:
+#: moved, session 50's rule).  Session 52, adopted: the tune case PerioBox mu = 0.1 mixed, lost
+#: at 1 s since the drift stop, solved in 0.57-0.77 s; held out (504 problems of at most 100
+#: contacts) no path changed, on three new-kinds draws (161) 4 paths changed, none won or lost
+#: (formulations/auto.md, "The PerioBox case lost since the drift stop")
+DRIFT_KEEP_WARM = True
 #: the last resort of a local exact-Coulomb problem that the order and its rounds leave
 #: unsolved with time left: Siconos PROX's proximal point (``"newton_prox_error"``, newton's
 #: ``policy="prox_error"``) from ``r = 0``, with the rest of the budget, at most
@@ -1327,7 +1330,7 @@ def _drift_window(feats) -> int:
 def _fixed_point_next(order, k):
     """``order`` with its first ``("clarabel", "coulomb")`` stage after position ``k`` moved to
     ``k + 1`` (the stages between follow it; with :data:`DRIFT_KEEP_WARM` copied there, the
-    stage also kept in its place); unchanged when there is none."""
+    stage also kept in its place, where it starts warm); unchanged when there is none."""
     for j in range(k + 1, len(order)):
         if order[j] == ("clarabel", "coulomb"):
             rest = order[k + 1:] if DRIFT_KEEP_WARM else order[k + 1:j] + order[j + 1:]
