@@ -838,6 +838,28 @@ def test_early_handoff_goes_on_to_the_cap_and_tries_again(monkeypatch):
     assert methods.count("newton_trial") == 1
 
 
+def test_cold_trials_wait_for_the_second_trial_after_an_early_hand_off(monkeypatch):
+    """EARLY_COLD_MAX_M (a study knob): shared OneObject (m = 69), whose NSGS stage the rate
+    prediction stops at 40 sweeps and whose trial then fails. Off (or a bound of at least
+    69), the cold trials follow at once; with a bound below 69 NSGS goes on to the cap and its
+    second trial runs first, the cold trials after it. The compiled route and the general path
+    (``history=True``) take the same stages."""
+    from pathlib import Path
+    from socp_cd.data import shared_problems_dir
+    p = socp_cd.read_problem(Path(shared_problems_dir()) / "OneObject-i1028-138.hdf5.dat")
+    cold_now = ["nsgs", "newton_trial", "newton_trial_cold"]
+    waited = ["nsgs", "newton_trial", "nsgs_mid", "newton_trial", "newton_trial_cold"]
+    for bound, expected in ((None, cold_now), (p.m, cold_now), (p.m - 1, waited)):
+        monkeypatch.setattr(auto, "EARLY_COLD_MAX_M", bound)
+        for history in (False, True):
+            res = socp_cd.solve(p, tol=1e-8, history=history)
+            path = res.info["path"]
+            assert [s["method"] for s in path] == expected and res.converged
+            assert path[0]["iterations"] < auto._handoff_cap(p, None)     # an early hand-off
+            if expected is waited:
+                assert path[0]["iterations"] + path[2]["iterations"] == auto._handoff_cap(p, None)
+
+
 def test_rate_prediction_only_where_a_trial_is_compiled(monkeypatch):
     from socp_cd.solvers import newton
     small, big = _local(4, 3, 3, mu=0.5), _local(newton.COMPILED_LOOP_MAX_M // 3 + 1, 3, 3, mu=0.5)

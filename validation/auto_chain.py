@@ -190,6 +190,13 @@ Session 51's:
     after a drift stop, the order's own (warm) fixed point stays in its place besides the one
     moved next (False: moved).
 
+Session 52's:
+
+``EARLY_COLD_MAX_M``
+    after an early hand-off whose trial failed, on problems of more than this many unknowns,
+    the cold trials wait for ``nsgs_mid`` and its second trial (None: off); with
+    ``PREDICT_MAX_M=150``.
+
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
 ``now,NEWTON_STALL=20``), ``NAME=VALUE[,NAME=VALUE...]`` applied on top of ``base``, or
@@ -237,7 +244,8 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "NEWTON_FIRST_MIN_NC", "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROX_EARLY", "REDUNDANT_SHARE",
          "LAST_RESORT", "REDUNDANT_RETRY", "ACCEPT_STOP", "CLARABEL_RETRY", "PROBE_CAP",
          "PROBE_PREDICT", "PROBE_MISS_COLD", "LEMKE_MAX_NC", "SMALL_CLARABEL_EARLY",
-         "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "DRIFT_COLD", "RERUN_TIGHTER", "DRIFT_KEEP_WARM")
+         "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "DRIFT_COLD", "RERUN_TIGHTER", "DRIFT_KEEP_WARM",
+         "EARLY_COLD_MAX_M")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -259,7 +267,7 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "PROBE_PREDICT": 15, "PROBE_MISS_COLD": False, "LEMKE_MAX_NC": None,
         "SMALL_CLARABEL_EARLY": False, "DRIFT_WINDOW": None,
         "DRIFT_ANY_SIZE": False, "DRIFT_COLD": False, "RERUN_TIGHTER": False,
-        "DRIFT_KEEP_WARM": False}
+        "DRIFT_KEEP_WARM": False, "EARLY_COLD_MAX_M": None}
 #: rules whose values are names
 STRINGS = ("REDUNDANT_RETRY", "CLARABEL_RETRY")
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",
@@ -267,7 +275,7 @@ INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_
         "PLAIN_STALL", "PLAIN_STALL_LARGE", "PLAIN_MAX_ITER", "HANDOFF_SWEEPS", "HANDOFF_WORK",
         "COLD_PLAIN_STALL_LARGE", "SMALL_NC", "NEWTON_FIRST_BLOCKS", "NEWTON_FIRST_MIN_NC",
         "NEWTON_FIRST_STEPS", "NEWTON_FIRST_STALL", "PROBE_CAP", "PROBE_PREDICT", "LEMKE_MAX_NC",
-        "DRIFT_WINDOW")
+        "DRIFT_WINDOW", "EARLY_COLD_MAX_M")
 BANDS = ((1, 10), (11, 100), (101, 10 ** 9))
 
 

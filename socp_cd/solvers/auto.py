@@ -309,6 +309,16 @@ COLD_PROX_STEPS = 15
 #: proximal method; True, the proximal method first (a study knob, see
 #: :func:`_cold_trial_order`)
 COLD_PROX_FIRST = False
+#: study knob (None: off; session 52): after an *early* hand-off (the rate prediction stopped
+#: NSGS before its cap) whose trial failed, on problems of more than this many unknowns the
+#: cold trials wait: NSGS goes on to the cap (``"nsgs_mid"``) and its second trial runs first,
+#: the cold trials after it when that fails too.  With PREDICT_MAX_M above 72 an early
+#: iterate (errors 1e-3 ... 1e-2) fails its trial on some box stacks and dominoes steps where
+#: NSGS's cap hands one trial a good iterate, and the cold trials from zero cost 2-11 ms there.
+#: Tune split with PREDICT_MAX_M = 150 and 72 here: 3D sgm 0.01512 -> 0.01514 s, the 38-contact
+#: stacks still x1.2-1.5 of the default chain's time: not adopted (formulations/auto.md, "The
+#: hand-off's rate prediction up to 150 unknowns")
+EARLY_COLD_MAX_M = None
 #: stall window of the proximal Newton stages (None: the method's default, 50 outer iterations
 #: without a 10 % drop of the error).  Measured, not adopted (validation/results/
 #: auto_chain_{tune,holdout}_stall.md): 30 solved 2 more on tune and lost none, but held out
@@ -659,10 +669,13 @@ def stage_order(problem, formulation, feats) -> tuple:
         # the hand-off's stages: listed whenever it is on; auto_backend skips them when the
         # cap for this call (_handoff_cap with the caller's max_iter) leaves no sweeps to hand off
         # (nsgs_mid and the second trial run only after an early hand-off whose trial failed)
-        handoff = ((("newton_trial", "coulomb"),)
-                   + tuple((name, "coulomb") for name in _cold_trial_order())
-                   + (("nsgs_mid", "coulomb"),
-                    ("newton_trial", "coulomb"), ("nsgs_rest", "coulomb"))
+        cold = tuple((name, "coulomb") for name in _cold_trial_order())
+        # (EARLY_COLD_MAX_M: listed again after the second trial, where they run when they
+        # waited; else skipped there as already run from the same start)
+        handoff = ((("newton_trial", "coulomb"),) + cold
+                   + (("nsgs_mid", "coulomb"), ("newton_trial", "coulomb"))
+                   + (cold if EARLY_COLD_MAX_M is not None else ())
+                   + (("nsgs_rest", "coulomb"),)
                    if HANDOFF_SWEEPS is not None and not last else ())
         first = (("newton_first", "coulomb"),) if _newton_first(problem) else ()
         if _lemke_first(feats):
@@ -856,6 +869,14 @@ def _cold_trial_order() -> tuple:
 def _cold_steps(method):
     """Step cap of a cold trial stage (:data:`COLD_TRIAL_STEPS`, :data:`COLD_PROX_STEPS`; 0: off)."""
     return COLD_TRIAL_STEPS if method == "newton_trial_cold" else COLD_PROX_STEPS
+
+
+def _cold_trials_wait(problem, status, sweeps, cap) -> bool:
+    """Whether the cold trials wait for ``nsgs_mid``'s trial (:data:`EARLY_COLD_MAX_M`): the
+    hand-off's first NSGS stage ended early (``status`` ``"max_iter"`` after ``sweeps`` of its
+    ``cap``) on a problem of more than that many unknowns."""
+    return (EARLY_COLD_MAX_M is not None and cap is not None and status == "max_iter"
+            and sweeps < cap and problem.m > EARLY_COLD_MAX_M)
 
 
 def _plain_stall(method, small):
@@ -1222,13 +1243,15 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
     whose checks are not finite (the chain runs it and what follows)."""
     done = []
     constants = newton.trial_constants()
+    wait = _cold_trials_wait(problem, out.status, int(out.stats[SWEEPS]),
+                             _handoff_cap(problem, max_iter))
     for k, method in enumerate(("newton_trial",) + _cold_trial_order(), start=1):
         warm, prox = _ROUTE_TRIALS[method]
         if method == "newton_trial":
             steps, stall = TRIAL_STEPS, TRIAL_STALL
         else:
             steps, stall = _cold_steps(method), COLD_TRIAL_STALL
-            if not steps or problem.m > COLD_MAX_M:
+            if not steps or problem.m > COLD_MAX_M or wait:
                 continue
         if max_iter is not None:
             steps = min(max_iter, steps)
@@ -1448,6 +1471,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         if method in _COLD_TRIALS and methods is None and (
                 not _cold_steps(method) or problem.m > COLD_MAX_M or not tried):
             continue    # only after a failed first trial, on at most COLD_MAX_M unknowns
+        if (method in _COLD_TRIALS and methods is None and not mid_ran and nsgs_own is not None
+                and _cold_trials_wait(problem, nsgs_own[1], nsgs_own[2], handoff)):
+            continue    # after a failed early trial: nsgs_mid and its trial first
         if method == "newton_trial" and methods is None and tried and not mid_ran:
             continue    # a second trial only follows nsgs_mid
         if method == "nsgs_mid":
@@ -1694,7 +1720,7 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "PROBE_SWEEPS", "PROBE_CAP", "PROBE_PREDICT", "PROBE_MISS_COLD", "LARGE_2D_NC", "RETRY_REFUSED",
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
-           "ALT_ALPHA0", "COLD_PROX_FIRST", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
+           "ALT_ALPHA0", "COLD_PROX_FIRST", "EARLY_COLD_MAX_M", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
            "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY",
            "CLARABEL_RETRY", "REDUNDANT_RETRIES", "RERUN_TIGHTER", "ACCEPT_STOP", "DRIFT_WINDOW",
            "DRIFT_ANY_SIZE", "DRIFT_COLD", "DRIFT_KEEP_WARM", "small_plan"]
