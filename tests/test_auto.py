@@ -1631,6 +1631,42 @@ def test_after_a_drift_stop_the_warm_fixed_point_keeps_its_place(keep, monkeypat
         assert all(s is None for s in starts) and not res.converged
 
 
+@pytest.mark.parametrize("on", [False, True])
+def test_a_warm_fixed_point_that_missed_tol_is_followed_by_a_cold_one(on, monkeypatch):
+    """FP_COLD_AFTER_WARM (a study knob): a Newton stage leaves an iterate near the solution,
+    the fixed point starts warm from it and (here, forced) stalls; with the knob the fixed
+    point from ``r = 0`` runs next, once, and solves the problem; without it nothing follows.
+    Not in a chain whose fixed point started cold."""
+    import dataclasses
+    p = _local(4, 3, 2)
+    r_near = _nsgs_iterate(p, 16)
+    log = []
+    spec, opts = auto._STAGES["clarabel"]
+
+    def fixed_point(problem, *args, r0=None, **kwargs):
+        log.append(None if r0 is None else np.array(r0))
+        if r0 is not None:      # a warm start stalls where it started
+            return SolverResult(r=np.array(r0, dtype=float), status="stalled", iterations=1)
+        return spec.func(problem, *args, r0=r0, **kwargs)
+    monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage([], "newton", r_near), {}))
+    monkeypatch.setitem(auto._STAGES, "clarabel",
+                        (dataclasses.replace(spec, func=fixed_point), opts))
+    monkeypatch.setattr(auto, "FP_COLD_AFTER_WARM", on)
+    res = socp_cd.solve(p, "auto", tol=1e-8, methods=("newton", "clarabel"))
+    path = res.info["path"]
+    assert 1e-8 < path[0]["error"] <= auto.WARM_MAX     # the set-up holds: a warm start
+    assert log[0] is not None
+    if on:
+        assert [s["method"] for s in path] == ["newton", "clarabel", "clarabel"]
+        assert len(log) == 2 and log[1] is None and res.converged
+    else:
+        assert [s["method"] for s in path] == ["newton", "clarabel"] and not res.converged
+    # a fixed point that started cold is not followed by another
+    log.clear()
+    res = socp_cd.solve(p, "auto", tol=1e-8, methods=("clarabel",))
+    assert len(log) == 1 and log[0] is None and res.converged
+
+
 @pytest.mark.parametrize("rerun", [False, True])
 def test_a_stage_that_met_a_looser_tolerance_runs_again_after_a_refusal(monkeypatch, rerun):
     # formulations/auto.md, "A refused fixed point, retried at the tightened tolerance": the

@@ -196,6 +196,9 @@ Session 52's:
     after an early hand-off whose trial failed, on problems of more than this many unknowns,
     the cold trials wait for ``nsgs_mid`` and its second trial (None: off); with
     ``PREDICT_MAX_M=150``.
+``FP_COLD_AFTER_WARM``
+    in the small local chain, a warm fixed point that missed ``tol`` is followed at once by
+    the fixed point from ``r = 0`` (when that has not run; False: off).
 
 Each ``--configs`` entry is ``base`` (every rule off: session 12's chain), ``all`` (the
 module's defaults), ``now`` (the defaults except for the rules named after it, e.g.
@@ -245,7 +248,7 @@ RULES = ("RETRY_REFUSED", "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "
          "LAST_RESORT", "REDUNDANT_RETRY", "ACCEPT_STOP", "CLARABEL_RETRY", "PROBE_CAP",
          "PROBE_PREDICT", "PROBE_MISS_COLD", "LEMKE_MAX_NC", "SMALL_CLARABEL_EARLY",
          "DRIFT_WINDOW", "DRIFT_ANY_SIZE", "DRIFT_COLD", "RERUN_TIGHTER", "DRIFT_KEEP_WARM",
-         "EARLY_COLD_MAX_M")
+         "EARLY_COLD_MAX_M", "FP_COLD_AFTER_WARM")
 #: rules that are constants of another module than auto's
 MODULE_OF = {"COLD_ALPHA0": newton, "COMPILED_LOOP_MAX_M": newton,
              "COMPILED_LU_MAX_ENVELOPE": newton, "INNER_GATE": newton, "INNER_DECREASE": newton}
@@ -267,7 +270,8 @@ BASE = {"RETRY_REFUSED": False, "FAR_NSGS_COLD": False, "REST_PREDICT": 0, "COLD
         "PROBE_PREDICT": 15, "PROBE_MISS_COLD": False, "LEMKE_MAX_NC": None,
         "SMALL_CLARABEL_EARLY": False, "DRIFT_WINDOW": None,
         "DRIFT_ANY_SIZE": False, "DRIFT_COLD": False, "RERUN_TIGHTER": False,
-        "DRIFT_KEEP_WARM": False, "EARLY_COLD_MAX_M": None}
+        "DRIFT_KEEP_WARM": False, "EARLY_COLD_MAX_M": None,
+        "FP_COLD_AFTER_WARM": False}
 #: rules whose values are names
 STRINGS = ("REDUNDANT_RETRY", "CLARABEL_RETRY")
 INTS = ("TRIAL_STEPS", "TRIAL_STALL", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "NEWTON_STALL", "COLD_PROX_STEPS",

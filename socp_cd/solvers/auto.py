@@ -373,6 +373,16 @@ DRIFT_COLD = True
 #: contacts) no path changed, on three new-kinds draws (161) 4 paths changed, none won or lost
 #: (formulations/auto.md, "The PerioBox case lost since the drift stop")
 DRIFT_KEEP_WARM = True
+#: in the small local chain, a fixed point (exact Coulomb law) that started from an iterate
+#: and missed ``tol`` is followed at once by the fixed point from ``r = 0``, when no fixed point
+#: has run from ``r = 0`` in this call (False: off).  Found on a step of the dominoes scene (validation/evalset_sim_newkinds/
+#: dominoes3d-16.toml, step 1369, warm-started by the stepper, max_iter 3000) where NSGS,
+#: Newton and the warm fixed point all stall at 2.4e-6 (tol 1e-6) and the fixed point from
+#: zero meets 2.4e-9 in 9 iterations; the scene's one unconverged step is gone.  Session 52,
+#: adopted: tune (283 problems of at most 100 contacts) no path changed; held out (665) one
+#: won (a dominoes step, unsolved at 1 s -> 0.36 s), none lost, 5 paths changed
+#: (formulations/auto.md, "A warm fixed point that missed tol: the cold one next")
+FP_COLD_AFTER_WARM = True
 #: the last resort of a local exact-Coulomb problem that the order and its rounds leave
 #: unsolved with time left: Siconos PROX's proximal point (``"newton_prox_error"``, newton's
 #: ``policy="prox_error"``) from ``r = 0``, with the rest of the budget, at most
@@ -1427,6 +1437,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     nsgs_pending = True
     drift_window = _drift_window(feats)     # the "newton" stages' drift_window (0: none)
     drifted = False     # a drift stop moved the fixed point next, to start cold (DRIFT_COLD)
+    fp_from_zero = False    # a fixed point on the Coulomb law has run from r = 0
     k = -1
     while True:     # (a refused stage may be inserted once: RETRY_REFUSED; rounds appended)
         if k + 1 >= len(order):
@@ -1462,6 +1473,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         # unless RERUN_TIGHTER lets a fixed point that met a looser tolerance go on, once)
         cold = _starts_cold(method, k, seed_err) or (drifted and method == "clarabel")
         key = (method, form, None if cold else version, variant)
+        started_warm = False        # (this stage ran from an iterate: FP_COLD_AFTER_WARM)
         rerun = RERUN_TIGHTER and ran.get(key) is not None and stage_tol < ran[key]
         if key in ran and not rerun:
             continue    # same deterministic method from the same start: nothing to gain
@@ -1596,6 +1608,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
                     start = seed_r          # the first trial: from the seed, far or not
                 if method in ("nsgs_mid", "nsgs_rest") or (method == "newton_trial" and mid_ran):
                     start = nsgs_own[0]     # NSGS's own iterate (the second trial: at the cap)
+                started_warm = start is not None
                 res = spec.func(target, form, tol=stage_tol, max_iter=stage_max_iter, r0=start,
                                 history=history, time_limit=stage_limit, verbose=verbose,
                                 inner_settings={}, **opts)
@@ -1656,6 +1669,12 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             drifted = DRIFT_COLD
         elif method == "clarabel":
             drifted = False
+            fp_from_zero = fp_from_zero or (form == "coulomb" and not started_warm)
+            if (FP_COLD_AFTER_WARM and form == "coulomb" and started_warm and r is not None
+                    and not err <= tol and _small_local(feats) and not fp_from_zero):
+                # a warm fixed point that missed tol: the fixed point from r = 0 next, once
+                order = order[:k + 1] + ((method, form),) + order[k + 1:]
+                drifted = True
         if best_err <= tol:
             # (the seed's rank is already max(error, guard) of this iterate when it is the seed:
             # taken as g, the tests below read the same; the guard is not computed again)
@@ -1723,4 +1742,4 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "ALT_ALPHA0", "COLD_PROX_FIRST", "EARLY_COLD_MAX_M", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
            "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY",
            "CLARABEL_RETRY", "REDUNDANT_RETRIES", "RERUN_TIGHTER", "ACCEPT_STOP", "DRIFT_WINDOW",
-           "DRIFT_ANY_SIZE", "DRIFT_COLD", "DRIFT_KEEP_WARM", "small_plan"]
+           "DRIFT_ANY_SIZE", "DRIFT_COLD", "DRIFT_KEEP_WARM", "FP_COLD_AFTER_WARM", "small_plan"]
