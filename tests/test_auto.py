@@ -1633,20 +1633,22 @@ def test_after_a_drift_stop_the_warm_fixed_point_keeps_its_place(keep, monkeypat
 
 @pytest.mark.parametrize("on", [False, True])
 def test_a_warm_fixed_point_that_missed_tol_is_followed_by_a_cold_one(on, monkeypatch):
-    """FP_COLD_AFTER_WARM (a study knob): a Newton stage leaves an iterate near the solution,
-    the fixed point starts warm from it and (here, forced) stalls; with the knob the fixed
-    point from ``r = 0`` runs next, once, and solves the problem; without it nothing follows.
-    Not in a chain whose fixed point started cold."""
+    """FP_COLD_AFTER_WARM (on since session 52): a Newton stage leaves an iterate near the
+    solution, the fixed point starts warm from it and (here, forced) stalls; with the rule the
+    fixed point from ``r = 0`` runs next, once, and solves the problem; without it nothing
+    follows. Not when a fixed point has already run from ``r = 0`` in the call."""
     import dataclasses
     p = _local(4, 3, 2)
     r_near = _nsgs_iterate(p, 16)
     log = []
     spec, opts = auto._STAGES["clarabel"]
+    cold_fails = [False]
 
     def fixed_point(problem, *args, r0=None, **kwargs):
         log.append(None if r0 is None else np.array(r0))
-        if r0 is not None:      # a warm start stalls where it started
-            return SolverResult(r=np.array(r0, dtype=float), status="stalled", iterations=1)
+        if r0 is not None or cold_fails[0]:     # a warm start stalls where it started
+            r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=float)
+            return SolverResult(r=r, status="stalled", iterations=1)
         return spec.func(problem, *args, r0=r0, **kwargs)
     monkeypatch.setitem(auto._STAGES, "newton", (_spy_stage([], "newton", r_near), {}))
     monkeypatch.setitem(auto._STAGES, "clarabel",
@@ -1661,10 +1663,13 @@ def test_a_warm_fixed_point_that_missed_tol_is_followed_by_a_cold_one(on, monkey
         assert len(log) == 2 and log[1] is None and res.converged
     else:
         assert [s["method"] for s in path] == ["newton", "clarabel"] and not res.converged
-    # a fixed point that started cold is not followed by another
+    # after a fixed point from r = 0 (the first stage, no r0; here it fails too) the warm one
+    # that misses tol is not followed by another
     log.clear()
-    res = socp_cd.solve(p, "auto", tol=1e-8, methods=("clarabel",))
-    assert len(log) == 1 and log[0] is None and res.converged
+    cold_fails[0] = True
+    res = socp_cd.solve(p, "auto", tol=1e-8, methods=("clarabel", "newton", "clarabel"))
+    assert [s["method"] for s in res.info["path"]] == ["clarabel", "newton", "clarabel"]
+    assert len(log) == 2 and log[0] is None and log[1] is not None and not res.converged
 
 
 @pytest.mark.parametrize("rerun", [False, True])

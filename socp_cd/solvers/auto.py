@@ -375,10 +375,11 @@ DRIFT_COLD = True
 DRIFT_KEEP_WARM = True
 #: in the small local chain, a fixed point (exact Coulomb law) that started from an iterate
 #: and missed ``tol`` is followed at once by the fixed point from ``r = 0``, when no fixed point
-#: has run from ``r = 0`` in this call (False: off).  Found on a step of the dominoes scene (validation/evalset_sim_newkinds/
-#: dominoes3d-16.toml, step 1369, warm-started by the stepper, max_iter 3000) where NSGS,
-#: Newton and the warm fixed point all stall at 2.4e-6 (tol 1e-6) and the fixed point from
-#: zero meets 2.4e-9 in 9 iterations; the scene's one unconverged step is gone.  Session 52,
+#: has run from ``r = 0`` in this call (False: off).  Found on a step of the dominoes scene
+#: (validation/evalset_sim_newkinds/dominoes3d-16.toml, step 1369, warm-started by the stepper,
+#: max_iter 3000) where NSGS, Newton and the warm fixed point all stall at 2.4e-6 (tol 1e-6)
+#: and the fixed point from zero meets 2.4e-9 in 9 iterations; the scene's one unconverged
+#: step is gone.  Session 52,
 #: adopted: tune (283 problems of at most 100 contacts) no path changed; held out (665) one
 #: won (a dominoes step, unsolved at 1 s -> 0.36 s), none lost, 5 paths changed
 #: (formulations/auto.md, "A warm fixed point that missed tol: the cold one next")
@@ -1436,7 +1437,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     # before it)
     nsgs_pending = True
     drift_window = _drift_window(feats)     # the "newton" stages' drift_window (0: none)
-    drifted = False     # a drift stop moved the fixed point next, to start cold (DRIFT_COLD)
+    # the next fixed point starts from r = 0: a drift stop moved it next (DRIFT_COLD), or a
+    # warm one missed tol (FP_COLD_AFTER_WARM)
+    fp_cold_next = False
     fp_from_zero = False    # a fixed point on the Coulomb law has run from r = 0
     k = -1
     while True:     # (a refused stage may be inserted once: RETRY_REFUSED; rounds appended)
@@ -1471,7 +1474,7 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         # a stage started from r = 0 (or the caller's r0) has the same start whatever the best
         # iterate: keyed without its version (a round's fixed point after a cold one: skipped,
         # unless RERUN_TIGHTER lets a fixed point that met a looser tolerance go on, once)
-        cold = _starts_cold(method, k, seed_err) or (drifted and method == "clarabel")
+        cold = _starts_cold(method, k, seed_err) or (fp_cold_next and method == "clarabel")
         key = (method, form, None if cold else version, variant)
         started_warm = False        # (this stage ran from an iterate: FP_COLD_AFTER_WARM)
         rerun = RERUN_TIGHTER and ran.get(key) is not None and stage_tol < ran[key]
@@ -1666,15 +1669,15 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         if (method == "newton" and st == "stalled" and res is not None
                 and res.info.get("stop") == "null_drift"):
             order = _fixed_point_next(order, k)
-            drifted = DRIFT_COLD
+            fp_cold_next = DRIFT_COLD
         elif method == "clarabel":
-            drifted = False
+            fp_cold_next = False
             fp_from_zero = fp_from_zero or (form == "coulomb" and not started_warm)
             if (FP_COLD_AFTER_WARM and form == "coulomb" and started_warm and r is not None
                     and not err <= tol and _small_local(feats) and not fp_from_zero):
                 # a warm fixed point that missed tol: the fixed point from r = 0 next, once
                 order = order[:k + 1] + ((method, form),) + order[k + 1:]
-                drifted = True
+                fp_cold_next = True
         if best_err <= tol:
             # (the seed's rank is already max(error, guard) of this iterate when it is the seed:
             # taken as g, the tests below read the same; the guard is not computed again)
@@ -1739,7 +1742,8 @@ __all__ = ["auto_backend", "route", "plain", "features", "contact_redundancy", "
            "PROBE_SWEEPS", "PROBE_CAP", "PROBE_PREDICT", "PROBE_MISS_COLD", "LARGE_2D_NC", "RETRY_REFUSED",
            "FAR_NSGS_COLD", "REST_PREDICT", "COLD_TRIAL_STEPS", "COLD_TRIAL_STALL", "COLD_PROX_STEPS",
            "ROUND", "ROUND_GAIN", "MAX_ROUNDS", "COLD_MAX_M", "PREDICT_MAX_M", "SLOW_TO_STOP",
-           "ALT_ALPHA0", "COLD_PROX_FIRST", "EARLY_COLD_MAX_M", "MIN_SLOW_START", "COLD_SPLIT", "SEED_BY_GUARD",
+           "ALT_ALPHA0", "COLD_PROX_FIRST", "EARLY_COLD_MAX_M", "MIN_SLOW_START", "COLD_SPLIT",
+           "SEED_BY_GUARD",
            "TIGHTEN_FROM_SEED", "REDUNDANT_SHARE", "REDUNDANT_FIRST_ITER", "REDUNDANT_RETRY",
            "CLARABEL_RETRY", "REDUNDANT_RETRIES", "RERUN_TIGHTER", "ACCEPT_STOP", "DRIFT_WINDOW",
            "DRIFT_ANY_SIZE", "DRIFT_COLD", "DRIFT_KEEP_WARM", "FP_COLD_AFTER_WARM", "small_plan"]
