@@ -1672,6 +1672,56 @@ def test_a_warm_fixed_point_that_missed_tol_is_followed_by_a_cold_one(on, monkey
     assert len(log) == 2 and log[0] is None and log[1] is not None and not res.converged
 
 
+def test_the_cold_start_is_used_by_the_next_fixed_point_reached_and_added_once(monkeypatch):
+    """Review of session 52: two drift stops, each improving the seed. The fixed point moved
+    next to the first starts from r = 0, the kept one from the seed. After the second drift
+    stop the copy moved next is skipped (already run from r = 0) and the order's last fixed
+    point still runs from the new seed: the cold start is taken by the next fixed point the
+    chain reaches, run or skipped, not held over (it was, and skipped that last one as a cold
+    start already run). FP_COLD_AFTER_WARM adds its cold fixed point at most once."""
+    import dataclasses
+    p = _local(4, 3, 2)
+    seeds = [_nsgs_iterate(p, 16), _nsgs_iterate(p, 20)]
+    log = []
+    nspec, nopts = auto._STAGES["newton"]
+    cspec, copts = auto._STAGES["clarabel"]
+
+    def drifting_newton(problem, *args, r0=None, **kwargs):
+        n = sum(1 for x in log if x[0] == "newton")
+        log.append(("newton", r0 is not None))
+        return SolverResult(r=seeds[min(n, 1)].copy(), status="stalled", iterations=5,
+                            info={"stop": "null_drift"})
+
+    def stalling_fp(problem, *args, r0=None, **kwargs):
+        log.append(("clarabel", r0 is not None))
+        r = np.zeros(problem.m) if r0 is None else np.array(r0, dtype=float)
+        return SolverResult(r=r, status="stalled", iterations=1)
+    monkeypatch.setitem(auto._STAGES, "newton", (dataclasses.replace(nspec, func=drifting_newton),
+                                                 nopts))
+    monkeypatch.setitem(auto._STAGES, "clarabel", (dataclasses.replace(cspec, func=stalling_fp),
+                                                   copts))
+    monkeypatch.setattr(auto, "DRIFT_WINDOW", 5)
+    monkeypatch.setattr(auto, "DRIFT_COLD", True)
+    monkeypatch.setattr(auto, "DRIFT_KEEP_WARM", True)
+    socp_cd.solve(p, "auto", tol=1e-8, methods=["newton", "clarabel", "newton", "clarabel"])
+    fixed_points = [warm for name, warm in log if name == "clarabel"]
+    # cold (moved next), warm (kept), then after the second drift stop its moved copy (cold:
+    # already run from zero, skipped) and the order's last one, warm from the new seed
+    assert fixed_points == [False, True, True]
+    # FP_COLD_AFTER_WARM alone: a warm miss, its cold copy (a miss too), a Newton stage that
+    # improves the seed (no drift), a warm miss from it: no second cold copy
+    log.clear()
+
+    def improving_newton(problem, *args, r0=None, **kwargs):
+        log.append(("newton", r0 is not None))
+        return SolverResult(r=seeds[1].copy(), status="stalled", iterations=5)
+    monkeypatch.setitem(auto._STAGES, "newton", (dataclasses.replace(nspec, func=improving_newton),
+                                                 nopts))
+    socp_cd.solve(p, "auto", tol=1e-8, r0=seeds[0] * contact_scales(p)[0],
+                  methods=["clarabel", "newton", "clarabel"])
+    assert [warm for name, warm in log if name == "clarabel"] == [True, False, True]
+
+
 @pytest.mark.parametrize("rerun", [False, True])
 def test_a_stage_that_met_a_looser_tolerance_runs_again_after_a_refusal(monkeypatch, rerun):
     # formulations/auto.md, "A refused fixed point, retried at the tightened tolerance": the

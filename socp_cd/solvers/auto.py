@@ -367,15 +367,16 @@ DRIFT_WINDOW = 5
 DRIFT_ANY_SIZE = False
 DRIFT_COLD = True
 #: after a drift stop the fixed point runs next (from ``r = 0`` with DRIFT_COLD) and the
-#: order's own fixed point also stays in its place, where it starts warm from the seed (False:
-#: moved, session 50's rule).  Session 52, adopted: the tune case PerioBox mu = 0.1 mixed, lost
+#: order's own fixed point also stays in its place, where it starts from the seed when that is
+#: within WARM_MAX (False: moved, session 50's rule).  Session 52, adopted: the tune case PerioBox mu = 0.1 mixed, lost
 #: at 1 s since the drift stop, solved in 0.57-0.77 s; held out (504 problems of at most 100
 #: contacts) no path changed, on three new-kinds draws (161) 4 paths changed, none won or lost
 #: (formulations/auto.md, "The PerioBox case lost since the drift stop")
 DRIFT_KEEP_WARM = True
-#: in the small local chain, a fixed point (exact Coulomb law) that started from an iterate
-#: and missed ``tol`` is followed at once by the fixed point from ``r = 0``, when no fixed point
-#: has run from ``r = 0`` in this call (False: off).  Found on a step of the dominoes scene
+#: in the small local chain (and in an explicit ``methods`` order on such a problem, as the
+#: drift rule), a fixed point (exact Coulomb law) that started from an iterate and missed
+#: ``tol`` is followed at once by the fixed point from ``r = 0``, once per call and only when no
+#: fixed point has run from ``r = 0`` in it (False: off).  Found on a step of the dominoes scene
 #: (validation/evalset_sim_newkinds/dominoes3d-16.toml, step 1369, warm-started by the stepper,
 #: max_iter 3000) where NSGS, Newton and the warm fixed point all stall at 2.4e-6 (tol 1e-6)
 #: and the fixed point from zero meets 2.4e-9 in 9 iterations; the scene's one unconverged
@@ -1247,7 +1248,8 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
     (:func:`socp_cd.solvers.newton.compiled_runs`: the Newton backend's runs), in
     :func:`stage_order`'s order and under
     :func:`auto_backend`'s rules (the cold trials only after a failed first trial, on at most
-    :data:`COLD_MAX_M` unknowns, with their step caps): the list of those run, each
+    :data:`COLD_MAX_M` unknowns, with their step caps, not after an early hand-off when
+:data:`EARLY_COLD_MAX_M` makes them wait): the list of those run, each
     ``{"stage": its path record, "vectors", "stats", "warm", "k" (its index in the stage
     order), "judge_guard"}``, up to the first whose error
     meets ``tol`` by the stages' measure (the chain decides what follows it), or before one
@@ -1364,7 +1366,8 @@ def _drift_window(feats) -> int:
 def _fixed_point_next(order, k):
     """``order`` with its first ``("clarabel", "coulomb")`` stage after position ``k`` moved to
     ``k + 1`` (the stages between follow it; with :data:`DRIFT_KEEP_WARM` copied there, the
-    stage also kept in its place, where it starts warm); unchanged when there is none."""
+    stage also kept in its place, where it starts as the chain's rules say: warm from a seed
+    within :data:`WARM_MAX`); unchanged when there is none."""
     for j in range(k + 1, len(order)):
         if order[j] == ("clarabel", "coulomb"):
             rest = order[k + 1:] if DRIFT_KEEP_WARM else order[k + 1:j] + order[j + 1:]
@@ -1437,10 +1440,11 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     # before it)
     nsgs_pending = True
     drift_window = _drift_window(feats)     # the "newton" stages' drift_window (0: none)
-    # the next fixed point starts from r = 0: a drift stop moved it next (DRIFT_COLD), or a
-    # warm one missed tol (FP_COLD_AFTER_WARM)
+    # the next fixed point the chain reaches starts from r = 0: a drift stop moved it next
+    # (DRIFT_COLD), or a warm one missed tol (FP_COLD_AFTER_WARM)
     fp_cold_next = False
     fp_from_zero = False    # a fixed point on the Coulomb law has run from r = 0
+    fp_cold_added = False   # FP_COLD_AFTER_WARM has inserted its fixed point (once per call)
     k = -1
     while True:     # (a refused stage may be inserted once: RETRY_REFUSED; rounds appended)
         if k + 1 >= len(order):
@@ -1474,9 +1478,14 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
         # a stage started from r = 0 (or the caller's r0) has the same start whatever the best
         # iterate: keyed without its version (a round's fixed point after a cold one: skipped,
         # unless RERUN_TIGHTER lets a fixed point that met a looser tolerance go on, once)
-        cold = _starts_cold(method, k, seed_err) or (fp_cold_next and method == "clarabel")
+        forced_cold = fp_cold_next and method == "clarabel"
+        if method == "clarabel":
+            fp_cold_next = False    # (used by the next fixed point reached, run or skipped)
+        cold = _starts_cold(method, k, seed_err) or forced_cold
         key = (method, form, None if cold else version, variant)
-        started_warm = False        # (this stage ran from an iterate: FP_COLD_AFTER_WARM)
+        # (this stage ran from an iterate, FP_COLD_AFTER_WARM's test: set where a stage is
+        # run below; the route's resumed stage and its trials are never the fixed point)
+        started_warm = False
         rerun = RERUN_TIGHTER and ran.get(key) is not None and stage_tol < ran[key]
         if key in ran and not rerun:
             continue    # same deterministic method from the same start: nothing to gain
@@ -1671,13 +1680,13 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             order = _fixed_point_next(order, k)
             fp_cold_next = DRIFT_COLD
         elif method == "clarabel":
-            fp_cold_next = False
             fp_from_zero = fp_from_zero or (form == "coulomb" and not started_warm)
             if (FP_COLD_AFTER_WARM and form == "coulomb" and started_warm and r is not None
-                    and not err <= tol and _small_local(feats) and not fp_from_zero):
+                    and not err <= tol and _small_local(feats) and not fp_from_zero
+                    and not fp_cold_added):
                 # a warm fixed point that missed tol: the fixed point from r = 0 next, once
                 order = order[:k + 1] + ((method, form),) + order[k + 1:]
-                fp_cold_next = True
+                fp_cold_next = fp_cold_added = True
         if best_err <= tol:
             # (the seed's rank is already max(error, guard) of this iterate when it is the seed:
             # taken as g, the tests below read the same; the guard is not computed again)
