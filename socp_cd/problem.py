@@ -435,7 +435,8 @@ class FrictionContactProblem(_ProblemBase):
     from them (the error of ``r = 0``, ``||q||``, the dispatcher's unit
     factors and balanced copy, NSGS's block storage, the Newton matrix's pattern
     and column order) are computed once per object.  Changing ``W``, ``q`` or
-    ``mu`` in place afterwards leaves those stale; assigning other arrays to ``q``, ``mu`` or ``dim`` is refused
+    ``mu`` in place afterwards leaves those stale; assigning other arrays to ``q``,
+    ``mu`` or ``dim`` is refused
     (:class:`~socp_cd.errors.InvalidProblemError`: compiled code reads them as
     contiguous float64 vectors, :mod:`socp_cd.solvers.kernels.entry`). Build a
     new problem instead (:meth:`with_`).

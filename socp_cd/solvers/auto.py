@@ -368,10 +368,11 @@ DRIFT_ANY_SIZE = False
 DRIFT_COLD = True
 #: after a drift stop the fixed point runs next (from ``r = 0`` with DRIFT_COLD) and the
 #: order's own fixed point also stays in its place, where it starts from the seed when that is
-#: within WARM_MAX (False: moved, session 50's rule).  Session 52, adopted: the tune case PerioBox mu = 0.1 mixed, lost
-#: at 1 s since the drift stop, solved in 0.57-0.77 s; held out (504 problems of at most 100
-#: contacts) no path changed, on three new-kinds draws (161) 4 paths changed, none won or lost
-#: (formulations/auto.md, "The PerioBox case lost since the drift stop")
+#: within WARM_MAX (False: moved, session 50's rule).  Session 52, adopted: the tune case
+#: PerioBox mu = 0.1 mixed, lost at 1 s since the drift stop, solved in 0.57-0.77 s; held out
+#: (504 problems of at most 100 contacts) no path changed, on three new-kinds draws (161) 4
+#: paths changed, none won or lost (formulations/auto.md, "The PerioBox case lost since the
+#: drift stop")
 DRIFT_KEEP_WARM = True
 #: in the small local chain (and in an explicit ``methods`` order on such a problem, as the
 #: drift rule), a fixed point (exact Coulomb law) that started from an iterate and missed
@@ -380,9 +381,9 @@ DRIFT_KEEP_WARM = True
 #: (validation/evalset_sim_newkinds/dominoes3d-16.toml, step 1369, warm-started by the stepper,
 #: max_iter 3000) where NSGS, Newton and the warm fixed point all stall at 2.4e-6 (tol 1e-6)
 #: and the fixed point from zero meets 2.4e-9 in 9 iterations; the scene's one unconverged
-#: step is gone.  Session 52,
-#: adopted: tune (283 problems of at most 100 contacts) no path changed; held out (665) one
-#: won (a dominoes step, unsolved at 1 s -> 0.36 s), none lost, 5 paths changed
+#: step is gone.  Session 52, adopted: tune (283 problems of at most 100 contacts) no path
+#: changed; held out (665) one won (a dominoes step, unsolved at 1 s -> 0.36 s), none lost,
+#: 5 paths changed
 #: (formulations/auto.md, "A warm fixed point that missed tol: the cold one next")
 FP_COLD_AFTER_WARM = True
 #: the last resort of a local exact-Coulomb problem that the order and its rounds leave
@@ -1249,7 +1250,7 @@ def _compiled_trials(problem, out, tol, max_iter, time_limit, t0):
     :func:`stage_order`'s order and under
     :func:`auto_backend`'s rules (the cold trials only after a failed first trial, on at most
     :data:`COLD_MAX_M` unknowns, with their step caps, not after an early hand-off when
-:data:`EARLY_COLD_MAX_M` makes them wait): the list of those run, each
+    :data:`EARLY_COLD_MAX_M` makes them wait): the list of those run, each
     ``{"stage": its path record, "vectors", "stats", "warm", "k" (its index in the stage
     order), "judge_guard"}``, up to the first whose error
     meets ``tol`` by the stages' measure (the chain decides what follows it), or before one
@@ -1443,8 +1444,9 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
     # the next fixed point the chain reaches starts from r = 0: a drift stop moved it next
     # (DRIFT_COLD), or a warm one missed tol (FP_COLD_AFTER_WARM)
     fp_cold_next = False
-    fp_from_zero = False    # a fixed point on the Coulomb law has run from r = 0
-    fp_cold_added = False   # FP_COLD_AFTER_WARM has inserted its fixed point (once per call)
+    # a fixed point on the Coulomb law has run from r = 0, or FP_COLD_AFTER_WARM has put one
+    # next (its rule acts once per call, also when that stage is then skipped)
+    fp_zero_tried = False
     k = -1
     while True:     # (a refused stage may be inserted once: RETRY_REFUSED; rounds appended)
         if k + 1 >= len(order):
@@ -1680,13 +1682,12 @@ def auto_backend(problem, formulation, *, tol, max_iter=None, r0=None, history=F
             order = _fixed_point_next(order, k)
             fp_cold_next = DRIFT_COLD
         elif method == "clarabel":
-            fp_from_zero = fp_from_zero or (form == "coulomb" and not started_warm)
+            fp_zero_tried = fp_zero_tried or (form == "coulomb" and not started_warm)
             if (FP_COLD_AFTER_WARM and form == "coulomb" and started_warm and r is not None
-                    and not err <= tol and _small_local(feats) and not fp_from_zero
-                    and not fp_cold_added):
+                    and not err <= tol and _small_local(feats) and not fp_zero_tried):
                 # a warm fixed point that missed tol: the fixed point from r = 0 next, once
                 order = order[:k + 1] + ((method, form),) + order[k + 1:]
-                fp_cold_next = fp_cold_added = True
+                fp_cold_next = fp_zero_tried = True
         if best_err <= tol:
             # (the seed's rank is already max(error, guard) of this iterate when it is the seed:
             # taken as g, the tests below read the same; the guard is not computed again)
